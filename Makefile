@@ -1,0 +1,39 @@
+# subsurf — build, test, demo, bench. Every target sets itself up on a fresh machine.
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+export VIRTUAL_ENV := $(abspath $(VENV))
+export PATH := $(abspath $(VENV))/bin:$(PATH)
+
+.PHONY: all venv build test test-rust test-python demo bench clean
+
+all: build
+
+$(VENV)/.ready: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q "maturin>=1.5,<2" "numpy>=1.22" "matplotlib>=3.5" "h5py>=3.6" "pytest>=7" "scipy>=1.8"
+	touch $@
+
+venv: $(VENV)/.ready
+
+# Build the extension (release) and install the package in development mode into the venv.
+build: venv
+	$(VENV)/bin/maturin develop --release -q
+
+test-rust:
+	cargo test --workspace --exclude subsurf-py -q
+
+test-python: build
+	$(PY) -m pytest -q tests
+
+test: test-rust test-python
+
+demo: build
+	$(VENV)/bin/subsurf demo
+
+bench: build
+	$(PY) benches/bench.py
+
+clean:
+	rm -rf target $(VENV)

@@ -1,0 +1,1 @@
+//! Monte Carlo photon-packet transport in layered media (Prahl et al. 1989; MCML).

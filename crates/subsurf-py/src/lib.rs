@@ -1,0 +1,25 @@
+//! `subsurf._core`: the thin PyO3 layer over `subsurf-core`.
+//!
+//! One file per core module; each has a `register` function adding its functions and classes
+//! to the single extension module. Errors are mapped to Python in one place: [`errors`].
+
+use pyo3::prelude::*;
+
+mod diffusion;
+mod errors;
+mod hk;
+mod mc;
+mod medium;
+mod optics;
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    errors::register(m)?;
+    optics::register(m)?;
+    medium::register(m)?;
+    mc::register(m)?;
+    hk::register(m)?;
+    diffusion::register(m)?;
+    Ok(())
+}

@@ -1,0 +1,13 @@
+"""subsurf — light scattering beneath the surface of translucent, layered materials.
+
+Units are mm and mm⁻¹ throughout. See README.md for an overview.
+"""
+from __future__ import annotations
+
+from . import _core
+from ._core import ParameterError
+from .medium import Component, Layer, Stack, mix
+
+__version__ = _core.__version__
+
+__all__ = ["Component", "Layer", "ParameterError", "Stack", "mix", "__version__"]
