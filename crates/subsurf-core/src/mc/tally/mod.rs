@@ -1,0 +1,28 @@
+//! Tallies: what the kernel scores. The kernel is generic over [`Tally`] (static dispatch,
+//! monomorphised per tally set, so a run that asks only for totals pays nothing for grids).
+//!
+//! Standard errors come from per-photon second moments: every tally sees
+//! [`Tally::begin_photon`] / [`Tally::end_photon`] around each photon's history.
+
+use super::packet::{Packet, Side};
+
+/// Receiver of the kernel's events. All weights are in units of the launched packet weight (1).
+pub trait Tally: Send {
+    /// A new photon history starts; `photon` is its global index (0 … N−1).
+    fn begin_photon(&mut self, photon: u64);
+    /// Weight reflected specularly at the top surface on launch.
+    fn specular(&mut self, w: f64);
+    /// Weight `dw` deposited (absorbed) at the packet's position `p.pos` in layer `p.layer`.
+    /// `dw` can be negative: Russian roulette deposits its zero-mean control term here, so that
+    /// energy balance holds exactly in every run (see `mc::kernel`).
+    fn absorb(&mut self, p: &Packet, dw: f64);
+    /// The packet leaves through `side` with weight `w`. `p` is its state at the exit point
+    /// (inside, before refraction); `dir_out` is its unit direction in the ambient medium after
+    /// refraction (`dir_out[2] < 0` for `Side::Top`, `> 0` for `Side::Bottom`).
+    fn escape(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64);
+    /// The current photon history has ended.
+    fn end_photon(&mut self);
+    /// Add another tally of the same configuration into this one (deterministic: the run
+    /// merges chunk tallies in chunk order).
+    fn merge(&mut self, other: &Self);
+}
