@@ -26,3 +26,53 @@ pub trait Tally: Send {
     /// merges chunk tallies in chunk order).
     fn merge(&mut self, other: &Self);
 }
+
+/// The empty tally: scores nothing (for runs that need only the engine's own counters).
+impl Tally for () {
+    #[inline]
+    fn begin_photon(&mut self, _photon: u64) {}
+    #[inline]
+    fn specular(&mut self, _w: f64) {}
+    #[inline]
+    fn absorb(&mut self, _p: &Packet, _dw: f64) {}
+    #[inline]
+    fn escape(&mut self, _p: &Packet, _side: Side, _dir_out: [f64; 3], _w: f64) {}
+    #[inline]
+    fn end_photon(&mut self) {}
+    #[inline]
+    fn merge(&mut self, _other: &Self) {}
+}
+
+/// Two tallies side by side, e.g. `(Totals, TallySet)`: each sees every event.
+impl<A: Tally, B: Tally> Tally for (A, B) {
+    #[inline]
+    fn begin_photon(&mut self, photon: u64) {
+        self.0.begin_photon(photon);
+        self.1.begin_photon(photon);
+    }
+    #[inline]
+    fn specular(&mut self, w: f64) {
+        self.0.specular(w);
+        self.1.specular(w);
+    }
+    #[inline]
+    fn absorb(&mut self, p: &Packet, dw: f64) {
+        self.0.absorb(p, dw);
+        self.1.absorb(p, dw);
+    }
+    #[inline]
+    fn escape(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
+        self.0.escape(p, side, dir_out, w);
+        self.1.escape(p, side, dir_out, w);
+    }
+    #[inline]
+    fn end_photon(&mut self) {
+        self.0.end_photon();
+        self.1.end_photon();
+    }
+    #[inline]
+    fn merge(&mut self, other: &Self) {
+        self.0.merge(&other.0);
+        self.1.merge(&other.1);
+    }
+}
