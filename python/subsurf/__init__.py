@@ -7,7 +7,8 @@ from __future__ import annotations
 from . import _core
 from ._core import ParameterError
 from .medium import Component, Layer, Stack, mix
+from .tallies import Tallies
 
 __version__ = _core.__version__
 
-__all__ = ["Component", "Layer", "ParameterError", "Stack", "mix", "__version__"]
+__all__ = ["Component", "Layer", "ParameterError", "Stack", "Tallies", "mix", "__version__"]
