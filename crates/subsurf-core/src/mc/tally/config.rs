@@ -60,7 +60,11 @@ impl Default for TallyConfig {
 
 fn check_count(field: &str, n: usize, min: usize) -> Result<()> {
     if n < min || n > MAX_BINS {
-        let allowed = if min == 0 { "an integer in [0, 10000000]" } else { "an integer in [1, 10000000]" };
+        let allowed = if min == 0 {
+            "an integer in [0, 10000000]"
+        } else {
+            "an integer in [1, 10000000]"
+        };
         return Err(Error::param(field, n as f64, allowed));
     }
     Ok(())

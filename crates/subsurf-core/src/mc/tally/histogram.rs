@@ -40,7 +40,11 @@ pub(crate) struct Axis {
 impl Axis {
     /// `n` bins of width `w` from 0 (the last one also collects overflow).
     pub fn uniform(name: &'static str, unit: &'static str, n: usize, w: f64) -> Self {
-        Axis { name, unit, edges: (0..=n).map(|i| i as f64 * w).collect() }
+        Axis {
+            name,
+            unit,
+            edges: (0..=n).map(|i| i as f64 * w).collect(),
+        }
     }
     /// `n` bins over [lo, hi], last edge exactly `hi`.
     pub fn span(name: &'static str, unit: &'static str, n: usize, lo: f64, hi: f64) -> Self {
@@ -50,11 +54,19 @@ impl Axis {
     }
     /// Order axis 0, 1, …, K+2: bins 0…K and "more than K".
     pub fn order(k: u32) -> Self {
-        Axis { name: "order", unit: "1", edges: (0..=k as usize + 2).map(|i| i as f64).collect() }
+        Axis {
+            name: "order",
+            unit: "1",
+            edges: (0..=k as usize + 2).map(|i| i as f64).collect(),
+        }
     }
     /// The single-bin axis [1, 2) of the order-1 `*_single_direct` tallies.
     pub fn order_one() -> Self {
-        Axis { name: "order", unit: "1", edges: vec![1.0, 2.0] }
+        Axis {
+            name: "order",
+            unit: "1",
+            edges: vec![1.0, 2.0],
+        }
     }
     pub fn len(&self) -> usize {
         self.edges.len() - 1
@@ -66,7 +78,11 @@ impl Axis {
 pub fn bin_clamped(x: f64, inv_w: f64, n: usize) -> usize {
     // `as usize` saturates: negative and NaN give 0.
     let i = (x * inv_w) as usize;
-    if i >= n { n - 1 } else { i }
+    if i >= n {
+        n - 1
+    } else {
+        i
+    }
 }
 
 /// Exact area of annulus `i` of width `dr`: π(r_{i+1}² − r_i²) = π dr² (2i + 1), mm².

@@ -42,8 +42,8 @@ use std::f64::consts::PI;
 use super::accum::Accum;
 use super::config::TallyConfig;
 use super::histogram::{
-    annulus_area, bin_clamped, cos_bin_projected_solid_angle, histogram, ring_projected_solid_angle,
-    ring_solid_angle, Axis, HistogramOut,
+    annulus_area, bin_clamped, cos_bin_projected_solid_angle, histogram, ring_projected_solid_angle, ring_solid_angle,
+    Axis, HistogramOut,
 };
 use super::Tally;
 use crate::error::Result;
@@ -160,7 +160,11 @@ impl TallySet {
             n_cos,
             n_phi,
             max_order: cfg.max_order.unwrap_or(0),
-            inv_mua: stack.layers.iter().map(|l| if l.mua > 0.0 { 1.0 / l.mua } else { 0.0 }).collect(),
+            inv_mua: stack
+                .layers
+                .iter()
+                .map(|l| if l.mua > 0.0 { 1.0 / l.mua } else { 0.0 })
+                .collect(),
             bounds: stack.boundaries(),
             rd: SideTallies::new(cfg, true),
             tt: SideTallies::new(cfg, false),
@@ -179,7 +183,11 @@ impl TallySet {
     /// Whether any layer touching depth bin `iz` (the last bin reaches to infinity) has μa = 0.
     fn fluence_undefined(&self, iz: usize) -> bool {
         let z0 = iz as f64 * self.cfg.dz;
-        let z1 = if iz + 1 == self.cfg.nz { f64::INFINITY } else { (iz + 1) as f64 * self.cfg.dz };
+        let z1 = if iz + 1 == self.cfg.nz {
+            f64::INFINITY
+        } else {
+            (iz + 1) as f64 * self.cfg.dz
+        };
         self.inv_mua
             .iter()
             .enumerate()
@@ -191,81 +199,198 @@ impl TallySet {
     pub fn finalize(&self, photons: u64) -> Vec<HistogramOut> {
         let c = &self.cfg;
         let n = photons;
-        let (r_ax, z_ax) = (Axis::uniform("r", "mm", c.nr, c.dr), Axis::uniform("z", "mm", c.nz, c.dz));
+        let (r_ax, z_ax) = (
+            Axis::uniform("r", "mm", c.nr, c.dr),
+            Axis::uniform("z", "mm", c.nz, c.dz),
+        );
         let a_ax = Axis::span("theta", "rad", c.na, 0.0, PI / 2.0);
         let t_ax = Axis::uniform("t", "ps", c.nt, c.dt);
         let area = |i: usize| annulus_area(i, c.dr);
         let th = &a_ax.edges;
         let mut out = Vec::new();
         for (side, s) in [("rd", &self.rd), ("tt", &self.tt)] {
-            let what = if side == "rd" { "diffuse reflectance" } else { "transmittance" };
+            let what = if side == "rd" {
+                "diffuse reflectance"
+            } else {
+                "transmittance"
+            };
             let mcml = if side == "rd" { "Rd" } else { "Tt" };
             if !s.r.is_empty() {
-                let d = format!("{what} per unit area vs radius ({mcml}_r); last bin also holds r > {} mm", c.nr as f64 * c.dr);
-                out.push(histogram(&format!("{side}_r"), &s.r, n, &[r_ax.clone()], "mm^-2", &d, |i| 1.0 / area(i)));
+                let d = format!(
+                    "{what} per unit area vs radius ({mcml}_r); last bin also holds r > {} mm",
+                    c.nr as f64 * c.dr
+                );
+                out.push(histogram(
+                    &format!("{side}_r"),
+                    &s.r,
+                    n,
+                    &[r_ax.clone()],
+                    "mm^-2",
+                    &d,
+                    |i| 1.0 / area(i),
+                ));
             }
             if !s.a.is_empty() {
                 let d = format!("{what} per unit solid angle vs exit angle in the ambient medium ({mcml}_a)");
-                out.push(histogram(&format!("{side}_a"), &s.a, n, &[a_ax.clone()], "sr^-1", &d, |i| {
-                    1.0 / ring_solid_angle(th[i], th[i + 1])
-                }));
+                out.push(histogram(
+                    &format!("{side}_a"),
+                    &s.a,
+                    n,
+                    &[a_ax.clone()],
+                    "sr^-1",
+                    &d,
+                    |i| 1.0 / ring_solid_angle(th[i], th[i + 1]),
+                ));
             }
             if !s.ra.is_empty() {
-                let d = format!("{what} per unit area perpendicular to the exit direction and per solid angle ({mcml}_ra)");
-                out.push(histogram(&format!("{side}_ra"), &s.ra, n, &[r_ax.clone(), a_ax.clone()], "mm^-2 sr^-1", &d, |i| {
-                    let (ir, ia) = (i / c.na, i % c.na);
-                    1.0 / (area(ir) * ring_projected_solid_angle(th[ia], th[ia + 1]))
-                }));
+                let d =
+                    format!("{what} per unit area perpendicular to the exit direction and per solid angle ({mcml}_ra)");
+                out.push(histogram(
+                    &format!("{side}_ra"),
+                    &s.ra,
+                    n,
+                    &[r_ax.clone(), a_ax.clone()],
+                    "mm^-2 sr^-1",
+                    &d,
+                    |i| {
+                        let (ir, ia) = (i / c.na, i % c.na);
+                        1.0 / (area(ir) * ring_projected_solid_angle(th[ia], th[ia + 1]))
+                    },
+                ));
             }
             if !s.t.is_empty() {
-                let d = format!("time-resolved {what} (time = optical path / c); last bin also holds t > {} ps", c.nt as f64 * c.dt);
-                out.push(histogram(&format!("{side}_t"), &s.t, n, &[t_ax.clone()], "ps^-1", &d, |_| 1.0 / c.dt));
+                let d = format!(
+                    "time-resolved {what} (time = optical path / c); last bin also holds t > {} ps",
+                    c.nt as f64 * c.dt
+                );
+                out.push(histogram(
+                    &format!("{side}_t"),
+                    &s.t,
+                    n,
+                    &[t_ax.clone()],
+                    "ps^-1",
+                    &d,
+                    |_| 1.0 / c.dt,
+                ));
             }
             if !s.rt.is_empty() {
                 let d = format!("time-resolved {what} per unit area vs radius and time");
-                out.push(histogram(&format!("{side}_rt"), &s.rt, n, &[r_ax.clone(), t_ax.clone()], "mm^-2 ps^-1", &d, |i| {
-                    1.0 / (area(i / c.nt) * c.dt)
-                }));
+                out.push(histogram(
+                    &format!("{side}_rt"),
+                    &s.rt,
+                    n,
+                    &[r_ax.clone(), t_ax.clone()],
+                    "mm^-2 ps^-1",
+                    &d,
+                    |i| 1.0 / (area(i / c.nt) * c.dt),
+                ));
             }
             let bsdf = if side == "rd" { "brdf" } else { "btdf" };
-            let (mu_ax, phi_ax) = (Axis::span("cos_theta", "1", self.n_cos, 0.0, 1.0), Axis::span("phi", "rad", self.n_phi, 0.0, 2.0 * PI));
+            let (mu_ax, phi_ax) = (
+                Axis::span("cos_theta", "1", self.n_cos, 0.0, 1.0),
+                Axis::span("phi", "rad", self.n_phi, 0.0, 2.0 * PI),
+            );
             let nb = self.n_cos * self.n_phi;
             let proj = |b: usize| {
                 let ic = (b % nb.max(1)) / self.n_phi.max(1);
                 cos_bin_projected_solid_angle(mu_ax.edges[ic], mu_ax.edges[ic + 1], 2.0 * PI / self.n_phi as f64)
             };
-            let bsdf_d = format!("{} (cosine-weighted bin average of f, sr^-1) on equal-solid-angle bins of the exit direction", bsdf.to_uppercase());
+            let bsdf_d = format!(
+                "{} (cosine-weighted bin average of f, sr^-1) on equal-solid-angle bins of the exit direction",
+                bsdf.to_uppercase()
+            );
             if !s.brdf.is_empty() {
-                out.push(histogram(bsdf, &s.brdf, n, &[mu_ax.clone(), phi_ax.clone()], "sr^-1", &bsdf_d, |b| 1.0 / proj(b)));
+                out.push(histogram(
+                    bsdf,
+                    &s.brdf,
+                    n,
+                    &[mu_ax.clone(), phi_ax.clone()],
+                    "sr^-1",
+                    &bsdf_d,
+                    |b| 1.0 / proj(b),
+                ));
             }
             if !s.order.is_empty() {
                 let o_ax = Axis::order(self.max_order);
-                let d = format!("{what} by scattering order 0 … {k} and > {k} (last bin)", k = self.max_order);
-                out.push(histogram(&format!("{side}_order"), &s.order, n, &[o_ax.clone()], "1", &d, |_| 1.0));
-                let d = format!("{what} of singly scattered light with no interface reflection (Hanrahan–Krueger paths)");
-                out.push(histogram(&format!("{side}_single_direct"), &s.single, n, &[Axis::order_one()], "1", &d, |_| 1.0));
+                let d = format!(
+                    "{what} by scattering order 0 … {k} and > {k} (last bin)",
+                    k = self.max_order
+                );
+                out.push(histogram(
+                    &format!("{side}_order"),
+                    &s.order,
+                    n,
+                    &[o_ax.clone()],
+                    "1",
+                    &d,
+                    |_| 1.0,
+                ));
+                let d =
+                    format!("{what} of singly scattered light with no interface reflection (Hanrahan–Krueger paths)");
+                out.push(histogram(
+                    &format!("{side}_single_direct"),
+                    &s.single,
+                    n,
+                    &[Axis::order_one()],
+                    "1",
+                    &d,
+                    |_| 1.0,
+                ));
                 if nb > 0 {
                     let d = format!("{bsdf_d}, by scattering order (last order bin: > {})", self.max_order);
                     let axes = [o_ax, mu_ax.clone(), phi_ax.clone()];
-                    out.push(histogram(&format!("{bsdf}_order"), &s.brdf_order, n, &axes, "sr^-1", &d, |b| 1.0 / proj(b)));
+                    out.push(histogram(
+                        &format!("{bsdf}_order"),
+                        &s.brdf_order,
+                        n,
+                        &axes,
+                        "sr^-1",
+                        &d,
+                        |b| 1.0 / proj(b),
+                    ));
                     let d = format!("{bsdf_d}, single scattering with no interface reflection (Hanrahan–Krueger)");
                     let axes = [Axis::order_one(), mu_ax.clone(), phi_ax.clone()];
-                    out.push(histogram(&format!("{bsdf}_single_direct"), &s.brdf_single, n, &axes, "sr^-1", &d, |b| 1.0 / proj(b)));
+                    out.push(histogram(
+                        &format!("{bsdf}_single_direct"),
+                        &s.brdf_single,
+                        n,
+                        &axes,
+                        "sr^-1",
+                        &d,
+                        |b| 1.0 / proj(b),
+                    ));
                 }
             }
         }
         if !self.a_z.is_empty() {
             let over = format!("last bin also holds z > {} mm", c.nz as f64 * c.dz);
-            out.push(histogram("a_z", &self.a_z, n, &[z_ax.clone()], "mm^-1", &format!("absorbed fraction per unit depth (A_z); {over}"), |_| {
-                1.0 / c.dz
-            }));
+            out.push(histogram(
+                "a_z",
+                &self.a_z,
+                n,
+                &[z_ax.clone()],
+                "mm^-1",
+                &format!("absorbed fraction per unit depth (A_z); {over}"),
+                |_| 1.0 / c.dz,
+            ));
             let rz = [r_ax.clone(), z_ax.clone()];
-            let d = format!("absorbed fraction per unit volume (A_rz); {over}, last r bin r > {} mm", c.nr as f64 * c.dr);
-            out.push(histogram("a_rz", &self.a_rz, n, &rz, "mm^-3", &d, |i| 1.0 / (area(i / c.nz) * c.dz)));
-            let mut fz = histogram("fluence_z", &self.phi_z, n, &[z_ax], "1", &format!("fluence A/mu_a integrated over the plane, per unit incident power (F_z); {over}; NaN where mu_a = 0"), |_| 1.0 / c.dz);
-            let mut frz = histogram("fluence_rz", &self.phi_rz, n, &rz, "mm^-2", &format!("fluence A/mu_a per unit incident power (F_rz); {over}; NaN where mu_a = 0"), |i| {
+            let d = format!(
+                "absorbed fraction per unit volume (A_rz); {over}, last r bin r > {} mm",
+                c.nr as f64 * c.dr
+            );
+            out.push(histogram("a_rz", &self.a_rz, n, &rz, "mm^-3", &d, |i| {
                 1.0 / (area(i / c.nz) * c.dz)
-            });
+            }));
+            let mut fz = histogram("fluence_z", &self.phi_z, n, &[z_ax], "1", &format!("fluence A/mu_a integrated over the plane, per unit incident power (F_z); {over}; NaN where mu_a = 0"), |_| 1.0 / c.dz);
+            let mut frz = histogram(
+                "fluence_rz",
+                &self.phi_rz,
+                n,
+                &rz,
+                "mm^-2",
+                &format!("fluence A/mu_a per unit incident power (F_rz); {over}; NaN where mu_a = 0"),
+                |i| 1.0 / (area(i / c.nz) * c.dz),
+            );
             for iz in 0..c.nz {
                 if self.fluence_undefined(iz) {
                     fz.values[iz] = f64::NAN;

@@ -42,7 +42,15 @@ fn splitmix(state: &mut u64) -> f64 {
 }
 
 fn packet(pos: [f64; 3], layer: usize, order: u32, reflections: u32, path: f64) -> Packet {
-    Packet { pos, dir: [0.0, 0.0, 1.0], w: 1.0, layer, order, reflections, path }
+    Packet {
+        pos,
+        dir: [0.0, 0.0, 1.0],
+        w: 1.0,
+        layer,
+        order,
+        reflections,
+        path,
+    }
 }
 
 /// What a synthetic run put in, for the identities.
@@ -66,7 +74,13 @@ fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut T
         t.begin_photon(ph);
         for _ in 0..(splitmix(&mut st) * 5.0) as usize {
             let z = splitmix(&mut st) * 0.2; // beyond the 0.12 mm grid sometimes
-            let layer = if z < 0.0625 { 0 } else if z < 0.09375 { 1 } else { 2 };
+            let layer = if z < 0.0625 {
+                0
+            } else if z < 0.09375 {
+                1
+            } else {
+                2
+            };
             let r = splitmix(&mut st) * 0.25;
             let dw = splitmix(&mut st) * 0.3 - 0.05;
             t.absorb(&packet([r * 0.6, r * 0.8, z], layer, 1, 0, 0.0), dw);
@@ -86,7 +100,12 @@ fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut T
         let path = splitmix(&mut st) * 1.5; // up to 5 ps, beyond the 4 ps grid
         let dz = if top { -mu } else { mu };
         let p = packet([r, 0.0, if top { 0.0 } else { 1.0 }], 0, order, refl, path);
-        t.escape(&p, if top { Side::Top } else { Side::Bottom }, [sin * phi.cos(), sin * phi.sin(), dz], w);
+        t.escape(
+            &p,
+            if top { Side::Top } else { Side::Bottom },
+            [sin * phi.cos(), sin * phi.sin(), dz],
+            w,
+        );
         t.end_photon();
         if top {
             truth.top += w;
@@ -104,7 +123,9 @@ fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut T
 }
 
 fn get<'a>(h: &'a [HistogramOut], name: &str) -> &'a HistogramOut {
-    h.iter().find(|x| x.name == name).unwrap_or_else(|| panic!("no histogram {name}"))
+    h.iter()
+        .find(|x| x.name == name)
+        .unwrap_or_else(|| panic!("no histogram {name}"))
 }
 
 fn close(a: f64, b: f64) -> bool {
@@ -127,7 +148,9 @@ fn normalisations_integrate_to_totals() {
         assert_eq!(r.shape, vec![cfg.nr]);
         assert!(close((0..cfg.nr).map(|i| r.values[i] * area(i)).sum(), total));
         let a = get(&h, &format!("{side}_a"));
-        let sa: f64 = (0..cfg.na).map(|i| a.values[i] * 2.0 * PI * (th(i).cos() - th(i + 1).cos())).sum();
+        let sa: f64 = (0..cfg.na)
+            .map(|i| a.values[i] * 2.0 * PI * (th(i).cos() - th(i + 1).cos()))
+            .sum();
         assert!(close(sa, total), "{sa} {total}");
         let ra = get(&h, &format!("{side}_ra"));
         let mut s = 0.0;
@@ -156,9 +179,20 @@ fn normalisations_integrate_to_totals() {
             assert!(close(s, bsdf.values[b]), "order split of bin {b}");
         }
         let single = get(&h, &format!("{side}_single_direct")).values[0];
-        let want = if side == "rd" { truth.top_single } else { truth.bottom_single } / nf;
+        let want = if side == "rd" {
+            truth.top_single
+        } else {
+            truth.bottom_single
+        } / nf;
         assert!(close(single, want));
-        let bs = get(&h, if side == "rd" { "brdf_single_direct" } else { "btdf_single_direct" });
+        let bs = get(
+            &h,
+            if side == "rd" {
+                "brdf_single_direct"
+            } else {
+                "btdf_single_direct"
+            },
+        );
         let s: f64 = (0..20).map(|b| bs.values[b] * proj(b / 4)).sum();
         assert!(close(s, want));
         for b in 0..20 {
@@ -172,14 +206,18 @@ fn normalisations_integrate_to_totals() {
     let rt = get(&h, "rd_t");
     assert!(close(rt.values.iter().map(|v| v * cfg.dt).sum(), truth.top / nf));
     let rrt = get(&h, "rd_rt");
-    let s: f64 = (0..cfg.nr * cfg.nt).map(|i| rrt.values[i] * area(i / cfg.nt) * cfg.dt).sum();
+    let s: f64 = (0..cfg.nr * cfg.nt)
+        .map(|i| rrt.values[i] * area(i / cfg.nt) * cfg.dt)
+        .sum();
     assert!(close(s, truth.top / nf));
     assert!(h.iter().all(|x| x.name != "tt_t"), "no time-resolved transmittance");
     let az = get(&h, "a_z");
     assert!(close(az.values.iter().map(|v| v * cfg.dz).sum(), truth.absorbed / nf));
     let arz = get(&h, "a_rz");
     assert_eq!(arz.axes, vec!["r", "z"]);
-    let s: f64 = (0..cfg.nr * cfg.nz).map(|i| arz.values[i] * area(i / cfg.nz) * cfg.dz).sum();
+    let s: f64 = (0..cfg.nr * cfg.nz)
+        .map(|i| arz.values[i] * area(i / cfg.nz) * cfg.dz)
+        .sum();
     assert!(close(s, truth.absorbed / nf));
     // fluence: NaN in the bins of the glass layer z ∈ [0.0625, 0.09375] (bins 4, 5); the last
     // bin [0.171875, ∞) lies in layer 2 only.
@@ -311,8 +349,17 @@ fn merge_is_deterministic_and_matches_a_single_tally() {
     for ((x, y), z) in ha.iter().zip(&hw).zip(&hs) {
         assert_eq!(x.name, y.name);
         for i in 0..x.values.len() {
-            for (u, v) in [(x.values[i], y.values[i]), (x.stderr[i], y.stderr[i]), (x.values[i], z.values[i]), (x.stderr[i], z.stderr[i])] {
-                assert!(u.is_nan() && v.is_nan() || (u - v).abs() <= 1e-9 * (1.0 + v.abs()), "{} bin {i}: {u} {v}", x.name);
+            for (u, v) in [
+                (x.values[i], y.values[i]),
+                (x.stderr[i], y.stderr[i]),
+                (x.values[i], z.values[i]),
+                (x.stderr[i], z.stderr[i]),
+            ] {
+                assert!(
+                    u.is_nan() && v.is_nan() || (u - v).abs() <= 1e-9 * (1.0 + v.abs()),
+                    "{} bin {i}: {u} {v}",
+                    x.name
+                );
             }
         }
     }
@@ -322,24 +369,56 @@ fn merge_is_deterministic_and_matches_a_single_tally() {
 fn switches_select_histograms() {
     let mut cfg = TallyConfig::default();
     let names = |c: &TallyConfig| -> Vec<String> {
-        TallySet::new(c, &stack()).unwrap().finalize(10).into_iter().map(|h| h.name).collect()
+        TallySet::new(c, &stack())
+            .unwrap()
+            .finalize(10)
+            .into_iter()
+            .map(|h| h.name)
+            .collect()
     };
-    assert_eq!(names(&cfg), ["rd_r", "rd_a", "rd_ra", "tt_r", "tt_a", "tt_ra", "a_z", "a_rz", "fluence_z", "fluence_rz"]);
+    assert_eq!(
+        names(&cfg),
+        [
+            "rd_r",
+            "rd_a",
+            "rd_ra",
+            "tt_r",
+            "tt_a",
+            "tt_ra",
+            "a_z",
+            "a_rz",
+            "fluence_z",
+            "fluence_rz"
+        ]
+    );
     cfg.spatial = false;
     cfg.angular = false;
     assert!(names(&cfg).is_empty());
     cfg.nt = 3;
     cfg.max_order = Some(0);
-    assert_eq!(names(&cfg), ["rd_t", "rd_order", "rd_single_direct", "tt_order", "tt_single_direct"]);
+    assert_eq!(
+        names(&cfg),
+        ["rd_t", "rd_order", "rd_single_direct", "tt_order", "tt_single_direct"]
+    );
     cfg.brdf = Some((2, 1));
     assert_eq!(names(&cfg).len(), 11);
     // a disabled TallySet ignores events without touching memory
-    cfg = TallyConfig { spatial: false, angular: false, ..TallyConfig::default() };
+    cfg = TallyConfig {
+        spatial: false,
+        angular: false,
+        ..TallyConfig::default()
+    };
     let mut t = TallySet::new(&cfg, &stack()).unwrap();
     t.begin_photon(0);
     t.absorb(&packet([0.0, 0.0, 0.1], 0, 0, 0, 0.0), 1.0);
     t.escape(&packet([0.0, 0.0, 0.0], 0, 0, 0, 0.0), Side::Top, [0.0, 0.0, -1.0], 1.0);
     assert!(t.finalize(1).is_empty());
-    let bad = TallyConfig { nr: 0, ..TallyConfig::default() };
-    assert!(TallySet::new(&bad, &stack()).unwrap_err().to_string().starts_with("tallies.nr"));
+    let bad = TallyConfig {
+        nr: 0,
+        ..TallyConfig::default()
+    };
+    assert!(TallySet::new(&bad, &stack())
+        .unwrap_err()
+        .to_string()
+        .starts_with("tallies.nr"));
 }
