@@ -11,3 +11,8 @@ from .medium import Component, Layer, Stack, mix
 __version__ = _core.__version__
 
 __all__ = ["Component", "Layer", "ParameterError", "Stack", "mix", "__version__"]
+
+from . import diffusion, materials  # noqa: E402  (diffusion models and the material library)
+from .materials import Material  # noqa: E402
+
+__all__ += ["Material", "diffusion", "materials"]

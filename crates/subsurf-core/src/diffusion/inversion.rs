@@ -85,7 +85,7 @@ pub fn properties_from_color(rd: f64, mfp: f64, eta: f64, model: Model, kind: Me
                 Model::Dipole => (3.0 * (1.0 - ap)).sqrt(),
                 Model::BetterDipole => (3.0 * (1.0 - ap) / (2.0 - ap)).sqrt(),
             };
-            if !(k > 0.0) {
+            if k <= 0.0 {
                 return Err(Error::param(
                     "diffuse_color",
                     rd,

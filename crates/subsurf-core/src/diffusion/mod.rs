@@ -9,7 +9,8 @@
 //!   physically possible, but the Egan–Hilgeman fit of F_dr that Jensen uses is only meaningful
 //!   for η ≥ 1 (it goes negative below 1, e.g. F_dr(0.8) = −0.64), and both polynomial fits
 //!   (F_dr and d'Eon's Fresnel moments) leave their fitted range above η ≈ 2.5 (d'Eon's C₁ fit
-//!   is off by 0.03 at η = 2.8 and by 0.12 at η = 3; F_dr(4) > 1 makes A negative). Out-of-range values are refused with [`Error::Parameter`].
+//!   is off by 0.03 at η = 2.8 and by 0.12 at η = 3; F_dr(4) > 1 makes A negative).
+//!   Out-of-range values are refused with [`Error::Parameter`].
 //! - Both models are diffusion approximations: trustworthy for high reduced albedo
 //!   (α' ≳ 0.9) and distances of a few transport mean free paths 1/σt' or more; near the
 //!   source (r ≲ 1/σt') and at low albedo they are qualitative only. See `docs/` for the
