@@ -7,7 +7,10 @@ from __future__ import annotations
 from . import _core
 from ._core import ParameterError
 from .medium import Component, Layer, Stack, mix
+from .mc import DiffuseIllumination, PencilBeam, simulate
+from .result import Result
 
 __version__ = _core.__version__
 
 __all__ = ["Component", "Layer", "ParameterError", "Stack", "mix", "__version__"]
+__all__ += ["DiffuseIllumination", "PencilBeam", "Result", "simulate"]
