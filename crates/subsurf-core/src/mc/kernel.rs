@@ -41,7 +41,7 @@ use super::packet::{Packet, Side};
 use super::source::{Launcher, Source};
 use super::tally::Tally;
 use crate::medium::Stack;
-use crate::optics::{fr_dielectric_cos_t, sample_hg, spin, Phase};
+use crate::optics::{fr_dielectric_cos_t, Phase};
 use crate::rng::PhotonRng;
 
 /// Safety net for a packet bouncing between interfaces of clear (σt = 0) layers without ever
@@ -60,7 +60,10 @@ pub(crate) struct KLayer {
     inv_sigma_t: f64,
     /// σa/σt, the fraction of weight deposited per interaction.
     absorb_frac: f64,
-    g: f64,
+    /// HG sampling constants (see [`hg_cos`]): 1 + g², 1/(2g), 1 − g², 1 − g, 2g; `iso` when
+    /// |g| < 10⁻⁶ (isotropic formula, as [`crate::optics::sample_hg`]).
+    hg: [f64; 5],
+    iso: bool,
     phase: Phase,
     /// Index above / below the layer (the neighbour's or the ambient's).
     n_up: f64,
@@ -109,7 +112,11 @@ impl Kernel {
                 sigma_t: st,
                 inv_sigma_t: if st > 0.0 { 1.0 / st } else { f64::INFINITY },
                 absorb_frac: if st > 0.0 { l.mua / st } else { 0.0 },
-                g: l.phase.lobes()[0].g,
+                hg: {
+                    let g = l.phase.lobes()[0].g;
+                    [1.0 + g * g, 0.5 / g, (1.0 - g) * (1.0 + g), 1.0 - g, 2.0 * g]
+                },
+                iso: l.phase.lobes()[0].g.abs() < 1e-6,
                 phase: l.phase,
                 n_up,
                 n_down,
@@ -144,15 +151,19 @@ impl Kernel {
         loop {
             let lay = &self.layers[p.layer];
             let dz = p.dir[2];
-            let db = if dz > 0.0 {
-                (lay.z1 - p.pos[2]) / dz
-            } else if dz < 0.0 {
-                (lay.z0 - p.pos[2]) / dz
-            } else {
-                f64::INFINITY
+            // Distance to the interface ahead (only computed when needed: it costs a division).
+            let dist_b = |z: f64| {
+                if dz > 0.0 {
+                    (lay.z1 - z) / dz
+                } else if dz < 0.0 {
+                    (lay.z0 - z) / dz
+                } else {
+                    f64::INFINITY
+                }
             };
             let hit;
             if CLEAR && lay.sigma_t == 0.0 {
+                let db = dist_b(p.pos[2]);
                 if !db.is_finite() {
                     // Down a semi-infinite clear layer (transmitted, no interface to refract
                     // at) or exactly parallel to the interfaces (deposit: cannot leave).
@@ -175,7 +186,9 @@ impl Kernel {
                     s_left = -rng.uniform().ln();
                 }
                 let s = s_left * lay.inv_sigma_t;
-                if s >= db {
+                let z_new = p.pos[2] + s * dz;
+                if z_new > lay.z1 || z_new < lay.z0 {
+                    let db = dist_b(p.pos[2]);
                     hop(&mut p, db, lay.n);
                     s_left -= db * lay.sigma_t;
                     hit = true;
@@ -242,18 +255,16 @@ impl Kernel {
                     break;
                 }
             }
-            let cos_theta = if MIXTURE { lay.phase.sample(rng.uniform()) } else { sample_hg(rng.uniform(), lay.g) };
-            let (cos_phi, sin_phi) = loop {
+            let cos_theta = if MIXTURE { lay.phase.sample(rng.uniform()) } else { hg_cos(lay, rng.uniform()) };
+            let (x, y) = loop {
                 let x = 2.0 * rng.uniform() - 1.0;
                 let y = 2.0 * rng.uniform() - 1.0;
-                let rho2 = x * x + y * y;
-                if rho2 < 1.0 {
-                    // rho2 > 0 always: x, y are odd multiples of 2⁻³², never both 0.
-                    let inv = 1.0 / rho2;
-                    break ((x * x - y * y) * inv, 2.0 * x * y * inv);
+                // x² + y² > 0 always: x, y are odd multiples of 2⁻³², never both 0.
+                if x * x + y * y < 1.0 {
+                    break (x, y);
                 }
             };
-            p.dir = spin(p.dir, cos_theta, cos_phi, sin_phi);
+            p.dir = spin_disc(p.dir, cos_theta, x, y);
             p.order += 1;
 
             if p.w < ROULETTE_THRESHOLD {
@@ -271,6 +282,46 @@ impl Kernel {
     }
 }
 
+/// cos θ sampled from the layer's single HG lobe by inverting its CDF (MCML eq. 3.28; the same
+/// formula as [`crate::optics::sample_hg`], with the constants precomputed so that one
+/// division remains): s = (1 − g²)/(1 − g + 2gξ), cos θ = (1 + g² − s²)/(2g).
+#[inline(always)]
+fn hg_cos(lay: &KLayer, u: f64) -> f64 {
+    if lay.iso {
+        return 2.0 * u - 1.0;
+    }
+    let [a, b, c, d, e] = lay.hg;
+    let s = c / (d + e * u);
+    ((a - s * s) * b).clamp(-1.0, 1.0)
+}
+
+/// MCML's direction update (Wang et al. 1995, eq. 3.30; [`crate::optics::spin`]) with the
+/// azimuth given by a point (x, y) of the unit disc, cos φ = (x² − y²)/ρ², sin φ = 2xy/ρ²
+/// (ρ² = x² + y²), fused so that one division and one square root remain:
+/// q = √((1 − cos²θ)/((1 − uz²) ρ⁴)) = sin θ /(√(1 − uz²) ρ²), then
+/// u′x = q (ux uz X − uy Y) + ux cos θ, u′y = q (uy uz X + ux Y) + uy cos θ,
+/// u′z = −q X (1 − uz²) + uz cos θ, with X = x² − y², Y = 2xy (for |uz| ≈ 1:
+/// u′ = (sin θ cos φ, sin θ sin φ, cos θ sign uz)).
+#[inline(always)]
+fn spin_disc(d: [f64; 3], cos_theta: f64, x: f64, y: f64) -> [f64; 3] {
+    let [ux, uy, uz] = d;
+    let rho2 = x * x + y * y;
+    let (cx, cy) = (x * x - y * y, 2.0 * x * y);
+    let sin2 = (1.0 - cos_theta * cos_theta).max(0.0);
+    if uz.abs() > 1.0 - 1e-12 {
+        let q = (sin2 / (rho2 * rho2)).sqrt();
+        [q * cx, q * cy, if uz > 0.0 { cos_theta } else { -cos_theta }]
+    } else {
+        let t2 = 1.0 - uz * uz;
+        let q = (sin2 / (t2 * rho2 * rho2)).sqrt();
+        [
+            q * (ux * uz * cx - uy * cy) + ux * cos_theta,
+            q * (uy * uz * cx + ux * cy) + uy * cos_theta,
+            -q * cx * t2 + uz * cos_theta,
+        ]
+    }
+}
+
 /// Move the packet a geometric distance `s` (mm) along its direction in a layer of index `n`.
 #[inline(always)]
 fn hop(p: &mut Packet, s: f64, n: f64) {
@@ -278,4 +329,38 @@ fn hop(p: &mut Packet, s: f64, n: f64) {
     p.pos[1] += s * p.dir[1];
     p.pos[2] += s * p.dir[2];
     p.path += n * s;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The fused update equals optics::spin with cos φ, sin φ from the disc point, and the HG
+    /// constants reproduce optics::sample_hg.
+    #[test]
+    fn spin_disc_matches_spin_and_hg_matches() {
+        let mut rng = PhotonRng::new(9, 9);
+        for i in 0..10_000 {
+            let uz: f64 = if i % 100 == 0 { 1.0 } else { 2.0 * rng.uniform() - 1.0 };
+            let ph = 6.283185307179586 * rng.uniform();
+            let st = (1.0 - uz * uz).sqrt();
+            let d = [st * ph.cos(), st * ph.sin(), uz];
+            let ct = 2.0 * rng.uniform() - 1.0;
+            let (x, y) = (2.0 * rng.uniform() - 1.0, 2.0 * rng.uniform() - 1.0);
+            let r2 = x * x + y * y;
+            if r2 >= 1.0 {
+                continue;
+            }
+            let a = spin_disc(d, ct, x, y);
+            let b = crate::optics::spin(d, ct, (x * x - y * y) / r2, 2.0 * x * y / r2);
+            for k in 0..3 {
+                assert!((a[k] - b[k]).abs() < 1e-12, "{a:?} {b:?}");
+            }
+        }
+        let s = Stack::new(vec![crate::medium::Layer::new(1.0, 0.1, 1.0, 0.8, 1.0).unwrap()], 1.0, 1.0).unwrap();
+        let k = Kernel::new(&s, Source::default());
+        for u in [1e-9, 0.1, 0.5, 0.9, 1.0 - 1e-9] {
+            assert!((hg_cos(&k.layers[0], u) - crate::optics::sample_hg(u, 0.8)).abs() < 1e-12);
+        }
+    }
 }
