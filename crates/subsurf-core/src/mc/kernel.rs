@@ -20,7 +20,7 @@
 //!    ([`Phase::sample`], HG inversion), azimuth φ uniform, drawn without trigonometry from a
 //!    point (x, y) uniform in the unit disc (rejection from [−1, 1]², x then y):
 //!    cos φ = (x² − y²)/ρ², sin φ = 2xy/ρ² (the doubled angle of a uniform point is uniform;
-//!    von Neumann 1951), then [`spin`].
+//!    von Neumann 1951), then MCML's direction update (`spin_disc`, = [`crate::optics::spin`]).
 //! 5. **Russian roulette** (MCML §3.8, eq. 3.33): when w < 10⁻⁴ the packet survives with
 //!    probability 1/m (m = 10) with weight m·w, else it dies. The estimator is unbiased; so
 //!    that energy balance is *exact* in every run (not only in expectation), the roulette's
