@@ -16,8 +16,8 @@
 //!   unit area *perpendicular to the exit direction* as MCML's `Rd_ra` (which uses
 //!   cos θ_c × ring solid angle for ∫cos θ dω = π(sin²θ_{i+1} − sin²θ_i)); the same for T.
 //! - A(z) = Σdw / (N dz) [mm⁻¹]; A(r,z) = Σdw / (N · area · dz) [mm⁻³]. Fluence (MCML's
-//!   F = A/μa, manual §5.3): deposits are divided by μa of the layer they happen in, so a bin
-//!   straddling an interface is still right; Φ(z) [1] (planar integral per unit incident power),
+//!   F = A/μa, manual §5.3): A/μa in bins inside one layer; in a bin straddling an interface
+//!   each deposit is divided by μa of the layer it happens in, so that bin is right too; Φ(z) [1] (planar integral per unit incident power),
 //!   Φ(r,z) [mm⁻²]; NaN for bins touching a layer with μa = 0 (fluence is not observable there
 //!   through absorption).
 //! - Time t = (optical path Σ nᵢ ℓᵢ)/c, c = 0.299792458 mm/ps; R(t) = Σw/(N dt) [ps⁻¹],
@@ -140,6 +140,9 @@ pub struct TallySet {
     tt: SideTallies,
     a_z: Accum,
     a_rz: Accum,
+    /// Per depth bin: μa (mm⁻¹) of the one layer the bin lies in, or −1 if it straddles an
+    /// interface. Fluence is A/μa in the former; only straddling bins need their own Σ dw/μa.
+    bin_mua: Vec<f64>,
     phi_z: Accum,
     phi_rz: Accum,
 }
@@ -150,7 +153,7 @@ impl TallySet {
         cfg.validate()?;
         let (n_cos, n_phi) = cfg.brdf.unwrap_or((0, 0));
         let sp = |n: usize| Accum::new(if cfg.spatial { n } else { 0 });
-        Ok(TallySet {
+        let mut t = TallySet {
             cfg: *cfg,
             photon: u64::MAX - 1,
             inv_dr: 1.0 / cfg.dr,
@@ -170,9 +173,33 @@ impl TallySet {
             tt: SideTallies::new(cfg, false),
             a_z: sp(cfg.nz),
             a_rz: sp(cfg.nr * cfg.nz),
+            bin_mua: Vec::new(),
             phi_z: sp(cfg.nz),
             phi_rz: sp(cfg.nr * cfg.nz),
-        })
+        };
+        if cfg.spatial {
+            t.bin_mua = (0..cfg.nz)
+                .map(|iz| {
+                    let mut touched = t.layers_touching(iz);
+                    match (touched.next(), touched.next()) {
+                        (Some(j), None) => stack.layers[j].mua,
+                        _ => -1.0,
+                    }
+                })
+                .collect();
+        }
+        Ok(t)
+    }
+
+    /// Indices of the layers that overlap depth bin `iz` (the last bin reaches to infinity).
+    fn layers_touching(&self, iz: usize) -> impl Iterator<Item = usize> + '_ {
+        let z0 = iz as f64 * self.cfg.dz;
+        let z1 = if iz + 1 == self.cfg.nz {
+            f64::INFINITY
+        } else {
+            (iz + 1) as f64 * self.cfg.dz
+        };
+        (0..self.inv_mua.len()).filter(move |&j| z0 < self.bounds[j + 1] && self.bounds[j] < z1)
     }
 
     /// The configuration.
@@ -180,18 +207,9 @@ impl TallySet {
         &self.cfg
     }
 
-    /// Whether any layer touching depth bin `iz` (the last bin reaches to infinity) has μa = 0.
+    /// Whether any layer touching depth bin `iz` has μa = 0.
     fn fluence_undefined(&self, iz: usize) -> bool {
-        let z0 = iz as f64 * self.cfg.dz;
-        let z1 = if iz + 1 == self.cfg.nz {
-            f64::INFINITY
-        } else {
-            (iz + 1) as f64 * self.cfg.dz
-        };
-        self.inv_mua
-            .iter()
-            .enumerate()
-            .any(|(j, &im)| im == 0.0 && z0 < self.bounds[j + 1] && self.bounds[j] < z1)
+        self.layers_touching(iz).any(|j| self.inv_mua[j] == 0.0)
     }
 
     /// Normalise everything into histograms for a run of `photons` photons (see the module docs
@@ -391,8 +409,18 @@ impl TallySet {
                 &format!("fluence A/mu_a per unit incident power (F_rz); {over}; NaN where mu_a = 0"),
                 |i| 1.0 / (area(i / c.nz) * c.dz),
             );
+            let (az, arz) = (&out[out.len() - 2], &out[out.len() - 1]);
             for iz in 0..c.nz {
-                if self.fluence_undefined(iz) {
+                let mua = self.bin_mua[iz];
+                if mua > 0.0 {
+                    // the bin lies in one absorbing layer: Φ = A/μa, bin by bin
+                    fz.values[iz] = az.values[iz] / mua;
+                    fz.stderr[iz] = az.stderr[iz] / mua;
+                    for k in (iz..c.nr * c.nz).step_by(c.nz) {
+                        frz.values[k] = arz.values[k] / mua;
+                        frz.stderr[k] = arz.stderr[k] / mua;
+                    }
+                } else if mua == 0.0 || self.fluence_undefined(iz) {
                     fz.values[iz] = f64::NAN;
                     fz.stderr[iz] = f64::NAN;
                     for ir in 0..c.nr {
@@ -429,7 +457,7 @@ impl Tally for TallySet {
         self.a_z.add(iz, dw, ph);
         self.a_rz.add(irz, dw, ph);
         let im = self.inv_mua.get(p.layer).copied().unwrap_or(0.0);
-        if im > 0.0 {
+        if im > 0.0 && self.bin_mua[iz] < 0.0 {
             self.phi_z.add(iz, dw * im, ph);
             self.phi_rz.add(irz, dw * im, ph);
         }
