@@ -75,8 +75,18 @@ pub fn philox4x32_10(counter: [u32; 4], key: [u32; 2]) -> [u32; 4] {
 const INV_2_32: f64 = 1.0 / 4_294_967_296.0;
 
 /// Map a 32-bit word to the open interval (0, 1): `(x + 0.5) · 2⁻³²` (exact in f64).
+///
+/// Computed without an int→float conversion: the f64 with exponent 0 and mantissa bits
+/// `x · 2²⁰ + 2¹⁹` is 1 + (x + 0.5) · 2⁻³², and subtracting 1 is exact; the result is the
+/// same number ([`u32_to_open01_ref`] is the plain formula, checked equal in the tests).
 #[inline(always)]
 pub fn u32_to_open01(x: u32) -> f64 {
+    f64::from_bits(0x3FF0_0000_0000_0000 | ((x as u64) << 20) | (1 << 19)) - 1.0
+}
+
+/// `(x + 0.5) · 2⁻³²` by the plain formula (reference for [`u32_to_open01`]).
+#[inline]
+pub fn u32_to_open01_ref(x: u32) -> f64 {
     (x as f64 + 0.5) * INV_2_32
 }
 
@@ -255,6 +265,15 @@ mod tests {
     fn uniform_is_open_and_unbiased() {
         assert!(u32_to_open01(0) > 0.0);
         assert!(u32_to_open01(u32::MAX) < 1.0);
+        assert_eq!(u32_to_open01(0), 2f64.powi(-33));
+        assert_eq!(u32_to_open01(u32::MAX), 1.0 - 2f64.powi(-33));
+        let mut s = [9, 8, 7, 6];
+        for x in [0, 1, 2, 0x8000_0000, 0x7fff_ffff, u32::MAX - 1, u32::MAX]
+            .into_iter()
+            .chain((0..100_000).map(|_| xoshiro128pp_next(&mut s)))
+        {
+            assert_eq!(u32_to_open01(x), u32_to_open01_ref(x), "{x}");
+        }
         // Mean and variance of 4·10⁵ draws: 1/2 and 1/12 within 5σ.
         let n = 400_000;
         let (mut s, mut s2) = (0.0, 0.0);
