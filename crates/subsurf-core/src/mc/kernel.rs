@@ -257,8 +257,8 @@ impl Kernel {
             }
             let cos_theta = if MIXTURE { lay.phase.sample(rng.uniform()) } else { hg_cos(lay, rng.uniform()) };
             let (x, y) = loop {
-                let x = 2.0 * rng.uniform() - 1.0;
-                let y = 2.0 * rng.uniform() - 1.0;
+                let x = rng.symmetric(); // 2ξ − 1
+                let y = rng.symmetric();
                 // x² + y² > 0 always: x, y are odd multiples of 2⁻³², never both 0.
                 if x * x + y * y < 1.0 {
                     break (x, y);
