@@ -19,7 +19,7 @@ pub const ROULETTE_M: f64 = 10.0;
 pub struct RunConfig {
     /// Number of photon packets to trace (≥ 1).
     pub photons: u64,
-    /// The 64-bit seed (the Philox key; see [`crate::rng`]).
+    /// The 64-bit seed (the Philox key that seeds each photon's xoshiro128++ stream; see [`crate::rng`]).
     pub seed: u64,
     /// Worker threads; `None` = all cores (rayon's global pool).
     pub threads: Option<usize>,

@@ -77,8 +77,8 @@ impl Launcher {
             Source::Pencil { .. } => (self.pencil_dir, self.pencil_rsp),
             Source::Diffuse => {
                 let (x, y) = loop {
-                    let x = 2.0 * rng.uniform() - 1.0;
-                    let y = 2.0 * rng.uniform() - 1.0;
+                    let x = rng.symmetric(); // 2ξ − 1
+                    let y = rng.symmetric();
                     if x * x + y * y < 1.0 {
                         break (x, y);
                     }
