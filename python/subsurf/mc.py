@@ -4,7 +4,8 @@ The engine is MCML's algorithm (Wang, Jacques & Zheng 1995, Comput. Methods Prog
 47:131; after Prahl et al. 1989) in Rust — see ``crates/subsurf-core/src/mc/kernel.rs`` for the
 physics and its references. Units: mm, mm⁻¹, radians. Results are fractions of the incident
 power, each with a standard error from per-photon second moments, and are bit-identical for a
-given seed whatever the number of threads (Philox4x32-10 streams keyed by seed and photon).
+given seed whatever the number of threads (per-photon xoshiro128++ streams seeded by
+Philox4x32-10 keyed by seed and photon index).
 """
 from __future__ import annotations
 
