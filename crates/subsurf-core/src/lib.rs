@@ -11,6 +11,7 @@
 //! - [`mc`]: the Monte Carlo photon-packet engine and its tallies.
 //! - [`hk`]: Hanrahan–Krueger first-order (single-scattering) BRDF/BTDF.
 //! - [`diffusion`]: the Jensen et al. dipole and d'Eon's better dipole.
+//! - [`stats`]: χ² goodness-of-fit kit and quadrature for testing samplers.
 
 pub mod diffusion;
 pub mod error;
@@ -19,5 +20,6 @@ pub mod mc;
 pub mod medium;
 pub mod optics;
 pub mod rng;
+pub mod stats;
 
 pub use error::{Error, Result};

@@ -14,11 +14,17 @@ use std::f64::consts::PI;
 /// precision as g → 0; the two agree to O(g)).
 const G_ISOTROPIC: f64 = 1e-6;
 
-/// Henyey–Greenstein phase function p(cos θ; g) in sr⁻¹.
+/// Henyey–Greenstein phase function p(cos θ; g) = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2})
+/// in sr⁻¹. The denominator is evaluated as (1 − |g|)² + 2|g|(1 ∓ cos θ), a sum of
+/// non-negative terms, so the peak stays accurate (no cancellation) as |g| → 1.
 #[inline]
 pub fn hg_phase(cos_theta: f64, g: f64) -> f64 {
-    let denom = 1.0 + g * g - 2.0 * g * cos_theta;
-    (1.0 - g * g) / (4.0 * PI * denom * denom.sqrt())
+    let denom = if g >= 0.0 {
+        (1.0 - g) * (1.0 - g) + 2.0 * g * (1.0 - cos_theta)
+    } else {
+        (1.0 + g) * (1.0 + g) - 2.0 * g * (1.0 + cos_theta)
+    };
+    (1.0 - g) * (1.0 + g) / (4.0 * PI * denom * denom.sqrt())
 }
 
 /// Sample cos θ from HG by inverting its CDF; `u` uniform in [0, 1). Monotonic increasing in
@@ -31,6 +37,19 @@ pub fn sample_hg(u: f64, g: f64) -> f64 {
     }
     let s = (1.0 - g) * (1.0 + g) / (1.0 - g + 2.0 * g * u);
     ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
+}
+
+/// The isotropic phase function 1/(4π) sr⁻¹ (HG with g = 0).
+#[inline]
+pub fn isotropic_phase() -> f64 {
+    1.0 / (4.0 * PI)
+}
+
+/// Sample cos θ from the isotropic phase function: uniform on [−1, 1], cos θ = 2u − 1
+/// (Archimedes' hat-box theorem). pdf with respect to solid angle: [`isotropic_phase`].
+#[inline]
+pub fn sample_isotropic(u: f64) -> f64 {
+    (2.0 * u - 1.0).clamp(-1.0, 1.0)
 }
 
 /// Turn the unit direction `d` by polar angle θ (given as cos θ) and azimuth φ
@@ -179,5 +198,126 @@ mod tests {
         assert!((norm - 1.0).abs() < 1e-12);
         let dot = d[0] * e[0] + d[1] * e[1] + d[2] * e[2];
         assert!((dot - ct).abs() < 1e-12);
+    }
+}
+
+/// Statistical tests of the samplers: χ² on (cos θ, φ) about a fixed incoming direction (so the
+/// direction update [`spin`] is tested too), normalisation and mean cosine by quadrature.
+#[cfg(test)]
+mod stat_tests {
+    use super::*;
+    use crate::stats::{chi2_test_cos_phi, graded_cos_edges, integrate_adaptive, sidak_alpha, uniform_edges, Chi2, SplitMix64};
+
+    /// Orthonormal basis (t1, t2) completing the unit vector n (Duff et al. 2017, JCGT 6(1)).
+    fn frame(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+        let sign = 1.0f64.copysign(n[2]);
+        let a = -1.0 / (sign + n[2]);
+        let b = n[0] * n[1] * a;
+        ([1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]], [b, sign + n[1] * n[1] * a, -n[1]])
+    }
+
+    fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    }
+
+    /// Scatter n photons from direction `d` with `sample_cos` and `spin`, measure (cos θ, φ)
+    /// of the new direction in d's frame, and run the χ² test against `pdf`.
+    fn chi2_of(d: [f64; 3], sample_cos: impl Fn(f64) -> f64, pdf: impl Fn(f64) -> f64, n: usize, seed: u64) -> Chi2 {
+        let mut rng = SplitMix64::new(seed);
+        let (t1, t2) = frame(d);
+        let mut samples = Vec::with_capacity(n);
+        for _ in 0..n {
+            let ct = sample_cos(rng.next_f64());
+            let phi = 2.0 * PI * rng.next_f64();
+            let e = spin(d, ct, phi.cos(), phi.sin());
+            let mut p = dot(e, t2).atan2(dot(e, t1));
+            if p < 0.0 {
+                p += 2.0 * PI;
+            }
+            samples.push((dot(e, d).clamp(-1.0, 1.0), p));
+        }
+        let edges = graded_cos_edges(12, 16, 1e-5);
+        chi2_test_cos_phi(&samples, &|c, _| pdf(c), &edges, &uniform_edges(0.0, 2.0 * PI, 8)).unwrap()
+    }
+
+    const GS: [f64; 6] = [-0.9, -0.3, 0.0, 0.5, 0.9, 0.99];
+    /// One family of tests: 6 HG values + 1 mixture + 1 isotropic, at overall α = 0.01.
+    const TESTS: usize = 8;
+
+    #[test]
+    fn hg_sampling_chi2() {
+        let alpha = sidak_alpha(0.01, TESTS).unwrap();
+        let s = 1.0 / 3.0f64.sqrt();
+        let dirs = [[0.3, -0.5, (1.0f64 - 0.34).sqrt()], [0.0, 0.0, 1.0], [s, s, -s]];
+        for (k, &g) in GS.iter().enumerate() {
+            let phase = Phase::hg(g).unwrap();
+            let r = chi2_of(dirs[k % 3], |u| phase.sample(u), |c| phase.pdf(c), 1_000_000, 100 + k as u64);
+            println!("HG g = {g}: {r:?} (alpha_i = {alpha:.3e})");
+            assert!(r.p_value > alpha, "g = {g}: {r:?}");
+        }
+    }
+
+    #[test]
+    fn mixture_and_isotropic_chi2() {
+        let alpha = sidak_alpha(0.01, TESTS).unwrap();
+        let mix = Phase::mixture(&[(0.7, 0.8), (0.3, -0.4)]).unwrap();
+        let r = chi2_of([0.6, 0.0, 0.8], |u| mix.sample(u), |c| mix.pdf(c), 1_000_000, 200);
+        println!("mixture: {r:?}");
+        assert!(r.p_value > alpha, "{r:?}");
+        let r = chi2_of([0.0, 0.0, -1.0], sample_isotropic, |_| isotropic_phase(), 500_000, 201);
+        println!("isotropic: {r:?}");
+        assert!(r.p_value > alpha, "{r:?}");
+    }
+
+    #[test]
+    fn chi2_rejects_wrong_sampler() {
+        // Sampling with g = 0.5 but claiming g = 0.6 must fail decisively; so must a mixture
+        // with swapped weights.
+        let r = chi2_of([0.0, 0.0, 1.0], |u| sample_hg(u, 0.5), |c| hg_phase(c, 0.6), 100_000, 300);
+        println!("wrong g: {r:?}");
+        assert!(r.p_value < 1e-10, "{r:?}");
+        let right = Phase::mixture(&[(0.7, 0.8), (0.3, -0.4)]).unwrap();
+        let wrong = Phase::mixture(&[(0.6, 0.8), (0.4, -0.4)]).unwrap();
+        let r = chi2_of([0.0, 0.0, 1.0], |u| wrong.sample(u), |c| right.pdf(c), 100_000, 301);
+        assert!(r.p_value < 1e-10, "{r:?}");
+    }
+
+    #[test]
+    fn normalisation_and_mean_cosine_by_quadrature() {
+        for g in GS.iter().copied().chain([-0.99, 0.999]) {
+            let norm = 2.0 * PI * integrate_adaptive(&mut |c| hg_phase(c, g), -1.0, 1.0, 1e-13);
+            let mean = 2.0 * PI * integrate_adaptive(&mut |c| c * hg_phase(c, g), -1.0, 1.0, 1e-13);
+            println!("g = {g}: ∫p dω − 1 = {:.2e}, <cos> − g = {:.2e}", norm - 1.0, mean - g);
+            assert!((norm - 1.0).abs() < 1e-9, "g {g}: norm {norm}");
+            assert!((mean - g).abs() < 1e-9, "g {g}: mean {mean}");
+            // Closed forms at the poles: p(±1) = (1 − g²)/(4π (1 ∓ g)³).
+            let p1 = (1.0 - g * g) / (4.0 * PI * (1.0 - g).powi(3));
+            assert!((hg_phase(1.0, g) / p1 - 1.0).abs() < 1e-12);
+        }
+        let mix = Phase::mixture(&[(0.7, 0.8), (0.3, -0.4)]).unwrap();
+        let norm = 2.0 * PI * integrate_adaptive(&mut |c| mix.eval(c), -1.0, 1.0, 1e-13);
+        let mean = 2.0 * PI * integrate_adaptive(&mut |c| c * mix.eval(c), -1.0, 1.0, 1e-13);
+        assert!((norm - 1.0).abs() < 1e-10 && (mean - mix.g()).abs() < 1e-10);
+        assert!((mix.g() - (0.7 * 0.8 - 0.3 * 0.4)).abs() < 1e-15);
+        assert!((4.0 * PI * isotropic_phase() - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn extreme_g_is_finite() {
+        let mut rng = SplitMix64::new(5);
+        for g in [-0.999_999_9, -0.99, -1e-7, 0.0, 1e-7, 0.99, 0.999_999_9] {
+            for c in [-1.0, -0.5, 0.0, 0.5, 1.0] {
+                let p = hg_phase(c, g);
+                assert!(p.is_finite() && p > 0.0, "g {g} cos {c}: {p}");
+            }
+            for _ in 0..10_000 {
+                let c = sample_hg(rng.next_f64(), g);
+                assert!(c.is_finite() && (-1.0..=1.0).contains(&c), "g {g}: {c}");
+            }
+        }
+        // Continuity across the isotropic switch at |g| = 1e-6: O(g) difference.
+        for u in [0.1, 0.5, 0.9] {
+            assert!((sample_hg(u, 1.01e-6) - sample_hg(u, 0.99e-6)).abs() < 1e-5);
+        }
     }
 }
