@@ -7,6 +7,7 @@ from __future__ import annotations
 from . import _core
 from ._core import ParameterError
 from .medium import Component, Layer, Stack, mix
+from . import hk
 
 __version__ = _core.__version__
 
