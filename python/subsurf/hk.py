@@ -21,8 +21,9 @@ at the angle between the refracted propagation directions)::
 
 with T the products of the interface (Fresnel) transmittances and A the Beer–Lambert attenuations
 of the other layers crossed. The (n_0/n_j)² factor is the radiance change across the interfaces
-(L/n² is invariant); H&K's eq. 21 omits it, which breaks energy conservation for n_j ≠ n_0. With
-it f_r is reciprocal and its hemispherical integral equals the power count inside the layer.
+(L/n² is invariant); restatements without it (e.g. the seed's eq. 1.25) overestimate the
+reflected flux by (n_j/n_0)². With it f_r is reciprocal and its hemispherical integral equals the
+flux count inside the layer (tested).
 Total internal reflection on the way in or out gives zero.
 """
 from __future__ import annotations

@@ -28,8 +28,10 @@
 //! where θ is the angle between the refracted incident and exit propagation directions in the
 //! layer. This f_r is reciprocal, and ∫ f_r cos θo dωo equals the power-counting integral over
 //! the inside hemisphere T_in ∫ p T_out α μo/(μi + μo) dω' (checked in tests); f_t obeys the
-//! generalised reciprocity f_t(wi → wo)/n_o² = f_t(wo → wi)/n_i². H&K 1993 (eq. 21) omit the
-//! (n_0/n_m)² factor; without it the BRDF would not conserve energy for n_m ≠ n_0.
+//! generalised reciprocity f_t(wi → wo)/n_o² = f_t(wo → wi)/n_i². Restatements of H&K eq. 21
+//! without the (n_0/n_m)² factor (e.g. the seed's eq. 1.25, which also has cos θi cos θr where
+//! cos θi + cos θr belongs, and outside instead of refracted cosines) overestimate the reflected
+//! flux by (n_m/n_0)² for n_m ≠ n_0.
 //! No interface reflections are included (paths reflected at an interface are of higher order
 //! in the Monte Carlo sense; they are the MC tallies' `*_order[1] − *_single_direct`).
 
