@@ -7,8 +7,15 @@ from __future__ import annotations
 from . import _core
 from ._core import ParameterError
 from .medium import Component, Layer, Stack, mix
+from .mc import DiffuseIllumination, PencilBeam, simulate
+from .result import Histogram, Result
+from . import diffusion, materials
+from .materials import Material
 from . import hk
 
 __version__ = _core.__version__
 
-__all__ = ["Component", "Layer", "ParameterError", "Stack", "mix", "__version__"]
+__all__ = [
+    "Component", "DiffuseIllumination", "Histogram", "Layer", "Material", "ParameterError", "PencilBeam",
+    "Result", "Stack", "__version__", "diffusion", "hk", "materials", "mix", "simulate",
+]
