@@ -12,12 +12,12 @@ from .tallies import Tallies
 from .result import Histogram, Result
 from . import diffusion, materials
 from .materials import Material
-from . import optics, testing
+from . import hk, optics, testing
 
 __version__ = _core.__version__
 
 __all__ = [
     "Component", "DiffuseIllumination", "Histogram", "Layer", "Material", "ParameterError", "PencilBeam",
-    "Result", "Stack", "Tallies", "__version__", "diffusion", "materials", "mix", "optics", "simulate",
+    "Result", "Stack", "Tallies", "__version__", "diffusion", "hk", "materials", "mix", "optics", "simulate",
     "testing",
 ]

@@ -1,0 +1,121 @@
+//! Hemispherical integrals of the first-order BRDF/BTDF: the single-scattering reflectance
+//! ρ₁(wi) = ∫ f_r(wi, wo) cos θo dωo and transmittance τ₁(wi) = ∫ f_t(wi, wo) |cos θo| dωo
+//! (directional-hemispherical, dimensionless), by product quadrature.
+//!
+//! With s = sin θo, cos θo dωo = s ds dφ. Each layer's term vanishes beyond the exit cut-off
+//! s_c (total internal reflection at the lowest-index medium on the way out), and behaves like
+//! √(s_c − s) there (the refracted cosine); the substitution s = s_c (1 − u²) makes it smooth
+//! in u, so Gauss–Legendre in u ∈ [0, 1] converges fast. The integrand depends on φ only
+//! through cos(φo − φi) and is periodic, so the midpoint rule on [0, π] (doubled) is spectrally
+//! accurate. Gauss–Legendre nodes: Newton iteration on P_n (Numerical Recipes §4.6, `gauleg`).
+
+use super::stack::{check_direction, exit_sine_limit, terms};
+use crate::error::{Error, Result};
+use crate::medium::Stack;
+use std::f64::consts::PI;
+
+/// Gauss–Legendre nodes and weights on [0, 1] (n ≥ 1).
+pub fn gauss_legendre_01(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut x = vec![0.0; n];
+    let mut w = vec![0.0; n];
+    let m = (n + 1) / 2;
+    for i in 0..m {
+        let mut z = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        let mut pp = 0.0;
+        for _ in 0..100 {
+            let (mut p1, mut p2) = (1.0, 0.0);
+            for j in 0..n {
+                let p3 = p2;
+                p2 = p1;
+                p1 = ((2 * j + 1) as f64 * z * p2 - j as f64 * p3) / (j + 1) as f64;
+            }
+            pp = n as f64 * (z * p1 - p2) / (z * z - 1.0);
+            let z1 = z;
+            z = z1 - p1 / pp;
+            if (z - z1).abs() < 1e-15 {
+                break;
+            }
+        }
+        let wt = 2.0 / ((1.0 - z * z) * pp * pp);
+        // map [−1, 1] → [0, 1]
+        x[i] = 0.5 * (1.0 - z);
+        x[n - 1 - i] = 0.5 * (1.0 + z);
+        w[i] = 0.5 * wt;
+        w[n - 1 - i] = 0.5 * wt;
+    }
+    (x, w)
+}
+
+fn check_nodes(field: &str, n: usize) -> Result<()> {
+    if (4..=4096).contains(&n) {
+        Ok(())
+    } else {
+        Err(Error::param(field, n as f64, "an integer in [4, 4096]"))
+    }
+}
+
+fn hemispherical(
+    stack: &Stack,
+    wi: [f64; 3],
+    reflection: bool,
+    n_theta: usize,
+    n_phi: usize,
+) -> Result<f64> {
+    let wi = check_direction("wi", wi, true)?;
+    check_nodes("n_theta", n_theta)?;
+    check_nodes("n_phi", n_phi)?;
+    let (u, wu) = gauss_legendre_01(n_theta);
+    let phi_i = wi[1].atan2(wi[0]);
+    let dphi = PI / n_phi as f64;
+    let zsign = if reflection { 1.0 } else { -1.0 };
+    let mut total = 0.0;
+    for j in 0..stack.layers.len() {
+        let sc = exit_sine_limit(stack, j, reflection);
+        let mut acc = 0.0;
+        for (&uk, &wk) in u.iter().zip(&wu) {
+            let s = sc * (1.0 - uk * uk);
+            let c = ((1.0 - s) * (1.0 + s)).max(0.0).sqrt();
+            if c == 0.0 {
+                continue;
+            }
+            let jac = s * 2.0 * sc * uk; // s ds = s · 2 s_c u du
+            let mut ring = 0.0;
+            for l in 0..n_phi {
+                let phi = phi_i + (l as f64 + 0.5) * dphi;
+                let wo = [s * phi.cos(), s * phi.sin(), zsign * c];
+                ring += terms(stack, wi, wo, reflection)[j];
+            }
+            acc += wk * jac * ring * 2.0 * dphi;
+        }
+        total += acc;
+    }
+    Ok(total)
+}
+
+/// Single-scattering (first-order) directional-hemispherical reflectance
+/// ρ₁(wi) = ∫_{H+} f_r(wi, wo) cos θo dωo (dimensionless), by `n_theta` × `n_phi` product
+/// quadrature (see module docs). `wi` unit with z > 0. The Monte Carlo counterpart is the total
+/// of the order-1, no-interface-reflection paths (`rd_single_direct`).
+pub fn single_scattering_reflectance(
+    stack: &Stack,
+    wi: [f64; 3],
+    n_theta: usize,
+    n_phi: usize,
+) -> Result<f64> {
+    hemispherical(stack, wi, true, n_theta, n_phi)
+}
+
+/// Single-scattering (first-order) directional-hemispherical transmittance
+/// τ₁(wi) = ∫_{H−} f_t(wi, wo) |cos θo| dωo (dimensionless); zero for a semi-infinite stack.
+pub fn single_scattering_transmittance(
+    stack: &Stack,
+    wi: [f64; 3],
+    n_theta: usize,
+    n_phi: usize,
+) -> Result<f64> {
+    if stack.is_semi_infinite() {
+        check_direction("wi", wi, true)?;
+        return Ok(0.0);
+    }
+    hemispherical(stack, wi, false, n_theta, n_phi)
+}
