@@ -11,3 +11,8 @@ from .medium import Component, Layer, Stack, mix
 __version__ = _core.__version__
 
 __all__ = ["Component", "Layer", "ParameterError", "Stack", "mix", "__version__"]
+
+# Results files (subsurf.io): save / load / merge.
+from .io import load, merge, save  # noqa: E402
+
+__all__ += ["load", "merge", "save"]
