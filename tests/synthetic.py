@@ -1,7 +1,7 @@
 """Hand-built :class:`subsurf.result.Result` objects for the I/O, MCML, CLI and plot tests.
 
-Histogram values are bin weights (fractions of N photons) divided by the exact bin measures
-(annulus area, solid angle, depth) — the normalisation documented in docs/architecture.md.
+Histogram values are bin weights (fractions of N photons) divided by the exact bin measures the
+tallies use (annulus area, ring solid angle, area × projected solid angle for R(r, θ), depth).
 """
 from __future__ import annotations
 
@@ -18,6 +18,10 @@ def _area(e):
 
 def _solid(a):
     return 2 * math.pi * (np.cos(a[:-1]) - np.cos(a[1:]))
+
+
+def _proj(a):
+    return math.pi * (np.sin(a[1:]) ** 2 - np.sin(a[:-1]) ** 2)
 
 
 def make_result(seed=1, photons=10_000, nr=20, dr=0.05, nz=15, dz=0.04, na=6, layers=2, brdf=(4, 8),
@@ -41,7 +45,7 @@ def make_result(seed=1, photons=10_000, nr=20, dr=0.05, nz=15, dz=0.04, na=6, la
 
     for side, tot in (("rd", rd), ("tt", tt)):
         ra = raw[f"{side}_ra"]
-        h(f"{side}_ra", ra, _area(re_)[:, None] * _solid(ae)[None, :], (re_, ae), ("r", "theta"), ("mm", "rad"),
+        h(f"{side}_ra", ra, _area(re_)[:, None] * _proj(ae)[None, :], (re_, ae), ("r", "theta"), ("mm", "rad"),
           "mm^-2 sr^-1", f"{side} per area and solid angle")
         h(f"{side}_r", ra.sum(1), _area(re_), (re_,), ("r",), ("mm",), "mm^-2", f"{side} per unit area")
         h(f"{side}_a", ra.sum(0), _solid(ae), (ae,), ("theta",), ("rad",), "sr^-1", f"{side} per solid angle")

@@ -158,8 +158,11 @@ def _param_message(ctx: _Ctx, prefix: str, e: Exception) -> ConfigError:
     m = re.match(r"([\w.\[\]]+) = ", msg)
     if m:
         field = m.group(1)
-        key = field if field.startswith(("layers", "n_above", "n_below")) or not prefix else f"{prefix}.{field}"
+        own = field.startswith(("layers", "n_above", "n_below")) or (prefix and field.startswith(prefix + "."))
+        key = field if own or not prefix else f"{prefix}.{field}"
         return ctx.error(key, msg.split(" = ", 1)[1])
+    if prefix and msg.startswith(prefix + ": "):
+        msg = msg[len(prefix) + 2:]
     return ctx.error(prefix or None, msg)
 
 

@@ -14,8 +14,10 @@ Unit conversions (subsurf works in mm): lengths ×0.1 (mm → cm), μ ×10 (mm�
 A(z) mm⁻¹ → cm⁻¹ ×10, R(r) mm⁻² → cm⁻² ×100, A(r, z) mm⁻³ → cm⁻³ ×1000, per-sr quantities unchanged.
 MCML divides the angular tallies by approximate bin measures (ScaleRdTt in mcmlio.c: solid angle
 2π sin(α)Δα with α at the bin centre, and 4π² Δr² (i + ½) sin(2α) sin(Δα/2) for R(r, α)); subsurf's
-histograms use exact bin measures, so the raw bin weights are recovered from subsurf's measures and
-divided by MCML's, which reproduces MCML's numbers bin for bin.
+histograms use exact bin measures (R(θ): ring solid angle 2π(cos θ₀ − cos θ₁); R(r, θ): annulus area
+× projected solid angle π(sin²θ₁ − sin²θ₀)), so the raw bin weights are recovered from subsurf's
+measures and divided by MCML's, which reproduces MCML's numbers bin for bin. Like MCML, subsurf's
+last r and z bins collect everything beyond the grid.
 """
 from __future__ import annotations
 
@@ -183,6 +185,12 @@ def _solid_angle_exact(edges):
     return 2.0 * math.pi * (np.cos(a[:-1]) - np.cos(a[1:]))
 
 
+def _projected_solid_angle_exact(edges):
+    """∫cos θ dω over each ring: π (sin²θ₁ − sin²θ₀), sr (subsurf's measure for R(r, θ))."""
+    a = np.asarray(edges, dtype=float)
+    return math.pi * (np.sin(a[1:]) ** 2 - np.sin(a[:-1]) ** 2)
+
+
 def mcml_arrays(run: McmlRun, result) -> dict:
     """MCML's output quantities (cm units, MCML's normalisation) from a subsurf result.
 
@@ -213,7 +221,7 @@ def mcml_arrays(run: McmlRun, result) -> dict:
         hra = h[f"{side}_ra"]
         raw_ra = (np.asarray(hra.values, dtype=float)
                   * _area_exact(hra.edges[0])[:, None]                            # bin weight (no unit)
-                  * _solid_angle_exact(hra.edges[1])[None, :])
+                  * _projected_solid_angle_exact(hra.edges[1])[None, :])
         scale = 4.0 * math.pi**2 * run.dr  # cm²·sr
         scale = scale * math.sin(da / 2) * run.dr * ir[:, None] * np.sin(2.0 * ia)[None, :]
         out[f"{key}_ra"] = raw_ra / scale                                          # ScaleRdTt, Rd_ra
