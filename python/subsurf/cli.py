@@ -43,7 +43,12 @@ def _simulate(stack, progress=None, **kwargs):
             accepts = True
         if accepts:
             kwargs["progress"] = progress
-    return sim(stack, **kwargs)
+    import warnings
+
+    with warnings.catch_warnings():
+        # an interrupted run warns; the command line reports "partial" itself, in one line
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return sim(stack, **kwargs)
 
 
 def _bar(label, quiet):
