@@ -16,3 +16,8 @@ __all__ = ["Component", "Layer", "ParameterError", "Stack", "mix", "__version__"
 from .io import load, merge, save  # noqa: E402
 
 __all__ += ["load", "merge", "save"]
+
+from . import diffusion, materials  # noqa: E402  (diffusion models and the material library)
+from .materials import Material  # noqa: E402
+
+__all__ += ["Material", "diffusion", "materials"]
