@@ -157,4 +157,11 @@ def test_profile_and_materials():
     assert "Rd dipole" in p.stdout and "R_d(r)" in p.stdout
     p = run("profile", "--sigma-a", "0.01", "--sigma-s-prime", "1.0", "--eta", "1.3")
     assert p.returncode == 0, p.stderr
+    row = p.stdout.splitlines()[2].split()
+    # dipole total: the closed form; better dipole: the printed quadrature of its R_d(r)
+    assert float(row[6]) == pytest.approx(float(diffusion.total_diffuse_reflectance(1 / 1.01, 1.3)), abs=6e-5)
+    r = np.geomspace(1e-5, 400.0, 20000)
+    y = diffusion.better_dipole_rd(r, 0.01, 1.0, 1.3) * 2 * np.pi * r
+    assert float(row[7]) == pytest.approx(float(np.sum(0.5 * (y[1:] + y[:-1]) * np.diff(r))), abs=6e-5)
+    assert "3.0312e-02" in p.stdout  # dipole R_d(1 mm), the library's own value, tabulated
     one_line_error(run("profile", "unobtainium"), "unknown material 'unobtainium'")
