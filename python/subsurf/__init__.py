@@ -7,17 +7,19 @@ from __future__ import annotations
 from . import _core
 from ._core import ParameterError
 from .medium import Component, Layer, Stack, mix
+from .mc import DiffuseIllumination, PencilBeam, simulate
+from .result import Histogram, Result
+from . import diffusion, materials
+from .materials import Material
 
 __version__ = _core.__version__
 
-__all__ = ["Component", "Layer", "ParameterError", "Stack", "mix", "__version__"]
+__all__ = [
+    "Component", "DiffuseIllumination", "Histogram", "Layer", "Material", "ParameterError", "PencilBeam",
+    "Result", "Stack", "__version__", "diffusion", "materials", "mix", "simulate",
+]
 
 # Results files (subsurf.io): save / load / merge.
 from .io import load, merge, save  # noqa: E402
 
 __all__ += ["load", "merge", "save"]
-
-from . import diffusion, materials  # noqa: E402  (diffusion models and the material library)
-from .materials import Material  # noqa: E402
-
-__all__ += ["Material", "diffusion", "materials"]

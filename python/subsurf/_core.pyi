@@ -26,3 +26,16 @@ def diffusion_sd(model_name: str, xi: _F, wi: _F, xo: _F, wo: _F, sigma_a: _F, s
 def diffusion_brdf(model_name: str, wi: _F, wo: _F, sigma_a: _F, sigma_s_prime: _F, eta: _F) -> _F: ...
 def diffusion_ft(eta: _F, cos_theta: _F) -> _F: ...
 def diffusion_check_properties(sigma_a: _F, sigma_s_prime: _F, eta: _F) -> None: ...
+
+# --- mc ---
+def mc_validate_source(kind: str, theta: float, phi: float) -> None: ...
+def mc_simulate(
+    layers: list[tuple[float, float, float, list[tuple[float, float]], float]],
+    n_above: float,
+    n_below: float,
+    photons: int,
+    seed: int,
+    threads: int | None,
+    source: tuple[str, float, float],
+    progress: object | None = None,
+) -> dict: ...

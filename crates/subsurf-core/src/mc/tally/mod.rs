@@ -4,6 +4,8 @@
 //! Standard errors come from per-photon second moments: every tally sees
 //! [`Tally::begin_photon`] / [`Tally::end_photon`] around each photon's history.
 
+pub mod totals;
+
 use super::packet::{Packet, Side};
 
 /// Receiver of the kernel's events. All weights are in units of the launched packet weight (1).

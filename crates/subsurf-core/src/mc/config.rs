@@ -1,0 +1,48 @@
+//! Run configuration of the Monte Carlo engine: photons, seed, threads, source.
+
+use super::source::Source;
+use crate::error::{Error, Result};
+
+/// Photons per chunk: the unit of parallel work and of merging. Fixed (independent of the
+/// thread count), so that results are bit-identical for any number of threads.
+pub const CHUNK_PHOTONS: u64 = 4096;
+
+/// Russian roulette: packets lighter than this weight play roulette (MCML's `WEIGHT`).
+pub const ROULETTE_THRESHOLD: f64 = 1e-4;
+
+/// Russian roulette: a packet survives with probability 1/m and its weight is multiplied by m
+/// (MCML's `CHANCE` = 1/m = 0.1).
+pub const ROULETTE_M: f64 = 10.0;
+
+/// Everything a run needs besides the stack and the tally.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunConfig {
+    /// Number of photon packets to trace (≥ 1).
+    pub photons: u64,
+    /// The 64-bit seed (the Philox key; see [`crate::rng`]).
+    pub seed: u64,
+    /// Worker threads; `None` = all cores (rayon's global pool).
+    pub threads: Option<usize>,
+    /// The light source.
+    pub source: Source,
+}
+
+impl RunConfig {
+    /// A run of `photons` packets with `seed`, all cores, a normal-incidence pencil beam.
+    pub fn new(photons: u64, seed: u64) -> Self {
+        RunConfig { photons, seed, threads: None, source: Source::default() }
+    }
+
+    /// Check every field.
+    pub fn validate(&self) -> Result<()> {
+        if self.photons == 0 {
+            return Err(Error::param("photons", 0.0, "an integer >= 1"));
+        }
+        if let Some(t) = self.threads {
+            if t == 0 {
+                return Err(Error::param("threads", 0.0, "an integer >= 1 (or None for all cores)"));
+            }
+        }
+        self.source.validate()
+    }
+}
