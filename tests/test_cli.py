@@ -11,7 +11,8 @@ import pytest
 import subsurf
 from synthetic import make_result
 
-HAS_ENGINE = hasattr(subsurf, "simulate") and hasattr(subsurf, "Tallies")
+HAS_ENGINE = hasattr(subsurf, "simulate")
+HAS_TALLIES = hasattr(subsurf, "Tallies")
 try:
     from subsurf import diffusion, materials  # noqa: F401
     HAS_DIFFUSION = hasattr(diffusion, "dipole_rd") and hasattr(materials, "names")
@@ -28,13 +29,16 @@ mua = 0.2
 mus = 5.0
 g = 0.8
 thickness = 1.0
-[tallies]
+[tallies]  # TALLIES
 nr = 20
 dr = 0.1
 nz = 20
 dz = 0.05
 na = 6
 """
+
+
+GOOD_HERE = GOOD if HAS_TALLIES else GOOD[: GOOD.index("[tallies]")]
 
 
 def run(*args, cwd=None, timeout=120):
@@ -98,27 +102,29 @@ def test_plot_and_merge_from_files(tmp_path):
 
 @needs_engine
 def test_simulate_writes_result_and_table(tmp_path):
-    (tmp_path / "c.toml").write_text(GOOD)
+    (tmp_path / "c.toml").write_text(GOOD_HERE)
     p = run("simulate", tmp_path / "c.toml", "-o", tmp_path / "r.h5", "--seed", "9", "--threads", "1")
     assert p.returncode == 0, p.stderr
     assert "diffuse reflectance" in p.stdout and "±" in p.stdout and "events/s" in p.stdout
     r = subsurf.load(tmp_path / "r.h5")
     assert r.photons == 3000 and r.seed == 9 and not r.partial
     assert abs(r.energy_balance - 1) < 1e-9
-    assert r.rd_r.values.shape == (20,)
+    if HAS_TALLIES:
+        assert r.rd_r.values.shape == (20,)
     # same seed, different thread count: bit-identical numbers
     p = run("simulate", tmp_path / "c.toml", "-o", tmp_path / "r2.h5", "--seed", "9", "--threads", "2", "-q")
     assert p.returncode == 0 and "diffuse reflectance" not in p.stdout
     r2 = subsurf.load(tmp_path / "r2.h5")
     assert r2.diffuse_reflectance == r.diffuse_reflectance
-    np.testing.assert_array_equal(r2.rd_r.values, r.rd_r.values)
+    if HAS_TALLIES:
+        np.testing.assert_array_equal(r2.rd_r.values, r.rd_r.values)
     p = run("plot", tmp_path / "r.h5")
     assert p.returncode == 0 and (tmp_path / "r.png").exists()
 
 
 @needs_engine
 def test_ctrl_c_writes_partial_result(tmp_path):
-    (tmp_path / "long.toml").write_text(GOOD.replace("photons = 3000", "photons = 2000000000"))
+    (tmp_path / "long.toml").write_text(GOOD_HERE.replace("photons = 3000", "photons = 2000000000"))
     env = dict(os.environ)
     proc = subprocess.Popen([sys.executable, "-m", "subsurf.cli", "simulate", str(tmp_path / "long.toml"), "-o",
                              str(tmp_path / "p.h5"), "--threads", "1"], stdout=subprocess.PIPE,
@@ -134,7 +140,7 @@ def test_ctrl_c_writes_partial_result(tmp_path):
     assert "partial" in out
 
 
-@needs_engine
+@pytest.mark.skipif(not (HAS_ENGINE and HAS_TALLIES), reason="needs the engine and its tallies")
 def test_mcml_drop_in(tmp_path):
     from test_mcml import SAMPLE_MCI
 

@@ -263,8 +263,10 @@ def _tallies(ctx: _Ctx, data: dict):
     import subsurf
 
     cls = getattr(subsurf, "Tallies", None)
-    if cls is None:
-        return out, out
+    if cls is None:  # no histogram tallies in this build: totals only
+        if out:
+            raise ctx.error("tallies", "this build of subsurf has no histogram tallies (subsurf.Tallies)")
+        return out, None
     try:
         return out, cls(**out)
     except (_core.ParameterError, TypeError, ValueError) as e:

@@ -220,7 +220,7 @@ def results_equal(a: Result, b: Result) -> bool:
 
 
 #: Config keys that may differ between runs that are merged.
-_RUN_KEYS = ("seed", "seeds", "photons", "photons_requested", "threads")
+_RUN_KEYS = ("seed", "seeds", "photons", "photons_requested", "threads", "config_file")
 
 
 def _seeds(r: Result) -> list[int]:
