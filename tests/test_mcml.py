@@ -148,7 +148,7 @@ def test_refuses_to_overwrite(tmp_path):
     assert p.read_text().startswith("A1")
 
 
-@pytest.mark.skipif(not hasattr(subsurf, "simulate"), reason="needs the Monte Carlo engine")
+@pytest.mark.skipif(not hasattr(subsurf, "Tallies"), reason="needs the Monte Carlo tallies")
 def test_run_mci_end_to_end(tmp_path):
     mci = tmp_path / "s.mci"
     mci.write_text(SAMPLE_MCI)
