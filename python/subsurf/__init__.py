@@ -8,6 +8,7 @@ from . import _core
 from ._core import ParameterError
 from .medium import Component, Layer, Stack, mix
 from .mc import DiffuseIllumination, PencilBeam, simulate
+from .tallies import Tallies
 from .result import Histogram, Result
 from . import diffusion, materials
 from .materials import Material
@@ -16,7 +17,7 @@ __version__ = _core.__version__
 
 __all__ = [
     "Component", "DiffuseIllumination", "Histogram", "Layer", "Material", "ParameterError", "PencilBeam",
-    "Result", "Stack", "__version__", "diffusion", "materials", "mix", "simulate",
+    "Result", "Stack", "Tallies", "__version__", "diffusion", "materials", "mix", "simulate",
 ]
 
 # Results files (subsurf.io): save / load / merge.

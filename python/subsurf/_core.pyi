@@ -38,4 +38,8 @@ def mc_simulate(
     threads: int | None,
     source: tuple[str, float, float],
     progress: object | None = None,
-) -> dict: ...
+    tallies: dict | None = None,
+) -> dict:
+    """Totals, and under "histograms" a list of dicts (name, values, stderr: flat float64 arrays
+    in C order; shape, edges, axes, edge_units, units, description) when ``tallies`` (a
+    ``subsurf.Tallies.to_dict()``) is given."""

@@ -15,7 +15,8 @@ import numpy as np
 
 from . import _core
 from .medium import Layer, Stack
-from .result import Result
+from .result import Histogram, Result
+from .tallies import Tallies
 
 _U64 = 2**64
 
@@ -116,7 +117,9 @@ def simulate(stack, photons=10**6, seed=0, threads=None, source=None, tallies=No
     seed : an integer in [0, 2⁶⁴); the same seed gives bit-identical results for any ``threads``.
     threads : worker threads (≥ 1); ``None`` uses all cores.
     source : :class:`PencilBeam` (default, normal incidence) or :class:`DiffuseIllumination`.
-    tallies : histogram tallies; not available yet in this version: must be ``None``.
+    tallies : :class:`subsurf.Tallies` (or its ``to_dict()``) selecting the histograms to score
+        (R(r), A(z), BRDF/BTDF, per-order splits …, see docs/architecture.md); ``None`` scores
+        only the totals (fastest).
     progress : optional callable ``progress(done, total)``, called about every 50 ms while the
         run lasts and once at the end. If it raises ``KeyboardInterrupt`` (as Ctrl-C does) the
         run stops and the photons traced so far are returned with ``partial=True`` (and a
@@ -140,14 +143,16 @@ def simulate(stack, photons=10**6, seed=0, threads=None, source=None, tallies=No
         source = PencilBeam()
     if not isinstance(source, (PencilBeam, DiffuseIllumination)):
         raise _core.ParameterError(f"source = {source!r} is not a subsurf.PencilBeam or subsurf.DiffuseIllumination")
-    if tallies is not None:
-        raise _core.ParameterError(
-            f"tallies = {tallies!r}: histogram tallies are not available in this version; pass tallies=None")
+    if isinstance(tallies, dict):
+        tallies = Tallies.from_dict(tallies)
+    if tallies is not None and not isinstance(tallies, Tallies):
+        raise _core.ParameterError(f"tallies = {tallies!r} is not a subsurf.Tallies (or None)")
     if progress is not None and not callable(progress):
         raise _core.ParameterError(f"progress = {progress!r} is not callable")
 
     layers, n_above, n_below = stack._to_core()
-    d = _core.mc_simulate(layers, n_above, n_below, photons, seed, threads, source._to_core(), progress)
+    d = _core.mc_simulate(layers, n_above, n_below, photons, seed, threads, source._to_core(), progress,
+                          None if tallies is None else {**tallies.to_dict(), "brdf": tallies.brdf})
     if d["partial"]:
         warnings.warn(
             f"subsurf.simulate interrupted: returning the {d['photons']} of {photons} photons traced so far",
@@ -172,7 +177,23 @@ def simulate(stack, photons=10**6, seed=0, threads=None, source=None, tallies=No
         events=d["events"],
         photons_requested=photons,
         partial=d["partial"],
-        config={"stack": _stack_dict(stack), "source": source.to_dict(), "tallies": None,
+        histograms={h["name"]: _histogram(h) for h in d["histograms"]},
+        config={"stack": _stack_dict(stack), "source": source.to_dict(),
+                "tallies": None if tallies is None else tallies.to_dict(),
                 "photons": photons, "seed": seed},
         version=__version__,
+    )
+
+
+def _histogram(h: dict) -> Histogram:
+    """A core histogram dict (flat C-order values) as a :class:`subsurf.result.Histogram`."""
+    shape = tuple(h["shape"])
+    return Histogram(
+        values=np.asarray(h["values"], dtype=float).reshape(shape),
+        stderr=np.asarray(h["stderr"], dtype=float).reshape(shape),
+        edges=tuple(np.asarray(e, dtype=float) for e in h["edges"]),
+        axes=tuple(h["axes"]),
+        edge_units=tuple(h["edge_units"]),
+        units=h["units"],
+        description=h["description"],
     )

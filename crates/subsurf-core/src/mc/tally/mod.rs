@@ -78,3 +78,13 @@ impl<A: Tally, B: Tally> Tally for (A, B) {
         self.1.merge(&other.1);
     }
 }
+
+pub mod accum;
+pub mod config;
+pub mod histogram;
+pub mod set;
+
+pub use accum::Accum;
+pub use config::TallyConfig;
+pub use histogram::HistogramOut;
+pub use set::TallySet;
