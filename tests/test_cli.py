@@ -171,3 +171,14 @@ def test_profile_and_materials():
     assert float(row[7]) == pytest.approx(float(np.sum(0.5 * (y[1:] + y[:-1]) * np.diff(r))), abs=6e-5)
     assert "3.0312e-02" in p.stdout  # dipole R_d(1 mm), the library's own value, tabulated
     one_line_error(run("profile", "unobtainium"), "unknown material 'unobtainium'")
+
+
+@pytest.mark.skipif(not (HAS_ENGINE and HAS_TALLIES and HAS_DIFFUSION), reason="needs engine, tallies, diffusion")
+def test_demo_small(tmp_path):
+    p = run("demo", "--photons", "3000", "--out-dir", tmp_path / "out", "-q")
+    assert p.returncode == 0, p.stderr
+    for f in ("demo.h5", "demo_dermis.h5", "demo.png"):
+        assert (tmp_path / "out" / f).exists()
+    assert "wrote" in p.stdout and "dipole" in p.stdout
+    r = subsurf.load(tmp_path / "out" / "demo.h5")
+    assert len(r.absorbed_per_layer) == 3 and abs(r.energy_balance - 1) < 1e-9

@@ -154,8 +154,24 @@ def test_run_mci_end_to_end(tmp_path):
     mci.write_text(SAMPLE_MCI)
     done = mcml.run_mci(mci, out_dir=str(tmp_path), photons=2000)
     assert [d[0] for d in done] == [str(tmp_path / "first.mco"), str(tmp_path / "second.mco")]
-    for path, res in done:
+    for (path, res), run in zip(done, mcml.parse_mci(SAMPLE_MCI)):
         back = mcml.read_mco(path)
         assert back["Rsp"] + back["Rd"] + back["A"] + back["Tt"] == pytest.approx(1.0, abs=1e-4)
+        # MCML's identities (its 1-D and 2-D arrays are sums of the same raw bins, the last r/z bins
+        # holding the overflow): they hold only if subsurf's normalisation is undone correctly.
+        q = mcml.mcml_arrays(run, res)
+        dr, dz, da = run.dr, run.dz, run.da
+        ir = np.arange(run.nr) + 0.5
+        ia = (np.arange(run.na) + 0.5) * da
+        for key, total in (("Rd", res.diffuse_reflectance), ("Tt", res.transmittance)):
+            assert np.sum(q[key + "_r"] * 2 * math.pi * ir * dr * dr) == pytest.approx(total, rel=1e-9)
+            assert np.sum(q[key + "_a"] * 2 * math.pi * np.sin(ia) * da) == pytest.approx(total, rel=1e-9)
+            scale = 4 * math.pi**2 * dr * dr * math.sin(da / 2) * ir[:, None] * np.sin(2 * ia)[None, :]
+            assert np.sum(q[key + "_ra"] * scale) == pytest.approx(total, rel=1e-9)
+            np.testing.assert_allclose((q[key + "_ra"] * scale).sum(1), q[key + "_r"] * 2 * math.pi * ir * dr * dr,
+                                       rtol=1e-9, atol=1e-15)
+        assert np.sum(q["A_z"] * dz) == pytest.approx(res.absorbed, rel=1e-9)
+        np.testing.assert_allclose((q["A_rz"] * 2 * math.pi * ir[:, None] * dr * dr * dz).sum(0), q["A_z"] * dz,
+                                   rtol=1e-9, atol=1e-15)
     with pytest.raises(FileExistsError):
         mcml.run_mci(mci, out_dir=str(tmp_path), photons=100)

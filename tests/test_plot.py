@@ -53,3 +53,15 @@ def test_figure_without_histograms(res, tmp_path):
     bare.histograms = {}
     p = plot.save_figure(plot.figure(bare), tmp_path / "bare.png")
     assert open(p, "rb").read()[:8] == PNG_MAGIC
+
+
+def test_overflow_bin_is_not_drawn(res):
+    import copy
+
+    r = copy.deepcopy(res)
+    r.histograms["rd_r"].description += "; last bin also holds r > 1 mm"
+    ax = plot.reflectance_profile(r, models=())
+    x = ax.containers[0].lines[0].get_xdata()
+    assert len(x) == len(r.rd_r.values) - 1 and x.max() < r.rd_r.edges[0][-2]
+    ax = plot.reflectance_profile(res, models=())
+    assert len(ax.containers[0].lines[0].get_xdata()) == len(res.rd_r.values)

@@ -31,6 +31,12 @@ def _u(units: str) -> str:
     return _UNITS.get(units, units)
 
 
+def _visible(h) -> slice:
+    """Bins to draw: all but an overflow bin (the tallies' last r/z bin holds everything beyond the
+    grid, as in MCML, so it is not a density at its centre and is left out of the plots)."""
+    return slice(0, -1) if "last bin also holds" in h.description and np.shape(h.values)[0] > 1 else slice(None)
+
+
 def _new_axes(ax, **kw):
     if ax is not None:
         return ax
@@ -88,8 +94,9 @@ def reflectance_profile(result, ax=None, name: str = "rd_r", models=("dipole", "
     """
     ax = _new_axes(ax)
     h = result.histograms[name]
-    r = h.centers(0)
-    v, s = np.asarray(h.values, float), np.asarray(h.stderr, float)
+    keep = _visible(h)
+    r = h.centers(0)[keep]
+    v, s = np.asarray(h.values, float)[keep], np.asarray(h.stderr, float)[keep]
     ok = v > 0
     label = "Monte Carlo" + (f" ({result.photons:.3g} photons)" if result.photons else "")
     ax.errorbar(r[ok], v[ok], yerr=np.minimum(s[ok], v[ok] * 0.999), fmt="o", ms=3, lw=0.8, capsize=1.5,
@@ -124,11 +131,12 @@ def absorption_depth(result, ax=None, name: str = "a_z"):
     """A(z) vs depth with ±1σ bands and dashed lines at the layer boundaries."""
     ax = _new_axes(ax)
     h = result.histograms[name]
-    z = h.centers(0)
-    v, s = np.asarray(h.values, float), np.asarray(h.stderr, float)
+    keep = _visible(h)
+    z = h.centers(0)[keep]
+    v, s = np.asarray(h.values, float)[keep], np.asarray(h.stderr, float)[keep]
     ax.step(z, v, where="mid", color="k", lw=1.2, label="Monte Carlo")
     ax.fill_between(z, v - s, v + s, step="mid", color="k", alpha=0.2, lw=0, label="±1 standard error")
-    zmax = float(np.asarray(h.edges[0])[-1])
+    zmax = float(np.asarray(h.edges[0])[keep.stop if keep.stop is not None else len(h.edges[0]) - 1])
     first = True
     for zb in layer_boundaries(result):
         if zb < zmax:
