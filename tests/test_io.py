@@ -109,3 +109,15 @@ def test_merge_of_partials_round_trips(tmp_path):
     c = merge(a, b)
     assert c.photons == 1300 and c.photons_requested == 2000 and c.partial
     assert results_equal(subsurf.load(subsurf.save(c, tmp_path / "c.h5")), c)
+
+
+@pytest.mark.skipif(not hasattr(subsurf, "Tallies"), reason="needs the Monte Carlo engine and tallies")
+def test_round_trip_of_a_real_run(tmp_path):
+    stack = subsurf.Stack([subsurf.Layer(1.4, 0.1, 5.0, 0.8, 1.0)])
+    t = subsurf.Tallies(nr=10, dr=0.1, nz=10, dz=0.1, na=5, brdf=(3, 4), max_order=2)
+    res = subsurf.simulate(stack, photons=2000, seed=3, threads=1, tallies=t)
+    back = subsurf.load(subsurf.save(res, tmp_path / "r.h5"))
+    assert results_equal(res, back)
+    assert set(back.histograms) == set(res.histograms) and "brdf_order" in back.histograms
+    both = merge(res, subsurf.simulate(stack, photons=1000, seed=4, threads=1, tallies=t))
+    assert both.photons == 3000 and abs(both.energy_balance - 1) < 1e-9
