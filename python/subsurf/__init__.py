@@ -21,3 +21,8 @@ __all__ = [
     "Result", "Stack", "Tallies", "__version__", "diffusion", "hk", "materials", "mix", "optics", "simulate",
     "testing",
 ]
+
+# Results files (subsurf.io): save / load / merge.
+from .io import load, merge, save  # noqa: E402
+
+__all__ += ["load", "merge", "save"]

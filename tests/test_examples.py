@@ -1,0 +1,45 @@
+"""Every file in examples/ runs (with small photon counts)."""
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+import subsurf
+
+EXAMPLES = pathlib.Path(__file__).resolve().parent.parent / "examples"
+HAS_ENGINE = hasattr(subsurf, "simulate") and hasattr(subsurf, "Tallies")
+pytestmark = pytest.mark.skipif(not HAS_ENGINE, reason="needs the Monte Carlo engine")
+
+
+def _run(args, cwd, env=None):
+    e = dict(os.environ, SUBSURF_EXAMPLE_PHOTONS="2000", SUBSURF_EXAMPLE_OUT=str(cwd), MPLBACKEND="Agg")
+    p = subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=cwd, timeout=180, env=e)
+    assert p.returncode == 0, p.stdout + p.stderr
+    return p
+
+
+def test_there_are_examples():
+    kinds = {p.suffix for p in EXAMPLES.iterdir()}
+    assert {".toml", ".py", ".mci"} <= kinds
+
+
+@pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.toml")), ids=lambda p: p.name)
+def test_toml_example(path, tmp_path):
+    _run(["-m", "subsurf.cli", "simulate", str(path), "--photons", "2000", "-o", str(tmp_path / "r.h5"), "-q"],
+         tmp_path)
+    assert subsurf.load(tmp_path / "r.h5").photons == 2000
+
+
+@pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.mci")), ids=lambda p: p.name)
+def test_mci_example(path, tmp_path):
+    shutil.copy(path, tmp_path / path.name)
+    p = _run(["-m", "subsurf.cli", "mcml", path.name, "--photons", "500", "-q"], tmp_path)
+    assert "wrote" in p.stdout
+
+
+@pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.py")), ids=lambda p: p.name)
+def test_script_example(path, tmp_path):
+    _run([str(path)], tmp_path)
