@@ -39,7 +39,7 @@ __all__ = [
     "MODELS", "MFP_KINDS", "fdr", "A", "fresnel_moments", "params", "diffusion_coefficient",
     "sigma_tr", "z_r", "z_v", "dipole_rd", "better_dipole_rd", "rd", "profile",
     "total_diffuse_reflectance", "alpha_prime_from_rd", "properties_from_color", "ft", "sd",
-    "diffusion_brdf",
+    "diffusion_brdf", "single_scattering_brdf", "complete_brdf",
 ]
 
 
@@ -216,3 +216,36 @@ def diffusion_brdf(wi, wo, sigma_a, sigma_s_prime, eta, model="dipole"):
     v_flat = [np.ascontiguousarray(np.broadcast_to(v, shape + (3,))).ravel() for v in vecs]
     out = _core.diffusion_brdf(model, *v_flat, *_flat(shape, *props))
     return _shape(out, shape)
+
+
+def _semi_infinite_stack(sigma_a, sigma_s_prime, eta, g):
+    from .medium import Layer, Stack
+
+    return Stack([Layer(n=eta, mua=sigma_a, mus=sigma_s_prime / (1.0 - g), g=g, thickness=float("inf"))], n_above=1.0)
+
+
+def single_scattering_brdf(wi, wo, sigma_a, sigma_s_prime, eta, g=0.0):
+    """The single-scattering term S⁽¹⁾ of Jensen et al. 2001 (§2.3, eqs. 3–4) integrated over the
+    surface, in sr⁻¹: for a flat, uniformly lit semi-infinite medium it is the Hanrahan–Krueger
+    first-order BRDF (Jensen derives S⁽¹⁾ from it), computed by :func:`subsurf.hk.single_scattering_brdf`
+    on a semi-infinite layer n = η (outside index 1), σa, σs = σs'/(1 − g), HG phase function g.
+
+    ``wi``, ``wo``: unit directions (..., 3) pointing away from the surface (normal +z); the
+    optical properties are scalars (one channel; see :meth:`subsurf.Material.complete_brdf`)."""
+    from . import hk
+
+    for name, v in (("sigma_a", sigma_a), ("sigma_s_prime", sigma_s_prime), ("eta", eta), ("g", g)):
+        if np.ndim(v) != 0:
+            raise _core.ParameterError(f"{name}: expected a scalar (one channel), got shape {np.shape(v)}")
+    stack = _semi_infinite_stack(float(sigma_a), float(sigma_s_prime), float(eta), float(g))
+    return hk.single_scattering_brdf(stack, wi, wo)
+
+
+def complete_brdf(wi, wo, sigma_a, sigma_s_prime, eta, g=0.0, model="dipole"):
+    """The complete BSSRDF S = S_d + S⁽¹⁾ of Jensen et al. 2001 (§2.4) integrated over the surface,
+    in sr⁻¹: :func:`diffusion_brdf` (multiple scattering, (1/π) F_t R_d F_t) plus
+    :func:`single_scattering_brdf` (Hanrahan–Krueger). This is the BRDF of a uniformly lit
+    semi-infinite medium, i.e. seed eq. 1.10 with constant incident radiance over the surface.
+    Optical properties are scalars (one channel)."""
+    return (diffusion_brdf(wi, wo, sigma_a, sigma_s_prime, eta, model=model)
+            + single_scattering_brdf(wi, wo, sigma_a, sigma_s_prime, eta, g=g))

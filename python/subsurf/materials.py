@@ -174,6 +174,18 @@ class Material:
         ex = lambda v: np.asarray(v, dtype=np.float64)[..., None, :]
         return _dif.diffusion_brdf(ex(wi), ex(wo), self.sigma_a, self.sigma_s_prime, self.eta, model)
 
+    def single_scattering_brdf(self, wi, wo):
+        """S⁽¹⁾ integrated over the surface per channel (sr⁻¹), shape (..., channels): the
+        Hanrahan–Krueger first-order BRDF of the semi-infinite medium (g = self.g or 0)."""
+        g = 0.0 if self.g is None else self.g
+        return np.stack([_dif.single_scattering_brdf(wi, wo, float(a), float(s), self.eta, g)
+                         for a, s in zip(self.sigma_a, self.sigma_s_prime)], axis=-1)
+
+    def complete_brdf(self, wi, wo, model="dipole"):
+        """The complete BSSRDF S_d + S⁽¹⁾ (Jensen et al. 2001) integrated over the surface per
+        channel (sr⁻¹), shape (..., channels)."""
+        return self.diffusion_brdf(wi, wo, model) + self.single_scattering_brdf(wi, wo)
+
     def to_layers(self, thickness=float("inf")):
         """One semi-infinite :class:`subsurf.Layer` per channel, for the Monte Carlo engine:
         n = η (ambient index 1), mua = σa, mus = σs'/(1 − g), g = self.g or 0."""
