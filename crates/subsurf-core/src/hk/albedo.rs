@@ -14,36 +14,11 @@ use crate::error::{Error, Result};
 use crate::medium::Stack;
 use std::f64::consts::PI;
 
-/// Gauss–Legendre nodes and weights on [0, 1] (n ≥ 1).
+/// Gauss–Legendre nodes and weights on [0, 1] (n ≥ 1): [`crate::stats::gauss_legendre`] mapped
+/// from [−1, 1].
 pub fn gauss_legendre_01(n: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut x = vec![0.0; n];
-    let mut w = vec![0.0; n];
-    let m = (n + 1) / 2;
-    for i in 0..m {
-        let mut z = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut pp = 0.0;
-        for _ in 0..100 {
-            let (mut p1, mut p2) = (1.0, 0.0);
-            for j in 0..n {
-                let p3 = p2;
-                p2 = p1;
-                p1 = ((2 * j + 1) as f64 * z * p2 - j as f64 * p3) / (j + 1) as f64;
-            }
-            pp = n as f64 * (z * p1 - p2) / (z * z - 1.0);
-            let z1 = z;
-            z = z1 - p1 / pp;
-            if (z - z1).abs() < 1e-15 {
-                break;
-            }
-        }
-        let wt = 2.0 / ((1.0 - z * z) * pp * pp);
-        // map [−1, 1] → [0, 1]
-        x[i] = 0.5 * (1.0 - z);
-        x[n - 1 - i] = 0.5 * (1.0 + z);
-        w[i] = 0.5 * wt;
-        w[n - 1 - i] = 0.5 * wt;
-    }
-    (x, w)
+    let (x, w) = crate::stats::gauss_legendre(n);
+    (x.iter().map(|xi| 0.5 * (1.0 + xi)).collect(), w.iter().map(|wi| 0.5 * wi).collect())
 }
 
 fn check_nodes(field: &str, n: usize) -> Result<()> {
