@@ -116,21 +116,7 @@ impl Accum {
     }
 }
 
-/// Sample mean and standard error of the mean from Σx = `s1` and Σx² = `s2` over `n` samples
-/// (the unsorted samples include zeros for photons that did not score):
-/// m = s1/n, se = √((s2/n − m²)/(n − 1)).
-pub fn mean_stderr(s1: f64, s2: f64, n: u64) -> (f64, f64) {
-    if n == 0 {
-        return (f64::NAN, f64::NAN);
-    }
-    let nf = n as f64;
-    let m = s1 / nf;
-    if n < 2 {
-        return (m, f64::NAN);
-    }
-    let var = (s2 / nf - m * m).max(0.0);
-    (m, (var / (nf - 1.0)).sqrt())
-}
+pub use super::totals::mean_stderr;
 
 #[cfg(test)]
 mod tests {

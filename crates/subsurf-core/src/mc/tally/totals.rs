@@ -40,7 +40,9 @@ pub struct Totals {
     sum2_layer: Vec<f64>,
 }
 
-/// (mean, standard error of the mean) from S₁, S₂ and N.
+/// Sample mean and standard error of the mean from Σx = `s1` and Σx² = `s2` over `n` samples
+/// (the samples include zeros for photons that did not score): m = s1/n,
+/// se = √((s2/n − m²)/(n − 1)). Shared by every tally.
 pub fn mean_stderr(s1: f64, s2: f64, n: u64) -> (f64, f64) {
     if n == 0 {
         return (f64::NAN, f64::NAN);
