@@ -5,14 +5,14 @@ PY     := $(VENV)/bin/python
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: all venv build test test-rust test-python demo bench clean
+.PHONY: all venv build lint test test-rust test-python demo bench clean
 
 all: build
 
 $(VENV)/.ready: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q "maturin>=1.5,<2" "numpy>=1.22" "matplotlib>=3.5" "h5py>=3.6" "pytest>=7" "scipy>=1.8"
+	$(PY) -m pip install -q "maturin>=1.5,<2" "numpy>=1.22" "matplotlib>=3.5" "h5py>=3.6" "pytest>=7" "scipy>=1.8" "ruff==0.17.6"
 	touch $@
 
 venv: $(VENV)/.ready
@@ -27,7 +27,14 @@ test-rust:
 test-python: build
 	$(PY) -m pytest -q tests
 
-test: test-rust test-python
+# Formatting and lints: rustfmt.toml and [tool.ruff] in pyproject.toml settle the style (width 120).
+lint: venv
+	cargo fmt --all --check
+	cargo clippy --workspace --all-targets -q -- -D warnings
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+
+test: lint test-rust test-python
 
 demo: build
 	$(VENV)/bin/subsurf demo

@@ -10,6 +10,7 @@ A benchmark, not a test: the numbers depend on the machine and its load.
 
 Usage: python benches/bench.py [--seconds S]   (target duration of each measurement)
 """
+
 from __future__ import annotations
 
 import argparse
@@ -27,7 +28,9 @@ CASES = {
     "(a) slab g=0.75 tau=2": Stack([Layer(1.0, 1.0, 9.0, 0.75, 0.2)], 1.0, 1.0),
     "(c) 3 layers n=1.4": Stack(
         [Layer(1.4, 0.1, 10.0, 0.9, 0.1), Layer(1.4, 0.05, 15.0, 0.85, 2.0), Layer(1.4, 0.02, 12.0, 0.9, 10.0)],
-        1.0, 1.0),
+        1.0,
+        1.0,
+    ),
     "(d) thick n=1.4 g=0.9": Stack([Layer(1.4, 0.01, 10.0, 0.9, 100.0)], 1.0, 1.0),
 }
 
@@ -50,12 +53,18 @@ def main(argv=None):
     ap.add_argument("--seconds", type=float, default=2.0, help="duration of each measurement (s)")
     args = ap.parse_args(argv)
     cores = os.cpu_count() or 1
-    print(f"subsurf {subsurf.__version__} Monte Carlo benchmark; {cores} cores; "
-          f"load average {os.getloadavg()[0]:.2f} (other processes slow these figures)")
-    print("events/s and photons/s are wall-clock; 'per CPU-s' = events per second of CPU time used "
-          "(what a core delivers when it is not shared); 'x MCML' = per CPU-s / 1.1e7")
-    print(f"{'case':<24} {'threads':>7} {'photons':>9} {'events/s':>10} {'photons/s':>10} "
-          f"{'per core':>10} {'per CPU-s':>10} {'x MCML':>7} {'scaling':>7}")
+    print(
+        f"subsurf {subsurf.__version__} Monte Carlo benchmark; {cores} cores; "
+        f"load average {os.getloadavg()[0]:.2f} (other processes slow these figures)"
+    )
+    print(
+        "events/s and photons/s are wall-clock; 'per CPU-s' = events per second of CPU time used "
+        "(what a core delivers when it is not shared); 'x MCML' = per CPU-s / 1.1e7"
+    )
+    print(
+        f"{'case':<24} {'threads':>7} {'photons':>9} {'events/s':>10} {'photons/s':>10} "
+        f"{'per core':>10} {'per CPU-s':>10} {'x MCML':>7} {'scaling':>7}"
+    )
     for name, stack in CASES.items():
         one = None
         for threads in (1, None):
@@ -67,8 +76,10 @@ def main(argv=None):
             per_core = ev / t
             scale = ev / one
             per_cpu = r.events / cpu if cpu > 0 else float("nan")
-            print(f"{name:<24} {t:>7} {r.photons:>9} {ev:>10.3e} {r.photons / r.elapsed_s:>10.3e} "
-                  f"{per_core:>10.3e} {per_cpu:>10.3e} {per_cpu / MCML_EVENTS_PER_S:>7.2f} {scale:>7.2f}")
+            print(
+                f"{name:<24} {t:>7} {r.photons:>9} {ev:>10.3e} {r.photons / r.elapsed_s:>10.3e} "
+                f"{per_core:>10.3e} {per_cpu:>10.3e} {per_cpu / MCML_EVENTS_PER_S:>7.2f} {scale:>7.2f}"
+            )
     print(f"targets: >= {TARGET_PER_CORE:.1e} events/s per core (3x MCML) and >= 1.8x on 2 cores")
     return 0
 

@@ -1,4 +1,5 @@
 """Two runs of one configuration with different seeds, merged into one result (tallies are additive)."""
+
 import os
 
 import subsurf

@@ -3,12 +3,12 @@
 Histogram values are bin weights (fractions of N photons) divided by the exact bin measures the
 tallies use (annulus area, ring solid angle, area × projected solid angle for R(r, θ), depth).
 """
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
-
 from subsurf.result import Histogram, Result
 
 
@@ -24,8 +24,20 @@ def _proj(a):
     return math.pi * (np.sin(a[1:]) ** 2 - np.sin(a[:-1]) ** 2)
 
 
-def make_result(seed=1, photons=10_000, nr=20, dr=0.05, nz=15, dz=0.04, na=6, layers=2, brdf=(4, 8),
-                max_order=3, rng=None, config=None):
+def make_result(
+    seed=1,
+    photons=10_000,
+    nr=20,
+    dr=0.05,
+    nz=15,
+    dz=0.04,
+    na=6,
+    layers=2,
+    brdf=(4, 8),
+    max_order=3,
+    rng=None,
+    config=None,
+):
     """A self-consistent synthetic result; returns (result, raw) with raw bin weights for checks."""
     rng = np.random.default_rng(seed) if rng is None else rng
     re_ = np.arange(nr + 1) * dr
@@ -43,10 +55,18 @@ def make_result(seed=1, photons=10_000, nr=20, dr=0.05, nz=15, dz=0.04, na=6, la
         v = raw_vals / measure
         hist[name] = Histogram(v, v * 0.05 + 1e-6, tuple(edges), tuple(axes), tuple(eu), units, desc)
 
-    for side, tot in (("rd", rd), ("tt", tt)):
+    for side in ("rd", "tt"):
         ra = raw[f"{side}_ra"]
-        h(f"{side}_ra", ra, _area(re_)[:, None] * _proj(ae)[None, :], (re_, ae), ("r", "theta"), ("mm", "rad"),
-          "mm^-2 sr^-1", f"{side} per area and solid angle")
+        h(
+            f"{side}_ra",
+            ra,
+            _area(re_)[:, None] * _proj(ae)[None, :],
+            (re_, ae),
+            ("r", "theta"),
+            ("mm", "rad"),
+            "mm^-2 sr^-1",
+            f"{side} per area and solid angle",
+        )
         h(f"{side}_r", ra.sum(1), _area(re_), (re_,), ("r",), ("mm",), "mm^-2", f"{side} per unit area")
         h(f"{side}_a", ra.sum(0), _solid(ae), (ae,), ("theta",), ("rad",), "sr^-1", f"{side} per solid angle")
         raw[f"{side}_r"], raw[f"{side}_a"] = ra.sum(1), ra.sum(0)
@@ -66,21 +86,53 @@ def make_result(seed=1, photons=10_000, nr=20, dr=0.05, nz=15, dz=0.04, na=6, la
         hist["rd_order"] = Histogram(w * rd, w * 0.01, (oe,), ("order",), ("1",), "1", "Rd by order")
         hist["tt_order"] = Histogram(w * tt, w * 0.01, (oe,), ("order",), ("1",), "1", "Tt by order")
     split = rng.dirichlet(np.ones(layers)) * ab
-    cfg = config if config is not None else {
-        "stack": {"layers": [{"n": 1.4, "mua": 0.1, "mus": 10.0, "g": 0.9, "thickness": 0.5 if i < layers - 1 else
-                              math.inf} for i in range(layers)], "n_above": 1.0, "n_below": 1.0},
-        "source": {"type": "pencil", "theta": 0.0, "phi": 0.0},
-        "tallies": {"nr": nr, "dr": dr, "nz": nz, "dz": dz, "na": na, "brdf": list(brdf) if brdf else None,
-                    "max_order": max_order},
-        "seed": seed, "photons": photons,
-    }
+    cfg = (
+        config
+        if config is not None
+        else {
+            "stack": {
+                "layers": [
+                    {"n": 1.4, "mua": 0.1, "mus": 10.0, "g": 0.9, "thickness": 0.5 if i < layers - 1 else math.inf}
+                    for i in range(layers)
+                ],
+                "n_above": 1.0,
+                "n_below": 1.0,
+            },
+            "source": {"type": "pencil", "theta": 0.0, "phi": 0.0},
+            "tallies": {
+                "nr": nr,
+                "dr": dr,
+                "nz": nz,
+                "dz": dz,
+                "na": na,
+                "brdf": list(brdf) if brdf else None,
+                "max_order": max_order,
+            },
+            "seed": seed,
+            "photons": photons,
+        }
+    )
     res = Result(
-        specular_reflectance=rsp, specular_reflectance_stderr=0.0,
-        diffuse_reflectance=rd, diffuse_reflectance_stderr=0.004,
-        transmittance=tt, transmittance_stderr=0.003,
-        unscattered_transmittance=0.01, unscattered_transmittance_stderr=0.001,
-        absorbed=ab, absorbed_stderr=0.004,
-        absorbed_per_layer=split, absorbed_per_layer_stderr=split * 0.01,
-        photons=photons, seed=seed, elapsed_s=1.25, events=photons * 40, photons_requested=photons,
-        partial=False, histograms=hist, config=cfg, version="0.1.0-test")
+        specular_reflectance=rsp,
+        specular_reflectance_stderr=0.0,
+        diffuse_reflectance=rd,
+        diffuse_reflectance_stderr=0.004,
+        transmittance=tt,
+        transmittance_stderr=0.003,
+        unscattered_transmittance=0.01,
+        unscattered_transmittance_stderr=0.001,
+        absorbed=ab,
+        absorbed_stderr=0.004,
+        absorbed_per_layer=split,
+        absorbed_per_layer_stderr=split * 0.01,
+        photons=photons,
+        seed=seed,
+        elapsed_s=1.25,
+        events=photons * 40,
+        photons_requested=photons,
+        partial=False,
+        histograms=hist,
+        config=cfg,
+        version="0.1.0-test",
+    )
     return res, raw

@@ -1,4 +1,5 @@
 """The `subsurf` command line, run as a subprocess: one-line errors, simulate, plot, mcml, Ctrl-C."""
+
 import os
 import signal
 import subprocess
@@ -7,7 +8,6 @@ import time
 
 import numpy as np
 import pytest
-
 import subsurf
 from synthetic import make_result
 
@@ -15,6 +15,7 @@ HAS_ENGINE = hasattr(subsurf, "simulate")
 HAS_TALLIES = hasattr(subsurf, "Tallies")
 try:
     from subsurf import diffusion, materials  # noqa: F401
+
     HAS_DIFFUSION = hasattr(diffusion, "dipole_rd") and hasattr(materials, "names")
 except ImportError:
     HAS_DIFFUSION = False
@@ -44,8 +45,14 @@ GOOD_HERE = GOOD if HAS_TALLIES else GOOD[: GOOD.index("[tallies]")]
 def run(*args, cwd=None, timeout=120):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     env.pop("SUBSURF_DEBUG", None)
-    return subprocess.run([sys.executable, "-m", "subsurf.cli", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd, timeout=timeout, env=env)
+    return subprocess.run(
+        [sys.executable, "-m", "subsurf.cli", *map(str, args)],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=timeout,
+        env=env,
+    )
 
 
 def one_line_error(p, *fragments):
@@ -57,12 +64,15 @@ def one_line_error(p, *fragments):
         assert f in lines[0], (f, lines[0])
 
 
-@pytest.mark.parametrize("text, fragments", [
-    (GOOD.replace("g = 0.8", "g = 1.8"), ["bad.toml:7: layers[0].g: 1.8 is out of range"]),
-    (GOOD + "colour = 3\n", ["bad.toml:", "tallies.colour: unknown key"]),
-    (GOOD.replace("photons = 3000", "photons = 3000 3"), ["bad.toml:1: invalid TOML"]),
-    (GOOD.replace("nr = 20", "nr = -2"), ["bad.toml:10: tallies.nr: -2 is out of range"]),
-])
+@pytest.mark.parametrize(
+    "text, fragments",
+    [
+        (GOOD.replace("g = 0.8", "g = 1.8"), ["bad.toml:7: layers[0].g: 1.8 is out of range"]),
+        (GOOD + "colour = 3\n", ["bad.toml:", "tallies.colour: unknown key"]),
+        (GOOD.replace("photons = 3000", "photons = 3000 3"), ["bad.toml:1: invalid TOML"]),
+        (GOOD.replace("nr = 20", "nr = -2"), ["bad.toml:10: tallies.nr: -2 is out of range"]),
+    ],
+)
 def test_bad_config_is_one_line(tmp_path, text, fragments):
     p = tmp_path / "bad.toml"
     p.write_text(text)
@@ -80,8 +90,10 @@ def test_bad_arguments_are_one_line(tmp_path):
     one_line_error(run("mcml", tmp_path / "none.mci"), "none.mci: no such file")
     (tmp_path / "b.mci").write_text("1.0\n1\nout.mco A\n-3\n")
     one_line_error(run("mcml", tmp_path / "b.mci"), "b.mci:4: number of photons = -3 is out of range")
-    one_line_error(run("profile", "--sigma-a", "-1", "--sigma-s-prime", "1"),
-                   *(["--sigma-a = -1 is out of range"] if HAS_DIFFUSION else []))
+    one_line_error(
+        run("profile", "--sigma-a", "-1", "--sigma-s-prime", "1"),
+        *(["--sigma-a = -1 is out of range"] if HAS_DIFFUSION else []),
+    )
 
 
 def test_plot_and_merge_from_files(tmp_path):
@@ -126,9 +138,23 @@ def test_simulate_writes_result_and_table(tmp_path):
 def test_ctrl_c_writes_partial_result(tmp_path):
     (tmp_path / "long.toml").write_text(GOOD_HERE.replace("photons = 3000", "photons = 2000000000"))
     env = dict(os.environ)
-    proc = subprocess.Popen([sys.executable, "-m", "subsurf.cli", "simulate", str(tmp_path / "long.toml"), "-o",
-                             str(tmp_path / "p.h5"), "--threads", "1"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=env)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "subsurf.cli",
+            "simulate",
+            str(tmp_path / "long.toml"),
+            "-o",
+            str(tmp_path / "p.h5"),
+            "--threads",
+            "1",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
     time.sleep(4.0)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)

@@ -1,9 +1,9 @@
 """Jensen et al. 2001 complete BSSRDF (S_d + S⁽¹⁾) integrated over the surface."""
+
 import math
 
 import numpy as np
 import pytest
-
 import subsurf
 from subsurf import diffusion, hk
 
@@ -34,12 +34,15 @@ def test_complete_is_sum_and_reciprocal():
     wi, wo = v / np.linalg.norm(v, axis=-1, keepdims=True)
     args = (0.01, 1.2, 1.3, 0.4)
     full = diffusion.complete_brdf(wi, wo, *args)
-    assert full == pytest.approx(diffusion.diffusion_brdf(wi, wo, *args[:3])
-                                 + diffusion.single_scattering_brdf(wi, wo, *args), rel=1e-14)
+    assert full == pytest.approx(
+        diffusion.diffusion_brdf(wi, wo, *args[:3]) + diffusion.single_scattering_brdf(wi, wo, *args), rel=1e-14
+    )
     assert full == pytest.approx(diffusion.complete_brdf(wo, wi, *args), rel=1e-12)
     # S⁽¹⁾ is the HK BRDF of a semi-infinite layer with σs = σs'/(1 − g)
     stack = subsurf.Stack([subsurf.Layer(1.3, 0.01, 1.2 / 0.6, 0.4, math.inf)])
-    assert diffusion.single_scattering_brdf(wi, wo, *args) == pytest.approx(hk.single_scattering_brdf(stack, wi, wo), rel=1e-14)
+    assert diffusion.single_scattering_brdf(wi, wo, *args) == pytest.approx(
+        hk.single_scattering_brdf(stack, wi, wo), rel=1e-14
+    )
 
 
 def test_material_complete_brdf_per_channel():

@@ -1,8 +1,8 @@
 """TOML run configurations: parsing, defaults, and one-line errors naming file, line and key."""
+
 import math
 
 import pytest
-
 import subsurf
 from subsurf.config import ConfigError, load_config, parse_config
 
@@ -88,31 +88,34 @@ def _err(text, path="cfg.toml"):
 BASE = "[[layers]]\nn = 1.4\nmua = 0.1\nmus = 10\n"
 
 
-@pytest.mark.parametrize("text, expect", [
-    ("photons = 10\nphoton = 3\n" + BASE, "cfg.toml:2: photon: unknown key"),
-    ("photons = -5\n" + BASE, "cfg.toml:1: photons: -5 is out of range"),
-    ("photons = 1.5\n" + BASE, "photons: expected an integer"),
-    ("seed = \"x\"\n" + BASE, "cfg.toml:1: seed: expected an integer"),
-    ("n_above = 0.5\n" + BASE, "cfg.toml:1: n_above: 0.5 is out of range: must be a finite number >= 1"),
-    (BASE + "g = 1.5\n", "cfg.toml:5: layers[0].g: 1.5 is out of range"),
-    (BASE + "mu_a = 1\n", "cfg.toml:5: layers[0].mu_a: unknown key"),
-    (BASE + "thickness = -1\n", "cfg.toml:5: layers[0].thickness: -1 is out of range"),
-    (BASE + "thickness = \"big\"\n", 'layers[0].thickness: expected a number or "inf"'),
-    (BASE + BASE.replace("mua = 0.1", "mua = -2"), "cfg.toml:7: layers[1].mua: -2 is out of range"),
-    (BASE + BASE, "cfg.toml:1: layers[0].thickness: inf is out of range"),
-    ("[[layers]]\nn = 1.4\nmus = 10\n", "layers[0].mua: missing"),
-    ("photons = 3\n", "layers: missing"),
-    (BASE + "[source]\ntype = \"laser\"\n", "cfg.toml:6: source.type: 'laser' is not a source type"),
-    (BASE + "[source]\ntheta_deg = 90\n", "cfg.toml:6: source.theta_deg: 90 is out of range"),
-    (BASE + "[source]\ntype = \"diffuse\"\ntheta_deg = 10\n", "source.theta_deg: only a pencil beam"),
-    (BASE + "[tallies]\nnr = 0\n", "cfg.toml:6: tallies.nr: 0 is out of range"),
-    (BASE + "[tallies]\ndr = -0.1\n", "cfg.toml:6: tallies.dr: -0.1 is out of range"),
-    (BASE + "[tallies]\nbrdf = [3]\n", "tallies.brdf: expected [n_cos_theta, n_phi]"),
-    (BASE + "[tallies]\nbins = 3\n", "cfg.toml:6: tallies.bins: unknown key"),
-    (BASE + "[tallies]\nspatial = 1\n", "tallies.spatial: expected true or false"),
-    ("photons = [\n", "cfg.toml:1: invalid TOML"),
-    ("photons = 1\nphotons = 2\n" + BASE, "cfg.toml:2: invalid TOML"),
-])
+@pytest.mark.parametrize(
+    "text, expect",
+    [
+        ("photons = 10\nphoton = 3\n" + BASE, "cfg.toml:2: photon: unknown key"),
+        ("photons = -5\n" + BASE, "cfg.toml:1: photons: -5 is out of range"),
+        ("photons = 1.5\n" + BASE, "photons: expected an integer"),
+        ('seed = "x"\n' + BASE, "cfg.toml:1: seed: expected an integer"),
+        ("n_above = 0.5\n" + BASE, "cfg.toml:1: n_above: 0.5 is out of range: must be a finite number >= 1"),
+        (BASE + "g = 1.5\n", "cfg.toml:5: layers[0].g: 1.5 is out of range"),
+        (BASE + "mu_a = 1\n", "cfg.toml:5: layers[0].mu_a: unknown key"),
+        (BASE + "thickness = -1\n", "cfg.toml:5: layers[0].thickness: -1 is out of range"),
+        (BASE + 'thickness = "big"\n', 'layers[0].thickness: expected a number or "inf"'),
+        (BASE + BASE.replace("mua = 0.1", "mua = -2"), "cfg.toml:7: layers[1].mua: -2 is out of range"),
+        (BASE + BASE, "cfg.toml:1: layers[0].thickness: inf is out of range"),
+        ("[[layers]]\nn = 1.4\nmus = 10\n", "layers[0].mua: missing"),
+        ("photons = 3\n", "layers: missing"),
+        (BASE + '[source]\ntype = "laser"\n', "cfg.toml:6: source.type: 'laser' is not a source type"),
+        (BASE + "[source]\ntheta_deg = 90\n", "cfg.toml:6: source.theta_deg: 90 is out of range"),
+        (BASE + '[source]\ntype = "diffuse"\ntheta_deg = 10\n', "source.theta_deg: only a pencil beam"),
+        (BASE + "[tallies]\nnr = 0\n", "cfg.toml:6: tallies.nr: 0 is out of range"),
+        (BASE + "[tallies]\ndr = -0.1\n", "cfg.toml:6: tallies.dr: -0.1 is out of range"),
+        (BASE + "[tallies]\nbrdf = [3]\n", "tallies.brdf: expected [n_cos_theta, n_phi]"),
+        (BASE + "[tallies]\nbins = 3\n", "cfg.toml:6: tallies.bins: unknown key"),
+        (BASE + "[tallies]\nspatial = 1\n", "tallies.spatial: expected true or false"),
+        ("photons = [\n", "cfg.toml:1: invalid TOML"),
+        ("photons = 1\nphotons = 2\n" + BASE, "cfg.toml:2: invalid TOML"),
+    ],
+)
 def test_errors_are_one_clear_line(text, expect):
     assert expect in _err(text)
 

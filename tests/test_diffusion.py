@@ -4,11 +4,11 @@ References used here are independent of the code under test: Gauss–Legendre qu
 profiles, a numpy Fresnel formula (Born & Wolf) for F_dr and d'Eon's moments, and Farrell,
 Patterson & Wilson's (1992) way of writing the dipole.
 """
+
 import math
 
 import numpy as np
 import pytest
-
 import subsurf
 from subsurf import diffusion as d
 
@@ -54,7 +54,7 @@ PROPS = [(0.01, 1.0), (0.1, 1.0), (0.5, 0.5), (0.0030, 2.29), (1.45, 0.03), (0.0
 def test_integral_of_profile_equals_closed_form(model, eta):
     worst = 0.0
     for sa, ssp in PROPS:
-        num = radial_integral(lambda r: d.rd(r, sa, ssp, eta, model), 1 / (sa + ssp))
+        num = radial_integral(lambda r, sa=sa, ssp=ssp: d.rd(r, sa, ssp, eta, model), 1 / (sa + ssp))
         exact = d.total_diffuse_reflectance(ssp / (sa + ssp), eta, model)
         worst = max(worst, abs(num / exact - 1))
     assert worst < 1e-6, worst
@@ -71,8 +71,14 @@ def test_dipole_matches_farrell_form():
         A = (1 + fdr) / (1 - fdr)
         z0, zb, mueff = 1 / mt, 2 * A * D, math.sqrt(3 * sa * mt)
         r1, r2 = np.sqrt(z0**2 + rho**2), np.sqrt((z0 + 2 * zb) ** 2 + rho**2)
-        ref = (ssp / mt) / (4 * np.pi) * (z0 * (mueff + 1 / r1) * np.exp(-mueff * r1) / r1**2
-                                          + (z0 + 2 * zb) * (mueff + 1 / r2) * np.exp(-mueff * r2) / r2**2)
+        ref = (
+            (ssp / mt)
+            / (4 * np.pi)
+            * (
+                z0 * (mueff + 1 / r1) * np.exp(-mueff * r1) / r1**2
+                + (z0 + 2 * zb) * (mueff + 1 / r2) * np.exp(-mueff * r2) / r2**2
+            )
+        )
         np.testing.assert_allclose(d.dipole_rd(rho, sa, ssp, eta), ref, rtol=1e-13)
         assert d.A(eta) == pytest.approx(A, rel=1e-14)
         assert d.z_v(sa, ssp, eta) == pytest.approx(z0 + 2 * zb, rel=1e-14)
@@ -95,7 +101,11 @@ def test_better_dipole_constants():
     zr, zv, s, ap = 1.0, 1 + 4 * A * D, math.sqrt(sa / D), ssp / (sa + ssp)
     dr, dv = np.sqrt(r**2 + zr**2), np.sqrt(r**2 + zv**2)
     phi = ap**2 / (4 * np.pi * D) * (np.exp(-s * dr) / dr - np.exp(-s * dv) / dv)
-    E = ap**2 / (4 * np.pi) * (zr * (1 + s * dr) * np.exp(-s * dr) / dr**3 + zv * (1 + s * dv) * np.exp(-s * dv) / dv**3)
+    E = (
+        ap**2
+        / (4 * np.pi)
+        * (zr * (1 + s * dr) * np.exp(-s * dr) / dr**3 + zv * (1 + s * dv) * np.exp(-s * dv) / dv**3)
+    )
     ref = (1 - 2 * c1) / 4 * phi + (1 - 3 * c2) / 2 * E
     np.testing.assert_allclose(d.better_dipole_rd(r, sa, ssp, eta), ref, rtol=1e-13)
 

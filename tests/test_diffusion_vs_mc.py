@@ -7,31 +7,35 @@ diffusion regime (α' = 0.99, rings of 0.5 mfp between 2 and 8 mfp) each model o
 than the stated margins. σt' = 1 mm⁻¹ throughout, so r is in transport mean free paths; the
 MC reflectance is divided by 1 − R_sp (the models describe the power that entered).
 """
+
 import math
 
 import numpy as np
 import pytest
-
 import subsurf
 from subsurf import diffusion
 
 # docs/diffusion_vs_mc.md, "Stated tolerances": bound on |model − MC| / model over 2–8 mfp, α' = 0.99.
-TOL_PROFILE = {("dipole", 1.0): 0.30, ("better_dipole", 1.0): 0.30,
-               ("dipole", 1.3): 0.15, ("better_dipole", 1.3): 0.25}
-TOL_TOTAL_099 = 0.05          # total R_d within 5 % (+4σ) at α' = 0.99, both models, η ∈ {1.0, 1.3}
-FAIL_TOTAL_05 = 0.10          # at α' = 0.5 both models' total R_d is off by more than 10 %
-FAIL_CENTER = 0.90            # in the first ring (r < 0.05 mfp) both models are > 90 % below MC
+TOL_PROFILE = {("dipole", 1.0): 0.30, ("better_dipole", 1.0): 0.30, ("dipole", 1.3): 0.15, ("better_dipole", 1.3): 0.25}
+TOL_TOTAL_099 = 0.05  # total R_d within 5 % (+4σ) at α' = 0.99, both models, η ∈ {1.0, 1.3}
+FAIL_TOTAL_05 = 0.10  # at α' = 0.5 both models' total R_d is off by more than 10 %
+FAIL_CENTER = 0.90  # in the first ring (r < 0.05 mfp) both models are > 90 % below MC
 
 
 def _run(alpha, eta, photons, seed, nr=171, dr=0.05):
-    stack = subsurf.Stack([subsurf.Layer(n=eta, mua=1.0 - alpha, mus=alpha, g=0.0, thickness=math.inf)],
-                          n_above=1.0)
-    res = subsurf.simulate(stack, photons, seed, 1,
-                           tallies=subsurf.Tallies(nr=nr, dr=dr, nz=1, dz=1.0, spatial=True, angular=False))
+    stack = subsurf.Stack([subsurf.Layer(n=eta, mua=1.0 - alpha, mus=alpha, g=0.0, thickness=math.inf)], n_above=1.0)
+    res = subsurf.simulate(
+        stack, photons, seed, 1, tallies=subsurf.Tallies(nr=nr, dr=dr, nz=1, dz=1.0, spatial=True, angular=False)
+    )
     inside = 1.0 - res.specular_reflectance
-    e = np.asarray(res.rd_r.edges[0], float)[:-1]          # the last bin is the overflow: dropped
-    return (res.diffuse_reflectance / inside, res.diffuse_reflectance_stderr / inside, e,
-            np.asarray(res.rd_r.values, float)[:-1] / inside, np.asarray(res.rd_r.stderr, float)[:-1] / inside)
+    e = np.asarray(res.rd_r.edges[0], float)[:-1]  # the last bin is the overflow: dropped
+    return (
+        res.diffuse_reflectance / inside,
+        res.diffuse_reflectance_stderr / inside,
+        e,
+        np.asarray(res.rd_r.values, float)[:-1] / inside,
+        np.asarray(res.rd_r.stderr, float)[:-1] / inside,
+    )
 
 
 def _ring_average(model, edges, alpha, eta, n=16):

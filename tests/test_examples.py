@@ -1,4 +1,5 @@
 """Every file in examples/ runs (with small photon counts)."""
+
 import os
 import pathlib
 import shutil
@@ -6,7 +7,6 @@ import subprocess
 import sys
 
 import pytest
-
 import subsurf
 
 EXAMPLES = pathlib.Path(__file__).resolve().parent.parent / "examples"
@@ -28,8 +28,9 @@ def test_there_are_examples():
 
 @pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.toml")), ids=lambda p: p.name)
 def test_toml_example(path, tmp_path):
-    _run(["-m", "subsurf.cli", "simulate", str(path), "--photons", "2000", "-o", str(tmp_path / "r.h5"), "-q"],
-         tmp_path)
+    _run(
+        ["-m", "subsurf.cli", "simulate", str(path), "--photons", "2000", "-o", str(tmp_path / "r.h5"), "-q"], tmp_path
+    )
     assert subsurf.load(tmp_path / "r.h5").photons == 2000
 
 

@@ -5,11 +5,11 @@ numpy Gauss–Legendre quadrature) and are parameterised differently from the li
 library integrates over *outside* directions with radiance η² factors, the power-counting
 references integrate over directions *inside* the scattering layer and count flux only.
 """
+
 import math
 
 import numpy as np
 import pytest
-
 import subsurf
 from subsurf import Layer, ParameterError, Stack, hk
 
@@ -242,9 +242,15 @@ def test_two_identical_layers_equal_one():
         two = Stack([Layer(n, 0.3, 4.0, 0.6, 0.2), Layer(n, 0.3, 4.0, 0.6, 0.3)], n0, nb)
         rng = np.random.default_rng(5)
         wi, wo, wt = random_dirs(rng, 200), random_dirs(rng, 200), random_dirs(rng, 200, up=False)
-        np.testing.assert_allclose(hk.single_scattering_brdf(two, wi, wo), hk.single_scattering_brdf(one, wi, wo), rtol=1e-13)
-        np.testing.assert_allclose(hk.single_scattering_btdf(two, wi, wt), hk.single_scattering_btdf(one, wi, wt), rtol=1e-13)
-        np.testing.assert_allclose(hk.unscattered_transmittance(two, wi), hk.unscattered_transmittance(one, wi), rtol=1e-13)
+        np.testing.assert_allclose(
+            hk.single_scattering_brdf(two, wi, wo), hk.single_scattering_brdf(one, wi, wo), rtol=1e-13
+        )
+        np.testing.assert_allclose(
+            hk.single_scattering_btdf(two, wi, wt), hk.single_scattering_btdf(one, wi, wt), rtol=1e-13
+        )
+        np.testing.assert_allclose(
+            hk.unscattered_transmittance(two, wi), hk.unscattered_transmittance(one, wi), rtol=1e-13
+        )
 
 
 def test_no_scattering_gives_zero():
@@ -322,7 +328,9 @@ def test_unscattered_transmittance_closed_form():
     expect = fresnel_T(ci, 1.0, 1.5) * fresnel_T(mu1, 1.5, 1.2) * fresnel_T(mu2, 1.2, 1.33)
     expect *= math.exp(-1.2 * 0.7 / mu1 - 0.6 * 0.4 / mu2)
     assert t == pytest.approx(float(expect), rel=1e-13)
-    np.testing.assert_allclose(wt, [-math.sin(th) / 1.33 * math.cos(0.3), -math.sin(th) / 1.33 * math.sin(0.3), -mu3], atol=1e-14)
+    np.testing.assert_allclose(
+        wt, [-math.sin(th) / 1.33 * math.cos(0.3), -math.sin(th) / 1.33 * math.sin(0.3), -mu3], atol=1e-14
+    )
     assert hk.unscattered_transmittance(stack1(), [0, 0, 1.0]) == 0.0  # semi-infinite
     # total internal reflection: glass above a layer of index 1
     tir = stack1(n=1.0, d=1.0, n_above=1.5, n_below=1.5)
@@ -358,7 +366,10 @@ def test_shapes_and_broadcasting():
         (lambda s: hk.single_scattering_btdf(s, [0, 0, -1.0], [0, 0, -1.0]), r"^wi.z"),
         (lambda s: hk.single_scattering_brdf(s, [np.nan, 0, 1.0], [0, 0, 1.0]), r"^\|wi\| = nan"),
         (lambda s: hk.single_scattering_brdf(s, [0, 1.0], [0, 0, 1.0]), r"^wi: expected shape"),
-        (lambda s: hk.single_scattering_brdf(s, np.zeros((2, 3)) + [0, 0, 1], np.zeros((3, 3)) + [0, 0, 1]), "broadcast"),
+        (
+            lambda s: hk.single_scattering_brdf(s, np.zeros((2, 3)) + [0, 0, 1], np.zeros((3, 3)) + [0, 0, 1]),
+            "broadcast",
+        ),
         (lambda s: hk.unscattered_transmittance(s, [1.0, 0, 0]), r"^wi.z = 0.0"),
         (lambda s: hk.single_scattering_reflectance(s, [0, 0, 1.0], n_theta=2), r"^n_theta = 2"),
         (lambda s: hk.single_scattering_brdf("stack", [0, 0, 1.0], [0, 0, 1.0]), r"^stack = "),
@@ -420,7 +431,10 @@ def test_monte_carlo_single_direct_matches(name, stack, theta, phi, photons):
     from scipy.stats import norm
 
     res = subsurf.simulate(
-        stack, photons=photons, seed=20240 + len(name), source=subsurf.PencilBeam(theta, phi),
+        stack,
+        photons=photons,
+        seed=20240 + len(name),
+        source=subsurf.PencilBeam(theta, phi),
         tallies=subsurf.Tallies(brdf=(8, 12), max_order=1, spatial=False, angular=False),
     )
     h = res.histograms
@@ -436,10 +450,14 @@ def test_monte_carlo_single_direct_matches(name, stack, theta, phi, photons):
             assert abs(v - model) < 4 * e, f"{key}: MC {v} ± {e}, model {model}"
     # every BRDF/BTDF bin, Šidák-corrected family-wise significance 1e-3
     zs = []
-    for key, fn, flip in (("brdf_single_direct", hk.single_scattering_brdf, 1.0),
-                          ("btdf_single_direct", hk.single_scattering_btdf, -1.0)):
+    for key, fn, flip in (
+        ("brdf_single_direct", hk.single_scattering_brdf, 1.0),
+        ("btdf_single_direct", hk.single_scattering_btdf, -1.0),
+    ):
         hist = h[key]
-        model = _bin_average(lambda wo: fn(stack, wi, wo * np.array([1, 1, flip])), hist.edges[1], hist.edges[2])
+        model = _bin_average(
+            lambda wo, fn=fn, flip=flip: fn(stack, wi, wo * np.array([1, 1, flip])), hist.edges[1], hist.edges[2]
+        )
         val, err = hist.values[0], hist.stderr[0]
         if math.isinf(stack.thickness) and flip < 0:
             assert np.all(val == 0) and np.all(model == 0)

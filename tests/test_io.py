@@ -1,13 +1,13 @@
 """Results files (HDF5): save/load round trip, merge and its exact standard-error identity."""
+
 import math
 
 import h5py
 import numpy as np
 import pytest
-
 import subsurf
 from subsurf.io import ResultFileError, merge, results_equal
-from subsurf.result import TOTALS, Histogram, Result
+from subsurf.result import TOTALS, Histogram
 from synthetic import make_result
 
 
@@ -15,8 +15,9 @@ def test_round_trip_is_equal(tmp_path):
     res, _ = make_result(seed=3)
     res.partial = True
     res.photons_requested = 20_000
-    res.histograms["fluence_z"] = Histogram(np.array([1.0, np.nan]), np.array([0.1, np.nan]),
-                                            (np.array([0, 1.0, 2.0]),), ("z",), ("mm",), "mm^-2", "A/mua")
+    res.histograms["fluence_z"] = Histogram(
+        np.array([1.0, np.nan]), np.array([0.1, np.nan]), (np.array([0, 1.0, 2.0]),), ("z",), ("mm",), "mm^-2", "A/mua"
+    )
     p = subsurf.save(res, tmp_path / "sub" / "r.h5")
     back = subsurf.load(p)
     assert results_equal(res, back)

@@ -1,22 +1,42 @@
 """Tests of subsurf.materials: the Jensen et al. (2001) table, Material constructors, validation."""
+
 import numpy as np
 import pytest
-
 import subsurf
 from subsurf import diffusion as d
 from subsurf import materials as M
 
-EXPECTED = ["apple", "chicken1", "chicken2", "cream", "ketchup", "marble", "potato", "skimmilk", "skin1",
-            "skin2", "spectralon", "wholemilk"]
+EXPECTED = [
+    "apple",
+    "chicken1",
+    "chicken2",
+    "cream",
+    "ketchup",
+    "marble",
+    "potato",
+    "skimmilk",
+    "skin1",
+    "skin2",
+    "spectralon",
+    "wholemilk",
+]
 
 # The paper's "diffuse reflectance" column (Jensen et al. 2001, table of measured parameters, R, G, B),
 # transcribed by hand; it was not re-checkable against the paper text here, so it is used only as a
 # consistency check of the σ values (a typo in σs' or σa shifts the computed reflectance).
 PAPER_RD = {
-    "apple": (0.85, 0.84, 0.53), "chicken1": (0.31, 0.15, 0.10), "chicken2": (0.32, 0.16, 0.10),
-    "cream": (0.98, 0.90, 0.73), "ketchup": (0.16, 0.01, 0.00), "marble": (0.83, 0.79, 0.75),
-    "potato": (0.77, 0.62, 0.21), "skimmilk": (0.81, 0.81, 0.69), "skin1": (0.44, 0.22, 0.13),
-    "skin2": (0.63, 0.44, 0.34), "spectralon": (1.0, 1.0, 1.0), "wholemilk": (0.91, 0.88, 0.76),
+    "apple": (0.85, 0.84, 0.53),
+    "chicken1": (0.31, 0.15, 0.10),
+    "chicken2": (0.32, 0.16, 0.10),
+    "cream": (0.98, 0.90, 0.73),
+    "ketchup": (0.16, 0.01, 0.00),
+    "marble": (0.83, 0.79, 0.75),
+    "potato": (0.77, 0.62, 0.21),
+    "skimmilk": (0.81, 0.81, 0.69),
+    "skin1": (0.44, 0.22, 0.13),
+    "skin2": (0.63, 0.44, 0.34),
+    "spectralon": (1.0, 1.0, 1.0),
+    "wholemilk": (0.91, 0.88, 0.76),
 }
 
 

@@ -1,11 +1,11 @@
 """Monte Carlo tallies: the `subsurf.Tallies` configuration and (with the engine) the
 histograms' normalisation identities, reciprocity, thread invariance and single scattering."""
+
 from __future__ import annotations
 
 import math
 
 import pytest
-
 import subsurf
 from subsurf import ParameterError, Tallies
 
@@ -198,13 +198,16 @@ def test_rd_r_matches_exact_single_scattering_profile():
     alb, st = 0.01, 1.0
 
     def r1(r):
-        f = lambda z: (alb * st * math.exp(-st * z) / (4 * math.pi) * z / (z * z + r * r) ** 1.5
-                       * math.exp(-st * math.sqrt(z * z + r * r)))
+        def f(z):
+            d = math.sqrt(z * z + r * r)
+            return alb * st * math.exp(-st * z) / (4 * math.pi) * z / d**3 * math.exp(-st * d)
+
         return quad(f, 0, 40, limit=200)[0]
 
     stack = subsurf.Stack([subsurf.Layer(1.0, st * (1 - alb), st * alb, 0.0, math.inf)])
-    res = subsurf.simulate(stack, photons=1_000_000, seed=5,
-                           tallies=subsurf.Tallies(nr=30, dr=0.1, nz=2, dz=1.0, angular=False))
+    res = subsurf.simulate(
+        stack, photons=1_000_000, seed=5, tallies=subsurf.Tallies(nr=30, dr=0.1, nz=2, dz=1.0, angular=False)
+    )
     h = res.rd_r
     e = h.edges[0]
     for i in (1, 2, 5, 10, 15, 20):

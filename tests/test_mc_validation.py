@@ -4,22 +4,23 @@ All statistical checks use fixed seeds and 4 standard errors as reported by the 
 unit in the last digit of a published reference value). Units: the references are quoted in cm;
 μ in cm⁻¹ × 0.1 → mm⁻¹, d in cm × 10 → mm.
 """
+
 import math
 import os
 import signal
 import threading
-import warnings
 
 import numpy as np
 import pytest
-
 import subsurf
 from subsurf import DiffuseIllumination, Layer, ParameterError, PencilBeam, Stack, simulate
 
 
 def close(value, stderr, want, k=4.0, ref_halfulp=0.0):
     assert stderr > 0 and math.isfinite(stderr)
-    assert abs(value - want) <= k * stderr + ref_halfulp, f"{value} ± {stderr} vs {want} ({(value - want) / stderr:+.2f}σ)"
+    assert abs(value - want) <= k * stderr + ref_halfulp, (
+        f"{value} ± {stderr} vs {want} ({(value - want) / stderr:+.2f}σ)"
+    )
 
 
 def fresnel(cos_i, n1, n2):
@@ -61,7 +62,9 @@ def test_giovanelli_semi_infinite():
     assert abs(r.energy_balance - 1.0) < 1e-12
 
 
-@pytest.mark.parametrize("albedo, rd, photons", [(0.8, 0.28525, 200_000), (0.9, 0.41495, 200_000), (0.99, 0.75272, 50_000)])
+@pytest.mark.parametrize(
+    "albedo, rd, photons", [(0.8, 0.28525, 200_000), (0.9, 0.41495, 200_000), (0.99, 0.75272, 50_000)]
+)
 def test_exact_semi_infinite_isotropic(albedo, rd, photons):
     # Exact (H-function) diffuse reflectance of a semi-infinite, index-matched, isotropically
     # scattering medium at normal incidence (van de Hulst 1980; Giovanelli 1955).
@@ -105,9 +108,15 @@ def test_diffuse_illumination_specular():
 
 
 MULTI = Stack(
-    [Layer(1.5, 0.0, 0.0, 0.0, 0.1), Layer(1.4, 0.1, 10.0, 0.9, 0.1), Layer(1.33, 0.05, 15.0, 0.85, 2.0),
-     Layer(1.4, 0.02, 12.0, 0.0, math.inf, phase=[(0.8, 0.9), (0.2, -0.2)])],
-    1.0, 1.3)
+    [
+        Layer(1.5, 0.0, 0.0, 0.0, 0.1),
+        Layer(1.4, 0.1, 10.0, 0.9, 0.1),
+        Layer(1.33, 0.05, 15.0, 0.85, 2.0),
+        Layer(1.4, 0.02, 12.0, 0.0, math.inf, phase=[(0.8, 0.9), (0.2, -0.2)]),
+    ],
+    1.0,
+    1.3,
+)
 
 
 @pytest.mark.parametrize("source", [PencilBeam(), PencilBeam(0.7, 2.0), DiffuseIllumination()])
@@ -138,11 +147,18 @@ def test_result_provenance():
 @pytest.mark.parametrize(
     "kwargs, field",
     [
-        (dict(photons=0), "photons"), (dict(photons=-5), "photons"), (dict(photons=1.5), "photons"),
-        (dict(photons=True), "photons"), (dict(photons="10"), "photons"),
-        (dict(seed=-1), "seed"), (dict(seed=2**64), "seed"), (dict(seed=0.5), "seed"),
-        (dict(threads=0), "threads"), (dict(threads=2.0), "threads"),
-        (dict(tallies=object()), "tallies"), (dict(source="pencil"), "source"),
+        (dict(photons=0), "photons"),
+        (dict(photons=-5), "photons"),
+        (dict(photons=1.5), "photons"),
+        (dict(photons=True), "photons"),
+        (dict(photons="10"), "photons"),
+        (dict(seed=-1), "seed"),
+        (dict(seed=2**64), "seed"),
+        (dict(seed=0.5), "seed"),
+        (dict(threads=0), "threads"),
+        (dict(threads=2.0), "threads"),
+        (dict(tallies=object()), "tallies"),
+        (dict(source="pencil"), "source"),
         (dict(progress=5), "progress"),
     ],
 )

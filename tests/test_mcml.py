@@ -1,9 +1,9 @@
 """MCML drop-in: .mci parsing, .mco writing in MCML's layout and units, round trip, errors."""
+
 import math
 
 import numpy as np
 import pytest
-
 import subsurf
 from subsurf import mcml
 from synthetic import make_result
@@ -57,16 +57,22 @@ def test_parse_sample():
     assert s[0].mua == pytest.approx(0.1) and s[0].mus == pytest.approx(10.0) and s[1].thickness == pytest.approx(2.0)
 
 
-@pytest.mark.parametrize("bad, expect", [
-    (("2                        # number of runs", "3"), "s.mci:31: file ends early: expected an output file name"),
-    (("1000                     # No. of photons", "-5"), "s.mci:12: number of photons = -5 is out of range"),
-    (("1000                     # No. of photons", "many"), "s.mci:12: expected the number of photons: 'many' is not an integer"),
-    (("0.0025  0.005", "0.0025"), "s.mci:13: expected dz dr (cm)"),
-    (("1.37    1       100     0.9     0.1", "1.37 1 100 1.2 0.1"), "s.mci:19: layer 1: g = 1.2 is out of range"),
-    (("1.37    0.5     150     0.8     0.2", "1.37 0.5 150 0.8 0"), "s.mci:20: layer 2: d = 0 is out of range"),
-    (("second.mco A", "first.mco A"), "s.mci:24: output file name first.mco is used by two runs"),
-    (("1.0                      # n for medium above", "0.9"), "s.mci:18: n above = 0.9 is out of range"),
-])
+@pytest.mark.parametrize(
+    "bad, expect",
+    [
+        (("2                        # number of runs", "3"), "s.mci:31: file ends early: expected an output file name"),
+        (("1000                     # No. of photons", "-5"), "s.mci:12: number of photons = -5 is out of range"),
+        (
+            ("1000                     # No. of photons", "many"),
+            "s.mci:12: expected the number of photons: 'many' is not an integer",
+        ),
+        (("0.0025  0.005", "0.0025"), "s.mci:13: expected dz dr (cm)"),
+        (("1.37    1       100     0.9     0.1", "1.37 1 100 1.2 0.1"), "s.mci:19: layer 1: g = 1.2 is out of range"),
+        (("1.37    0.5     150     0.8     0.2", "1.37 0.5 150 0.8 0"), "s.mci:20: layer 2: d = 0 is out of range"),
+        (("second.mco A", "first.mco A"), "s.mci:24: output file name first.mco is used by two runs"),
+        (("1.0                      # n for medium above", "0.9"), "s.mci:18: n above = 0.9 is out of range"),
+    ],
+)
 def test_parse_errors(bad, expect):
     text = SAMPLE_MCI.replace(*bad)
     with pytest.raises(mcml.McmlInputError) as e:
@@ -93,8 +99,23 @@ def test_unit_conversions_against_mcml_scaling():
     np.testing.assert_allclose(q["A_z"], raw["a_z"] / dz, rtol=1e-12)
     np.testing.assert_allclose(q["A_rz"], raw["a_rz"] / (2 * math.pi * ir[:, None] * dr * dr * dz), rtol=1e-12)
     np.testing.assert_allclose(
-        q["Rd_ra"], raw["rd_ra"] / (2 * math.pi * ir[:, None] * dr * dr * np.cos(ia)[None, :]
-                                    * 2 * math.pi * np.sin(ia)[None, :] * 2 * math.sin(da / 2)), rtol=1e-12)
+        q["Rd_ra"],
+        raw["rd_ra"]
+        / (
+            2
+            * math.pi
+            * ir[:, None]
+            * dr
+            * dr
+            * np.cos(ia)[None, :]
+            * 2
+            * math.pi
+            * np.sin(ia)[None, :]
+            * 2
+            * math.sin(da / 2)
+        ),
+        rtol=1e-12,
+    )
     # direct unit factors for the exact-measure quantities: mm^-1 -> cm^-1 x10, mm^-2 -> cm^-2 x100, mm^-3 x1000
     np.testing.assert_allclose(q["A_z"], res.a_z.values * 10, rtol=1e-12)
     np.testing.assert_allclose(q["Rd_r"], res.rd_r.values * 100, rtol=1e-12)
@@ -120,8 +141,22 @@ def test_mco_layout_and_round_trip(tmp_path):
     i = lines.index("Rd_r #Rd[0], [1],..Rd[nr-1]. [1/cm2]")
     assert len(lines[i + 1]) == 12 and "E" in lines[i + 1]
     # order of sections as in MCML's WriteResult
-    order = [text.index(s) for s in ("\nInParm", "\nRAT", "\nA_l", "\nA_z", "\nRd_r", "\nRd_a", "\nTt_r",
-                                     "\nTt_a", "\nA_rz", "\nRd_ra", "\nTt_ra")]
+    order = [
+        text.index(s)
+        for s in (
+            "\nInParm",
+            "\nRAT",
+            "\nA_l",
+            "\nA_z",
+            "\nRd_r",
+            "\nRd_a",
+            "\nTt_r",
+            "\nTt_a",
+            "\nA_rz",
+            "\nRd_ra",
+            "\nTt_ra",
+        )
+    ]
     assert order == sorted(order)
     # 2-D sections: five numbers a line
     j = lines.index("A_rz")
@@ -168,10 +203,12 @@ def test_run_mci_end_to_end(tmp_path):
             assert np.sum(q[key + "_a"] * 2 * math.pi * np.sin(ia) * da) == pytest.approx(total, rel=1e-9)
             scale = 4 * math.pi**2 * dr * dr * math.sin(da / 2) * ir[:, None] * np.sin(2 * ia)[None, :]
             assert np.sum(q[key + "_ra"] * scale) == pytest.approx(total, rel=1e-9)
-            np.testing.assert_allclose((q[key + "_ra"] * scale).sum(1), q[key + "_r"] * 2 * math.pi * ir * dr * dr,
-                                       rtol=1e-9, atol=1e-15)
+            np.testing.assert_allclose(
+                (q[key + "_ra"] * scale).sum(1), q[key + "_r"] * 2 * math.pi * ir * dr * dr, rtol=1e-9, atol=1e-15
+            )
         assert np.sum(q["A_z"] * dz) == pytest.approx(res.absorbed, rel=1e-9)
-        np.testing.assert_allclose((q["A_rz"] * 2 * math.pi * ir[:, None] * dr * dr * dz).sum(0), q["A_z"] * dz,
-                                   rtol=1e-9, atol=1e-15)
+        np.testing.assert_allclose(
+            (q["A_rz"] * 2 * math.pi * ir[:, None] * dr * dr * dz).sum(0), q["A_z"] * dz, rtol=1e-9, atol=1e-15
+        )
     with pytest.raises(FileExistsError):
         mcml.run_mci(mci, out_dir=str(tmp_path), photons=100)

@@ -1,8 +1,8 @@
 """Layer, Stack and mix: derived quantities and validation errors (issue: foundation)."""
+
 import math
 
 import pytest
-
 import subsurf
 from subsurf import Component, Layer, ParameterError, Stack, mix
 

@@ -1,9 +1,9 @@
 """subsurf.optics: closed forms, reference values, χ² of the samplers (issue: foundation)."""
+
 import math
 
 import numpy as np
 import pytest
-
 from subsurf import ParameterError, optics, testing
 
 # ---------------------------------------------------------------------------- Fresnel
@@ -132,8 +132,15 @@ def test_hg_sampling_chi2(g):
     def sampler(n, rng):
         return np.stack([optics.sample_hg(rng.random(n), g), 2 * math.pi * rng.random(n)], axis=-1)
 
-    res = testing.chi2_test(sampler, lambda c, p: optics.hg_pdf(c, g), cos_edges=testing.graded_cos_edges(),
-                            n_phi=4, n_samples=400_000, seed=1000 + GS.index(g), tests=N_TESTS)
+    res = testing.chi2_test(
+        sampler,
+        lambda c, p: optics.hg_pdf(c, g),
+        cos_edges=testing.graded_cos_edges(),
+        n_phi=4,
+        n_samples=400_000,
+        seed=1000 + GS.index(g),
+        tests=N_TESTS,
+    )
     assert res.passed, res
     assert res.pdf_integral == pytest.approx(1.0, abs=1e-8)
 
@@ -141,15 +148,25 @@ def test_hg_sampling_chi2(g):
 def test_mixture_phase_and_sampling():
     lobes = [(0.7, 0.8), (0.3, -0.4)]
     c = np.linspace(-1, 1, 11)
-    np.testing.assert_allclose(optics.mixture_phase(c, lobes),
-                               0.7 * optics.hg_phase(c, 0.8) + 0.3 * optics.hg_phase(c, -0.4), rtol=1e-14)
-    assert 2 * math.pi * _integrate_cos(lambda x: x * optics.mixture_phase(x, lobes)) == pytest.approx(0.7 * 0.8 - 0.3 * 0.4, abs=1e-9)
-    res = testing.chi2_test_1d(lambda n, rng: optics.sample_mixture(rng.random(n), lobes),
-                               lambda x: 2 * math.pi * optics.mixture_phase(x, lobes),
-                               edges=testing.graded_cos_edges(), n_samples=400_000, seed=7, tests=N_TESTS)
+    np.testing.assert_allclose(
+        optics.mixture_phase(c, lobes), 0.7 * optics.hg_phase(c, 0.8) + 0.3 * optics.hg_phase(c, -0.4), rtol=1e-14
+    )
+    assert 2 * math.pi * _integrate_cos(lambda x: x * optics.mixture_phase(x, lobes)) == pytest.approx(
+        0.7 * 0.8 - 0.3 * 0.4, abs=1e-9
+    )
+    res = testing.chi2_test_1d(
+        lambda n, rng: optics.sample_mixture(rng.random(n), lobes),
+        lambda x: 2 * math.pi * optics.mixture_phase(x, lobes),
+        edges=testing.graded_cos_edges(),
+        n_samples=400_000,
+        seed=7,
+        tests=N_TESTS,
+    )
     assert res.passed, res
     # weights are normalised
-    np.testing.assert_allclose(optics.mixture_phase(c, [(7, 0.8), (3, -0.4)]), optics.mixture_phase(c, lobes), rtol=1e-14)
+    np.testing.assert_allclose(
+        optics.mixture_phase(c, [(7, 0.8), (3, -0.4)]), optics.mixture_phase(c, lobes), rtol=1e-14
+    )
 
 
 def test_isotropic_and_hg_limits():
@@ -169,8 +186,16 @@ def test_cosine_hemisphere_chi2_and_beer_lambert():
     def sampler(n, rng):
         return optics.sample_cosine_hemisphere(rng.random(n), rng.random(n))
 
-    res = testing.chi2_test(sampler, lambda c, p: optics.cosine_hemisphere_pdf(c), cos_range=(0.0, 1.0),
-                            n_theta=20, n_phi=12, n_samples=300_000, seed=3, tests=N_TESTS)
+    res = testing.chi2_test(
+        sampler,
+        lambda c, p: optics.cosine_hemisphere_pdf(c),
+        cos_range=(0.0, 1.0),
+        n_theta=20,
+        n_phi=12,
+        n_samples=300_000,
+        seed=3,
+        tests=N_TESTS,
+    )
     assert res.passed and res.outside == 0, res
     assert optics.beer_lambert(2.0, 0.5) == pytest.approx(math.exp(-1.0), rel=1e-15)
     assert optics.beer_lambert(1.0, math.inf) == 0.0 and optics.beer_lambert(0.0, math.inf) == 1.0

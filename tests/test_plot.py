@@ -1,7 +1,6 @@
 """Figures build from a synthetic result, carry labelled axes with units, and save as PNG."""
-import numpy as np
-import pytest
 
+import pytest
 from subsurf import plot
 from synthetic import make_result
 

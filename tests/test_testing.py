@@ -1,9 +1,9 @@
 """subsurf.testing: the χ² kit itself — special functions, pooling, Šidák, and that it can fail."""
+
 import math
 
 import numpy as np
 import pytest
-
 from subsurf import ParameterError, optics, testing
 
 
@@ -44,15 +44,25 @@ def test_kit_rejects_a_wrong_sampler():
     def sampler(n, rng):
         return np.stack([optics.sample_hg(rng.random(n), 0.5), 2 * math.pi * rng.random(n)], axis=-1)
 
-    res = testing.chi2_test(sampler, lambda c, p: optics.hg_phase(c, 0.6), n_theta=40, n_phi=4, n_samples=100_000, seed=1)
+    res = testing.chi2_test(
+        sampler, lambda c, p: optics.hg_phase(c, 0.6), n_theta=40, n_phi=4, n_samples=100_000, seed=1
+    )
     assert not res.passed and res.p_value < 1e-10, res
-    ok = testing.chi2_test(sampler, lambda c, p: optics.hg_phase(c, 0.5), n_theta=40, n_phi=4, n_samples=100_000, seed=1)
+    ok = testing.chi2_test(
+        sampler, lambda c, p: optics.hg_phase(c, 0.5), n_theta=40, n_phi=4, n_samples=100_000, seed=1
+    )
     assert ok.passed, ok
-    res1 = testing.chi2_test_1d(lambda n, rng: optics.sample_hg(rng.random(n), 0.5),
-                                lambda x: 2 * math.pi * optics.hg_phase(x, 0.6), n_samples=100_000, seed=2)
+    res1 = testing.chi2_test_1d(
+        lambda n, rng: optics.sample_hg(rng.random(n), 0.5),
+        lambda x: 2 * math.pi * optics.hg_phase(x, 0.6),
+        n_samples=100_000,
+        seed=2,
+    )
     assert not res1.passed and res1.p_value < 1e-10
     # A misnormalised pdf (integral 1.02) is detected through the total count.
-    bad = testing.chi2_test_1d(np.random.default_rng(3).random(400_000), lambda x: np.full_like(x, 1.02), range=(0, 1), n_bins=20)
+    bad = testing.chi2_test_1d(
+        np.random.default_rng(3).random(400_000), lambda x: np.full_like(x, 1.02), range=(0, 1), n_bins=20
+    )
     assert not bad.passed and bad.pdf_integral == pytest.approx(1.02)
     # A sample outside the pdf's support (pdf = 1 on [0, 1], 0 on (1, 2]) fails outright; the
     # same samples without it pass.

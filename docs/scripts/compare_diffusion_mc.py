@@ -17,6 +17,7 @@ pencil beam in air, and the Monte Carlo reflectance (exact up to noise) is compa
 
 Usage: python docs/scripts/compare_diffusion_mc.py [--photons N] [--seed S] [--threads T]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -26,23 +27,23 @@ import sys
 import time
 
 import numpy as np
-
 import subsurf
 from subsurf import diffusion
 
 ALBEDOS = (0.5, 0.8, 0.9, 0.95, 0.99, 0.999)
 ETAS = (1.0, 1.3, 1.5)
 MODELS = ("dipole", "better_dipole")
-NR, DR = 200, 0.05                      # R(r) grid: 0 … 10 mfp (last bin = overflow, dropped)
-RANGES = ((0.0, 0.05), (0.5, 1.0), (1.0, 2.0), (2.0, 8.0))   # r ranges (mfp) summarised
+NR, DR = 200, 0.05  # R(r) grid: 0 … 10 mfp (last bin = overflow, dropped)
+RANGES = ((0.0, 0.05), (0.5, 1.0), (1.0, 2.0), (2.0, 8.0))  # r ranges (mfp) summarised
 HERE = os.path.dirname(os.path.abspath(__file__))
 DOCS = os.path.dirname(HERE)
 
 
 def stack(alpha, eta, g=0.0):
     """Semi-infinite layer with σt' = 1 mm⁻¹, reduced albedo ``alpha``, σs = σs'/(1 − g)."""
-    return subsurf.Stack([subsurf.Layer(n=eta, mua=1.0 - alpha, mus=alpha / (1.0 - g), g=g,
-                                        thickness=math.inf)], n_above=1.0)
+    return subsurf.Stack(
+        [subsurf.Layer(n=eta, mua=1.0 - alpha, mus=alpha / (1.0 - g), g=g, thickness=math.inf)], n_above=1.0
+    )
 
 
 def ring_average(model, edges, alpha, eta, n=16):
@@ -65,15 +66,27 @@ def rebin(edges, values, stderr, lo, hi):
 
 def run_case(alpha, eta, photons, seed, threads, g=0.0):
     t = time.time()
-    res = subsurf.simulate(stack(alpha, eta, g), photons, seed, threads,
-                           tallies=subsurf.Tallies(nr=NR, dr=DR, nz=1, dz=1.0, spatial=True, angular=False))
+    res = subsurf.simulate(
+        stack(alpha, eta, g),
+        photons,
+        seed,
+        threads,
+        tallies=subsurf.Tallies(nr=NR, dr=DR, nz=1, dz=1.0, spatial=True, angular=False),
+    )
     inside = 1.0 - res.specular_reflectance
     h = res.rd_r
-    edges = np.asarray(h.edges[0], float)[:-1]            # drop the overflow bin
-    case = dict(alpha=alpha, eta=eta, g=g, seconds=time.time() - t,
-                rd=res.diffuse_reflectance / inside, rd_se=res.diffuse_reflectance_stderr / inside,
-                edges=edges, mc=np.asarray(h.values, float)[:-1] / inside,
-                mc_se=np.asarray(h.stderr, float)[:-1] / inside)
+    edges = np.asarray(h.edges[0], float)[:-1]  # drop the overflow bin
+    case = dict(
+        alpha=alpha,
+        eta=eta,
+        g=g,
+        seconds=time.time() - t,
+        rd=res.diffuse_reflectance / inside,
+        rd_se=res.diffuse_reflectance_stderr / inside,
+        edges=edges,
+        mc=np.asarray(h.values, float)[:-1] / inside,
+        mc_se=np.asarray(h.stderr, float)[:-1] / inside,
+    )
     for m in MODELS:
         case["total_" + m] = float(diffusion.total_diffuse_reflectance(alpha, eta, model=m))
         case["prof_" + m] = ring_average(m, edges, alpha, eta)
@@ -114,8 +127,10 @@ def log_groups(edges, n=28):
 
 def plot(cases, path):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(2, len(ETAS), figsize=(4.2 * len(ETAS), 7.2), sharex=True, sharey=True)
     colors = plt.cm.viridis(np.linspace(0.0, 0.9, len(ALBEDOS)))
     for row, m in enumerate(MODELS):
@@ -126,26 +141,30 @@ def plot(cases, path):
                 pts = []
                 for lo, hi in log_groups(case["edges"]):
                     e, s = summary(case, m, lo, hi)
-                    if s < 0.05:                             # hide noise-dominated points
+                    if s < 0.05:  # hide noise-dominated points
                         pts.append((math.sqrt(max(lo, DR / 2) * hi), e, s))
                 if pts:
                     x, y, s = map(np.array, zip(*pts))
-                    ax.errorbar(x, 100 * y, yerr=100 * s, color=c, marker="o", ms=3, lw=1, capsize=0,
-                                label=f"α' = {alpha}")
+                    ax.errorbar(
+                        x, 100 * y, yerr=100 * s, color=c, marker="o", ms=3, lw=1, capsize=0, label=f"α' = {alpha}"
+                    )
             ax.axhline(0.0, color="k", lw=0.6)
             ax.axvspan(2.0, 8.0, color="0.92", zorder=0)
             ax.set_xscale("log")
             ax.set_ylim(-60, 60)
             ax.grid(True, which="both", lw=0.3, alpha=0.5)
-            ax.set_title(f"{'dipole (Jensen 2001)' if m == 'dipole' else 'better dipole (d’Eon 2012)'}, η = {eta}",
-                         fontsize=10)
+            ax.set_title(
+                f"{'dipole (Jensen 2001)' if m == 'dipole' else 'better dipole (d’Eon 2012)'}, η = {eta}", fontsize=10
+            )
             if row == 1:
                 ax.set_xlabel("r  [transport mean free paths 1/σt' = mm]")
             if col == 0:
                 ax.set_ylabel("R_d(r): model / MC − 1  [%]")
     axes[0, 0].legend(fontsize=8, loc="lower right")
-    fig.suptitle("Diffusion vs Monte Carlo, semi-infinite medium, normal pencil beam "
-                 "(error bars: MC 1σ; grey: 2–8 mfp)", fontsize=11)
+    fig.suptitle(
+        "Diffusion vs Monte Carlo, semi-infinite medium, normal pencil beam (error bars: MC 1σ; grey: 2–8 mfp)",
+        fontsize=11,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
@@ -160,19 +179,26 @@ def markdown(cases, args, elapsed):
     L.append("|---|---|---|---|---|---|---|")
     for c in cases:
         tag = f"{c['alpha']}" + (f" (g = {c['g']})" if c["g"] else "")
-        L.append(f"| {c['eta']} | {tag} | {c['rd']:.5f} ± {c['rd_se']:.5f} | {c['total_dipole']:.5f} | "
-                 f"{pct(c['total_dipole'] / c['rd'] - 1)} | {c['total_better_dipole']:.5f} | "
-                 f"{pct(c['total_better_dipole'] / c['rd'] - 1)} |")
+        L.append(
+            f"| {c['eta']} | {tag} | {c['rd']:.5f} ± {c['rd_se']:.5f} | {c['total_dipole']:.5f} | "
+            f"{pct(c['total_dipole'] / c['rd'] - 1)} | {c['total_better_dipole']:.5f} | "
+            f"{pct(c['total_better_dipole'] / c['rd'] - 1)} |"
+        )
     total = "\n".join(L)
-    L = ["| η | α' | model | r < 0.05 | 0.5–1 | 1–2 | max over 0.5-mfp rings in 2–8 | MC σ (2–8) | max \\|model−MC\\|/model (2–8) |",
-         "|---|---|---|---|---|---|---|---|---|"]
+    L = [
+        "| η | α' | model | r < 0.05 | 0.5–1 | 1–2 | max over 0.5-mfp rings in 2–8 | MC σ (2–8) "
+        "| max \\|model−MC\\|/model (2–8) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for c in cases:
         tag = f"{c['alpha']}" + (f" (g = {c['g']})" if c["g"] else "")
         for m in MODELS:
             cells = [pct(summary(c, m, lo, hi)[0]) for lo, hi in RANGES[:3]]
             e, s = max_abs_rel(c, m, 2.0, 8.0)
-            L.append(f"| {c['eta']} | {tag} | {m} | " + " | ".join(cells) + f" | {pct(e)} | {100 * s:.1f} % "
-                     f"| {100 * max_dev_over_model(c, m, 2.0, 8.0):.1f} % |")
+            L.append(
+                f"| {c['eta']} | {tag} | {m} | " + " | ".join(cells) + f" | {pct(e)} | {100 * s:.1f} % "
+                f"| {100 * max_dev_over_model(c, m, 2.0, 8.0):.1f} % |"
+            )
     prof = "\n".join(L)
     return total, prof
 
@@ -196,9 +222,13 @@ def main(argv=None):
     total, prof = markdown(cases, args, elapsed)
     frag = os.path.join(args.out, "diffusion_vs_mc_tables.md")
     with open(frag, "w") as f:
-        f.write(f"<!-- python docs/scripts/compare_diffusion_mc.py --photons {args.photons} --seed {args.seed} "
-                f"(subsurf {subsurf.__version__}, {elapsed:.0f} s on {args.threads} thread(s)) -->\n\n")
-        f.write("### Total diffuse reflectance\n\n" + total + "\n\n### Profile R_d(r): model / MC − 1\n\n" + prof + "\n")
+        f.write(
+            f"<!-- python docs/scripts/compare_diffusion_mc.py --photons {args.photons} --seed {args.seed} "
+            f"(subsurf {subsurf.__version__}, {elapsed:.0f} s on {args.threads} thread(s)) -->\n\n"
+        )
+        f.write(
+            "### Total diffuse reflectance\n\n" + total + "\n\n### Profile R_d(r): model / MC − 1\n\n" + prof + "\n"
+        )
     print(open(frag).read())
 
 

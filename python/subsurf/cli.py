@@ -6,6 +6,7 @@ Bad input ends the program with exit status 2 and one line on stderr
 (``subsurf: error: FILE:LINE: KEY: problem``), never a traceback (set ``SUBSURF_DEBUG=1`` to see one).
 Ctrl-C during a simulation still writes the photons traced so far, marked partial (exit status 130).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -69,12 +70,15 @@ def _summary(result) -> str:
     out.append(f"{'energy balance':<{w}}  {result.energy_balance:>10.6f}")
     rate = result.events_per_s
     state = f"  PARTIAL: {result.photons} of {result.photons_requested} photons" if result.partial else ""
-    out.append(f"{result.photons:,} photons, seed {result.seed}, {result.elapsed_s:.2f} s, "
-               f"{rate:.3g} scattering events/s, {result.photons / max(result.elapsed_s, 1e-12):.3g} photons/s{state}")
+    out.append(
+        f"{result.photons:,} photons, seed {result.seed}, {result.elapsed_s:.2f} s, "
+        f"{rate:.3g} scattering events/s, {result.photons / max(result.elapsed_s, 1e-12):.3g} photons/s{state}"
+    )
     return "\n".join(out)
 
 
 # --- simulate ---------------------------------------------------------------------------------
+
 
 def cmd_simulate(a) -> int:
     from . import io
@@ -110,6 +114,7 @@ def cmd_simulate(a) -> int:
 
 # --- mcml ---------------------------------------------------------------------------------------
 
+
 def cmd_mcml(a) -> int:
     from . import mcml
 
@@ -120,20 +125,24 @@ def cmd_mcml(a) -> int:
         bars.append(b)
         return b
 
-    done = mcml.run_mci(a.input, force=a.force, seed=a.seed, threads=a.threads, progress_factory=factory,
-                        photons=a.photons)
+    done = mcml.run_mci(
+        a.input, force=a.force, seed=a.seed, threads=a.threads, progress_factory=factory, photons=a.photons
+    )
     for b in bars:
         b.close()
     partial = False
     for path, res in done:
         partial |= bool(res.partial)
         tag = " (partial: interrupted)" if res.partial else ""
-        print(f"wrote {path}: Rsp {res.specular_reflectance:.6g}  Rd {res.diffuse_reflectance:.6g}  "
-              f"A {res.absorbed:.6g}  Tt {res.transmittance:.6g}  ({res.photons:,} photons){tag}")
+        print(
+            f"wrote {path}: Rsp {res.specular_reflectance:.6g}  Rd {res.diffuse_reflectance:.6g}  "
+            f"A {res.absorbed:.6g}  Tt {res.transmittance:.6g}  ({res.photons:,} photons){tag}"
+        )
     return EXIT_INTERRUPTED if partial else 0
 
 
 # --- profile / materials ------------------------------------------------------------------------
+
 
 def _single_scattering_total(sigma_a, sigma_s, eta, n_mu=48, n_phi=48):
     """∫ f_r^(1)(normal incidence → ω) cos θ dω of a semi-infinite isotropic layer (Gauss–Legendre)."""
@@ -159,7 +168,6 @@ def _trapezoid(y, x) -> float:
 
 
 def cmd_profile(a) -> int:
-    import subsurf
 
     try:
         from subsurf import diffusion
@@ -171,8 +179,10 @@ def cmd_profile(a) -> int:
         try:
             m = materials.get(a.material)
         except (KeyError, ValueError):
-            raise UserError(f"unknown material {a.material!r}; known: {', '.join(materials.names())} "
-                            "(or give --sigma-a, --sigma-s-prime, --eta)") from None
+            raise UserError(
+                f"unknown material {a.material!r}; known: {', '.join(materials.names())} "
+                "(or give --sigma-a, --sigma-s-prime, --eta)"
+            ) from None
         sa, sp, eta = (np.atleast_1d(np.asarray(x, float)) for x in (m.sigma_a, m.sigma_s_prime, m.eta))
         chans = ["R", "G", "B"] if sa.size == 3 else [str(i) for i in range(sa.size)]
         title = a.material
@@ -192,8 +202,10 @@ def cmd_profile(a) -> int:
     alpha = sp / (sa + sp)
     sigma_tr = np.sqrt(3 * sa * (sa + sp))
     print(f"{title}: diffusion and single-scattering totals (normal incidence)")
-    hdr = f"{'channel':>7}  {'sigma_a':>9}  {'sigma_s_p':>9}  {'eta':>5}  {'alpha_p':>7}  {'1/s_tr mm':>9}  " \
-          f"{'Rd dipole':>9}  {'Rd better':>9}  {'R single':>9}"
+    hdr = (
+        f"{'channel':>7}  {'sigma_a':>9}  {'sigma_s_p':>9}  {'eta':>5}  {'alpha_p':>7}  {'1/s_tr mm':>9}  "
+        f"{'Rd dipole':>9}  {'Rd better':>9}  {'R single':>9}"
+    )
     print(hdr)
     r_tab = np.array([0.03, 0.1, 0.3, 1.0, 3.0, 10.0])
     profiles = []
@@ -207,16 +219,24 @@ def cmd_profile(a) -> int:
         except Exception:  # the HK module may be absent in this build
             r1 = math.nan
         str_ = 1 / sigma_tr[i] if sigma_tr[i] > 0 else math.inf
-        print(f"{c:>7}  {sa[i]:>9.4g}  {sp[i]:>9.4g}  {eta[i]:>5.3g}  {alpha[i]:>7.4f}  {str_:>9.3g}  "
-              f"{rd_dip:>9.4f}  {rd_bd:>9.4f}  {r1:>9.4f}")
-        profiles.append((diffusion.dipole_rd(r_tab, sa[i], sp[i], eta[i]),
-                         bd(r_tab, sa[i], sp[i], eta[i]) if bd else np.full_like(r_tab, math.nan)))
+        print(
+            f"{c:>7}  {sa[i]:>9.4g}  {sp[i]:>9.4g}  {eta[i]:>5.3g}  {alpha[i]:>7.4f}  {str_:>9.3g}  "
+            f"{rd_dip:>9.4f}  {rd_bd:>9.4f}  {r1:>9.4f}"
+        )
+        profiles.append(
+            (
+                diffusion.dipole_rd(r_tab, sa[i], sp[i], eta[i]),
+                bd(r_tab, sa[i], sp[i], eta[i]) if bd else np.full_like(r_tab, math.nan),
+            )
+        )
     print("\nR_d(r) in mm^-2 (dipole / better dipole)")
     print(f"{'r (mm)':>8}  " + "  ".join(f"{c + ' dipole':>12}  {c + ' better':>12}" for c in chans))
     for k, r in enumerate(r_tab):
         print(f"{r:>8.3g}  " + "  ".join(f"{float(p[0][k]):>12.4e}  {float(p[1][k]):>12.4e}" for p in profiles))
-    print("(single scattering: Hanrahan-Krueger first order with g = 0 and sigma_s = sigma_s'; "
-          "diffusion is trustworthy at high albedo and r of several mean free paths)")
+    print(
+        "(single scattering: Hanrahan-Krueger first order with g = 0 and sigma_s = sigma_s'; "
+        "diffusion is trustworthy at high albedo and r of several mean free paths)"
+    )
     return 0
 
 
@@ -237,6 +257,7 @@ def cmd_materials(a) -> int:
 
 
 # --- plot / merge / demo ------------------------------------------------------------------------
+
 
 def cmd_plot(a) -> int:
     from . import io, plot
@@ -339,8 +360,15 @@ def main(argv=None) -> int:
         parser.exit(EXIT_BAD_INPUT, f"subsurf: error: --seed = {args.seed} is out of range: must be in [0, 2^64)\n")
     try:
         return int(args.func(args) or 0)
-    except (UserError, _core.ParameterError, FileExistsError, FileNotFoundError, PermissionError,
-            IsADirectoryError, ValueError) as e:
+    except (
+        UserError,
+        _core.ParameterError,
+        FileExistsError,
+        FileNotFoundError,
+        PermissionError,
+        IsADirectoryError,
+        ValueError,
+    ) as e:
         if os.environ.get("SUBSURF_DEBUG"):
             raise
         msg = str(e).replace("\n", " ")

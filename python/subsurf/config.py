@@ -29,6 +29,7 @@ Errors (malformed TOML, unknown keys, wrong types, values out of range) raise
 :class:`ConfigError` (a :class:`subsurf.ParameterError`) with one line naming the file, the key
 (and its line where it can be found) and the problem.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -46,15 +47,34 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - exercised on 3.9/3.10 only
     import tomli as tomllib
 
-__all__ = ["ConfigError", "RunConfig", "load_config", "parse_config", "TOP_KEYS", "LAYER_KEYS", "SOURCE_KEYS",
-           "TALLY_KEYS"]
+__all__ = [
+    "ConfigError",
+    "RunConfig",
+    "load_config",
+    "parse_config",
+    "TOP_KEYS",
+    "LAYER_KEYS",
+    "SOURCE_KEYS",
+    "TALLY_KEYS",
+]
 
 TOP_KEYS = ("description", "photons", "seed", "threads", "n_above", "n_below", "layers", "source", "tallies", "output")
 LAYER_KEYS = ("name", "n", "mua", "mus", "g", "thickness", "phase")
 SOURCE_KEYS = ("type", "theta_deg", "phi_deg")
 #: Fields of ``subsurf.Tallies`` (docs/architecture.md) and their kinds.
-TALLY_KEYS = {"nr": "count", "dr": "length", "nz": "count", "dz": "length", "na": "count", "nt": "count0",
-              "dt": "length", "brdf": "brdf", "max_order": "order", "spatial": "bool", "angular": "bool"}
+TALLY_KEYS = {
+    "nr": "count",
+    "dr": "length",
+    "nz": "count",
+    "dz": "length",
+    "na": "count",
+    "nt": "count0",
+    "dt": "length",
+    "brdf": "brdf",
+    "max_order": "order",
+    "spatial": "bool",
+    "angular": "bool",
+}
 
 
 class ConfigError(_core.ParameterError):
@@ -78,8 +98,9 @@ class RunConfig:
 
     def simulate_kwargs(self) -> dict:
         """Keyword arguments for :func:`subsurf.simulate` (besides the stack)."""
-        return dict(photons=self.photons, seed=self.seed, threads=self.threads, source=self.source,
-                    tallies=self.tallies)
+        return dict(
+            photons=self.photons, seed=self.seed, threads=self.threads, source=self.source, tallies=self.tallies
+        )
 
 
 class _Ctx:
@@ -162,7 +183,7 @@ def _param_message(ctx: _Ctx, prefix: str, e: Exception) -> ConfigError:
         key = field if own or not prefix else f"{prefix}.{field}"
         return ctx.error(key, msg.split(" = ", 1)[1])
     if prefix and msg.startswith(prefix + ": "):
-        msg = msg[len(prefix) + 2:]
+        msg = msg[len(prefix) + 2 :]
     return ctx.error(prefix or None, msg)
 
 
@@ -207,8 +228,9 @@ def _source(ctx: _Ctx, data: dict):
     if kind == "diffuse":
         for k in ("theta_deg", "phi_deg"):
             if k in t:
-                raise ctx.error(f"source.{k}", "only a pencil beam has a direction (diffuse light comes from all "
-                                "directions)")
+                raise ctx.error(
+                    f"source.{k}", "only a pencil beam has a direction (diffuse light comes from all directions)"
+                )
     if not (0.0 <= theta < 90.0):
         raise ctx.error("source.theta_deg", f"{theta:g} is out of range: must be in [0, 90) degrees")
     if not math.isfinite(phi):
@@ -309,9 +331,18 @@ def parse_config(text: str, path: str = "<string>") -> RunConfig:
     desc = data.get("description", "")
     if not isinstance(desc, str):
         raise ctx.error("description", f"expected a string, got {desc!r}")
-    return RunConfig(stack=stack, source=source, tallies=tallies, photons=photons, seed=seed, threads=threads,
-                     output=output, description=desc, path=path,
-                     data={"source": src_spec, "tallies": tally_spec})
+    return RunConfig(
+        stack=stack,
+        source=source,
+        tallies=tallies,
+        photons=photons,
+        seed=seed,
+        threads=threads,
+        output=output,
+        description=desc,
+        path=path,
+        data={"source": src_spec, "tallies": tally_spec},
+    )
 
 
 def load_config(path: str | os.PathLike) -> RunConfig:

@@ -20,6 +20,7 @@ layers (Lister et al. 2012 §4), epidermis 0.1 mm and dermis 1.5 mm thick, fat s
 
 These are representative values for a demonstration, not a patient model.
 """
+
 from __future__ import annotations
 
 import math
@@ -53,8 +54,9 @@ def dermis_stack():
 
 def run(out_dir: str = "out", photons: int | None = None, threads: int | None = None, quiet: bool = False) -> int:
     """Simulate the skin and the dermis, write ``out_dir/demo.h5``, ``demo_dermis.h5`` and ``demo.png``."""
-    import subsurf
     from matplotlib.figure import Figure
+
+    import subsurf
 
     from . import io, plot
     from .cli import _bar, _simulate, _summary
@@ -64,12 +66,13 @@ def run(out_dir: str = "out", photons: int | None = None, threads: int | None = 
     tallies = subsurf.Tallies(nr=100, dr=0.05, nz=100, dz=0.04, na=15)
     t0 = time.monotonic()
     results = {}
-    for key, stack, label in (("skin", skin_stack(), "three-layer skin"),
-                              ("dermis", dermis_stack(), "semi-infinite dermis")):
+    for key, stack, label in (
+        ("skin", skin_stack(), "three-layer skin"),
+        ("dermis", dermis_stack(), "semi-infinite dermis"),
+    ):
         bar = _bar(label, quiet)
         try:
-            results[key] = _simulate(stack, progress=bar, photons=photons, seed=2001, threads=threads,
-                                     tallies=tallies)
+            results[key] = _simulate(stack, progress=bar, photons=photons, seed=2001, threads=threads, tallies=tallies)
         finally:
             bar.close()
         if not quiet:
@@ -89,11 +92,16 @@ def run(out_dir: str = "out", photons: int | None = None, threads: int | None = 
     optics = (mua, mus * (1 - g), n)
     ax = plot.reflectance_profile(dermis, fig.add_subplot(1, 3, 3), optics=optics)
     ax.set_title("semi-infinite dermis: Monte Carlo vs diffusion", fontsize=10)
-    fig.suptitle(f"subsurf demo: skin at 630 nm, {photons:,} photons per run "
-                 f"(R_d = {skin.diffuse_reflectance:.4f} ± {skin.diffuse_reflectance_stderr:.1g})", fontsize=11)
+    fig.suptitle(
+        f"subsurf demo: skin at 630 nm, {photons:,} photons per run "
+        f"(R_d = {skin.diffuse_reflectance:.4f} ± {skin.diffuse_reflectance_stderr:.1g})",
+        fontsize=11,
+    )
     png = plot.save_figure(fig, os.path.join(out_dir, "demo.png"))
-    print(f"dermis total diffuse reflectance: Monte Carlo {dermis.diffuse_reflectance:.4f} ± "
-          f"{dermis.diffuse_reflectance_stderr:.1g}" + _dipole_total(optics))
+    print(
+        f"dermis total diffuse reflectance: Monte Carlo {dermis.diffuse_reflectance:.4f} ± "
+        f"{dermis.diffuse_reflectance_stderr:.1g}" + _dipole_total(optics)
+    )
     print(f"wrote {h5}, {h5d} and {png} ({time.monotonic() - t0:.1f} s)")
     return 130 if (skin.partial or dermis.partial) else 0
 

@@ -31,6 +31,7 @@ For a Monte Carlo comparison call :func:`rd` (profile) and :func:`total_diffuse_
 with ``model="dipole"`` or ``"better_dipole"`` on a semi-infinite ``subsurf.Layer(n=eta,
 mua=sigma_a, mus=sigma_s_prime, g=0)`` in air, dividing the MC reflectance by 1 − R_sp.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -41,10 +42,28 @@ MODELS = ("dipole", "better_dipole")
 MFP_KINDS = ("transport", "diffuse")
 
 __all__ = [
-    "MODELS", "MFP_KINDS", "fdr", "A", "fresnel_moments", "params", "diffusion_coefficient",
-    "sigma_tr", "z_r", "z_v", "dipole_rd", "better_dipole_rd", "rd", "profile",
-    "total_diffuse_reflectance", "alpha_prime_from_rd", "properties_from_color", "ft", "sd",
-    "diffusion_brdf", "single_scattering_brdf", "complete_brdf",
+    "MODELS",
+    "MFP_KINDS",
+    "fdr",
+    "A",
+    "fresnel_moments",
+    "params",
+    "diffusion_coefficient",
+    "sigma_tr",
+    "z_r",
+    "z_v",
+    "dipole_rd",
+    "better_dipole_rd",
+    "rd",
+    "profile",
+    "total_diffuse_reflectance",
+    "alpha_prime_from_rd",
+    "properties_from_color",
+    "ft",
+    "sd",
+    "diffusion_brdf",
+    "single_scattering_brdf",
+    "complete_brdf",
 ]
 
 
@@ -72,7 +91,8 @@ def _call(fn, names, values, *prefix):
         shape = np.broadcast_shapes(*(a.shape for a in arrays))
     except ValueError:
         raise _core.ParameterError(
-            f"{', '.join(names)}: shapes {[a.shape for a in arrays]} do not broadcast together") from None
+            f"{', '.join(names)}: shapes {[a.shape for a in arrays]} do not broadcast together"
+        ) from None
     out = fn(*prefix, *_flat(shape, *arrays))
     if isinstance(out, (tuple, list)):
         return tuple(_shape(o, shape) for o in out)
@@ -106,8 +126,9 @@ def fresnel_moments(eta):
 def params(sigma_a, sigma_s_prime, eta, model="dipole"):
     """The model's constants as a dict of arrays: ``alpha_prime``, ``D`` (mm), ``sigma_tr``
     (mm⁻¹), ``A``, ``z_r`` and ``z_v`` (mm)."""
-    out = _call(_core.diffusion_params, ["sigma_a", "sigma_s_prime", "eta"], [sigma_a, sigma_s_prime, eta],
-                _model(model))
+    out = _call(
+        _core.diffusion_params, ["sigma_a", "sigma_s_prime", "eta"], [sigma_a, sigma_s_prime, eta], _model(model)
+    )
     return dict(zip(["alpha_prime", "D", "sigma_tr", "A", "z_r", "z_v"], out))
 
 
@@ -133,8 +154,9 @@ def z_v(sigma_a, sigma_s_prime, eta, model="dipole"):
 
 def rd(r, sigma_a, sigma_s_prime, eta, model="dipole"):
     """Diffuse reflectance profile R_d(r) in mm⁻² (r in mm) of ``model``."""
-    return _call(_core.diffusion_rd, ["r", "sigma_a", "sigma_s_prime", "eta"], [r, sigma_a, sigma_s_prime, eta],
-                 _model(model))
+    return _call(
+        _core.diffusion_rd, ["r", "sigma_a", "sigma_s_prime", "eta"], [r, sigma_a, sigma_s_prime, eta], _model(model)
+    )
 
 
 def profile(name, r, sigma_a, sigma_s_prime, eta):
@@ -173,8 +195,8 @@ def total_diffuse_reflectance(alpha_prime, eta, model="dipole"):
     Trustworthy (vs Monte Carlo, total reflectance of a normal pencil beam divided by 1 − R_sp,
     docs/diffusion_vs_mc.md): for α' ≥ 0.99 both within 3.3 % (dipole ≤ 1.8 %), at α' = 0.999
     within 1 % with the better dipole the closer for η ≥ 1.3; the dipole within 4 % for
-    α' ≥ 0.95 at η ≤ 1.3 (−7 % at α' = 0.9, η = 1.0; +20 % at η = 1.5), the better dipole 9–18 % low at α' = 0.9–0.95; at
-    α' = 0.5 dipole −24…+59 %, better dipole −53…−60 %."""
+    α' ≥ 0.95 at η ≤ 1.3 (−7 % at α' = 0.9, η = 1.0; +20 % at η = 1.5), the better dipole 9–18 % low
+    at α' = 0.9–0.95; at α' = 0.5 dipole −24…+59 %, better dipole −53…−60 %."""
     return _call(_core.diffusion_total_rd, ["alpha_prime", "eta"], [alpha_prime, eta], _model(model))
 
 
@@ -192,8 +214,13 @@ def properties_from_color(diffuse_color, mean_free_path, eta=1.3, model="dipole"
     ℓ_d = 1/σtr; σs' = α'σt', σa = (1 − α')σt'."""
     if mfp_kind not in MFP_KINDS:
         raise _core.ParameterError(f"mfp_kind = {mfp_kind!r} must be one of {list(MFP_KINDS)}")
-    return _call(_core.diffusion_properties_from_color, ["diffuse_color", "mean_free_path", "eta"],
-                 [diffuse_color, mean_free_path, eta], _model(model), mfp_kind)
+    return _call(
+        _core.diffusion_properties_from_color,
+        ["diffuse_color", "mean_free_path", "eta"],
+        [diffuse_color, mean_free_path, eta],
+        _model(model),
+        mfp_kind,
+    )
 
 
 def _dirs(name, w):
@@ -268,5 +295,6 @@ def complete_brdf(wi, wo, sigma_a, sigma_s_prime, eta, g=0.0, model="dipole"):
     :func:`single_scattering_brdf` (Hanrahan–Krueger). This is the BRDF of a uniformly lit
     semi-infinite medium, i.e. seed eq. 1.10 with constant incident radiance over the surface.
     Optical properties are scalars (one channel)."""
-    return (diffusion_brdf(wi, wo, sigma_a, sigma_s_prime, eta, model=model)
-            + single_scattering_brdf(wi, wo, sigma_a, sigma_s_prime, eta, g=g))
+    return diffusion_brdf(wi, wo, sigma_a, sigma_s_prime, eta, model=model) + single_scattering_brdf(
+        wi, wo, sigma_a, sigma_s_prime, eta, g=g
+    )

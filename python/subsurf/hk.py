@@ -26,6 +26,7 @@ reflected flux by (n_j/n_0)². With it f_r is reciprocal and its hemispherical i
 flux count inside the layer (tested).
 Total internal reflection on the way in or out gives zero.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -73,8 +74,11 @@ def _directions(name: str, w, upper: bool) -> np.ndarray:
     if np.any(bad):
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
         where = f"{name}[{', '.join(map(str, idx))}]" if idx else name
-        side = "> 0 (above the surface, pointing away from it; normal +z)" if upper else \
-            "< 0 (below the stack, pointing away from it; normal +z)"
+        side = (
+            "> 0 (above the surface, pointing away from it; normal +z)"
+            if upper
+            else "< 0 (below the stack, pointing away from it; normal +z)"
+        )
         raise _core.ParameterError(f"{where}.z = {float(z[idx])!r} is out of range: must be {side}")
     return a
 

@@ -26,6 +26,7 @@ Standard errors are recombined by :func:`merge` from per-photon moments: with N 
 and standard error s (of the mean, from the unbiased sample variance), the sums are
 S1 = N·m and S2 = N·(s²·(N − 1) + m²), which add across independent runs.
 """
+
 from __future__ import annotations
 
 import datetime
@@ -147,8 +148,9 @@ def load(path: str | os.PathLike) -> Result:
             raise ResultFileError(f"{path}: not a subsurf results file (no format = {FORMAT!r} attribute)")
         ver = int(f.attrs["format_version"])
         if ver > FORMAT_VERSION:
-            raise ResultFileError(f"{path}: results format version {ver} is newer than this subsurf reads "
-                                  f"({FORMAT_VERSION})")
+            raise ResultFileError(
+                f"{path}: results format version {ver} is newer than this subsurf reads ({FORMAT_VERSION})"
+            )
         t = f["totals"]
         kw: dict[str, Any] = {}
         for name in TOTALS:
@@ -194,11 +196,15 @@ def results_equal(a: Result, b: Result) -> bool:
     Configurations are compared as JSON data (tuples and lists are the same), as a results file
     stores them.
     """
-    scalars = [n for n in TOTALS] + [n + "_stderr" for n in TOTALS] + [
-        "photons", "seed", "elapsed_s", "events", "photons_requested", "partial", "version"]
+    scalars = (
+        [n for n in TOTALS]
+        + [n + "_stderr" for n in TOTALS]
+        + ["photons", "seed", "elapsed_s", "events", "photons_requested", "partial", "version"]
+    )
     for n in scalars:
-        if getattr(a, n) != getattr(b, n) and not (isinstance(getattr(a, n), float) and math.isnan(getattr(a, n))
-                                                   and math.isnan(getattr(b, n))):
+        if getattr(a, n) != getattr(b, n) and not (
+            isinstance(getattr(a, n), float) and math.isnan(getattr(a, n)) and math.isnan(getattr(b, n))
+        ):
             return False
     for n in ("absorbed_per_layer", "absorbed_per_layer_stderr"):
         if not _arr_equal(getattr(a, n), getattr(b, n)):
@@ -209,8 +215,12 @@ def results_equal(a: Result, b: Result) -> bool:
         return False
     for k, ha in a.histograms.items():
         hb = b.histograms[k]
-        if (tuple(ha.axes) != tuple(hb.axes) or tuple(ha.edge_units) != tuple(hb.edge_units)
-                or ha.units != hb.units or ha.description != hb.description):
+        if (
+            tuple(ha.axes) != tuple(hb.axes)
+            or tuple(ha.edge_units) != tuple(hb.edge_units)
+            or ha.units != hb.units
+            or ha.description != hb.description
+        ):
             return False
         if not (_arr_equal(ha.values, hb.values) and _arr_equal(ha.stderr, hb.stderr)):
             return False
@@ -267,8 +277,10 @@ def merge(a: Result, b: Result) -> Result:
         raise err(f"merge: the two results have different configurations (differ in: {', '.join(diff)})")
     common = set(_seeds(a)) & set(_seeds(b))
     if common:
-        raise err(f"merge: both results were traced with seed {sorted(common)[0]}; merging needs "
-                  "different seeds (same seed = same photon histories)")
+        raise err(
+            f"merge: both results were traced with seed {sorted(common)[0]}; merging needs "
+            "different seeds (same seed = same photon histories)"
+        )
     if set(a.histograms) != set(b.histograms):
         raise err(f"merge: different histograms: {sorted(a.histograms)} vs {sorted(b.histograms)}")
     if a.photons < 1 or b.photons < 1:
@@ -288,14 +300,24 @@ def merge(a: Result, b: Result) -> Result:
     hists = {}
     for k, ha in a.histograms.items():
         hb = b.histograms[k]
-        same = (np.shape(ha.values) == np.shape(hb.values) and tuple(ha.axes) == tuple(hb.axes)
-                and len(ha.edges) == len(hb.edges)
-                and all(np.shape(x) == np.shape(y) and np.allclose(x, y) for x, y in zip(ha.edges, hb.edges)))
+        same = (
+            np.shape(ha.values) == np.shape(hb.values)
+            and tuple(ha.axes) == tuple(hb.axes)
+            and len(ha.edges) == len(hb.edges)
+            and all(np.shape(x) == np.shape(y) and np.allclose(x, y) for x, y in zip(ha.edges, hb.edges))
+        )
         if not same:
             raise err(f"merge: histogram {k!r} has different bins in the two results")
         m, s = _combine(ha.values, ha.stderr, na, hb.values, hb.stderr, nb)
-        hists[k] = Histogram(values=m, stderr=s, edges=ha.edges, axes=ha.axes, edge_units=ha.edge_units,
-                             units=ha.units, description=ha.description)
+        hists[k] = Histogram(
+            values=m,
+            stderr=s,
+            edges=ha.edges,
+            axes=ha.axes,
+            edge_units=ha.edge_units,
+            units=ha.units,
+            description=ha.description,
+        )
     config = dict(a.config) if isinstance(a.config, dict) else {}
     config["seeds"] = sorted(set(_seeds(a)) | set(_seeds(b)))
     if "photons" in config:

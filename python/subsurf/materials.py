@@ -19,8 +19,8 @@ independent ports (Go, Julia, yocto-gl) agree digit for digit except:
 
 Mean free path conventions and the inversions are documented in :mod:`subsurf.diffusion`.
 """
-from __future__ import annotations
 
+from __future__ import annotations
 
 import numpy as np
 
@@ -54,6 +54,11 @@ def _channels(name, x):
     return a
 
 
+def _per_channel(v):
+    """Directions or points (..., 3) broadcast against the channel axis: (..., 1, 3)."""
+    return np.asarray(v, dtype=np.float64)[..., None, :]
+
+
 class Material:
     """Optical properties per channel (RGB or any number of spectral samples).
 
@@ -80,7 +85,8 @@ class Material:
                 ssp = np.full(sa.size, ssp[0])
             else:
                 raise _core.ParameterError(
-                    f"sigma_a has {sa.size} channels but sigma_s_prime has {ssp.size}: they must match")
+                    f"sigma_a has {sa.size} channels but sigma_s_prime has {ssp.size}: they must match"
+                )
         try:
             eta = float(eta)
         except (TypeError, ValueError):
@@ -113,8 +119,9 @@ class Material:
             raise _core.ParameterError(f"layers have different refractive indices {sorted(ns)}: a Material has one eta")
         gs = {l.g for l in layers}
         g = gs.pop() if len(gs) == 1 else None
-        return cls([l.mua for l in layers], [l.mus_prime for l in layers], eta=layers[0].n / float(n_outside),
-                   g=g, name=name)
+        return cls(
+            [l.mua for l in layers], [l.mus_prime for l in layers], eta=layers[0].n / float(n_outside), g=g, name=name
+        )
 
     @classmethod
     def from_color(cls, diffuse_color, mean_free_path, eta=1.3, model="dipole", mfp_kind="transport", name=None):
@@ -166,20 +173,34 @@ class Material:
 
     def sd(self, xi, wi, xo, wo, model="dipole"):
         """S_d per channel, shape (..., channels); see :func:`subsurf.diffusion.sd`."""
-        ex = lambda v: np.asarray(v, dtype=np.float64)[..., None, :]
-        return _dif.sd(ex(xi), ex(wi), ex(xo), ex(wo), self.sigma_a, self.sigma_s_prime, self.eta, model)
+        return _dif.sd(
+            _per_channel(xi),
+            _per_channel(wi),
+            _per_channel(xo),
+            _per_channel(wo),
+            self.sigma_a,
+            self.sigma_s_prime,
+            self.eta,
+            model,
+        )
 
     def diffusion_brdf(self, wi, wo, model="dipole"):
         """∫ S_d dA per channel (sr⁻¹), shape (..., channels)."""
-        ex = lambda v: np.asarray(v, dtype=np.float64)[..., None, :]
-        return _dif.diffusion_brdf(ex(wi), ex(wo), self.sigma_a, self.sigma_s_prime, self.eta, model)
+        return _dif.diffusion_brdf(
+            _per_channel(wi), _per_channel(wo), self.sigma_a, self.sigma_s_prime, self.eta, model
+        )
 
     def single_scattering_brdf(self, wi, wo):
         """S⁽¹⁾ integrated over the surface per channel (sr⁻¹), shape (..., channels): the
         Hanrahan–Krueger first-order BRDF of the semi-infinite medium (g = self.g or 0)."""
         g = 0.0 if self.g is None else self.g
-        return np.stack([_dif.single_scattering_brdf(wi, wo, float(a), float(s), self.eta, g)
-                         for a, s in zip(self.sigma_a, self.sigma_s_prime)], axis=-1)
+        return np.stack(
+            [
+                _dif.single_scattering_brdf(wi, wo, float(a), float(s), self.eta, g)
+                for a, s in zip(self.sigma_a, self.sigma_s_prime)
+            ],
+            axis=-1,
+        )
 
     def complete_brdf(self, wi, wo, model="dipole"):
         """The complete BSSRDF S_d + S⁽¹⁾ (Jensen et al. 2001) integrated over the surface per
@@ -192,18 +213,26 @@ class Material:
         from .medium import Layer
 
         g = 0.0 if self.g is None else self.g
-        return [Layer(n=self.eta, mua=float(a), mus=float(s) / (1.0 - g), g=g, thickness=thickness)
-                for a, s in zip(self.sigma_a, self.sigma_s_prime)]
+        return [
+            Layer(n=self.eta, mua=float(a), mus=float(s) / (1.0 - g), g=g, thickness=thickness)
+            for a, s in zip(self.sigma_a, self.sigma_s_prime)
+        ]
 
     def __eq__(self, other):
-        return (isinstance(other, Material) and np.array_equal(self.sigma_a, other.sigma_a)
-                and np.array_equal(self.sigma_s_prime, other.sigma_s_prime) and self.eta == other.eta
-                and self.g == other.g)
+        return (
+            isinstance(other, Material)
+            and np.array_equal(self.sigma_a, other.sigma_a)
+            and np.array_equal(self.sigma_s_prime, other.sigma_s_prime)
+            and self.eta == other.eta
+            and self.g == other.g
+        )
 
     def __repr__(self):
         nm = f"name={self.name!r}, " if self.name else ""
-        return (f"Material({nm}sigma_a={self.sigma_a.tolist()!r}, sigma_s_prime={self.sigma_s_prime.tolist()!r}, "
-                f"eta={self.eta!r}, g={self.g!r})")
+        return (
+            f"Material({nm}sigma_a={self.sigma_a.tolist()!r}, sigma_s_prime={self.sigma_s_prime.tolist()!r}, "
+            f"eta={self.eta!r}, g={self.g!r})"
+        )
 
 
 def names() -> list[str]:

@@ -7,6 +7,7 @@ power, each with a standard error from per-photon second moments, and are bit-id
 given seed whatever the number of threads (per-photon xoshiro128++ streams seeded by
 Philox4x32-10 keyed by seed and photon index).
 """
+
 from __future__ import annotations
 
 import operator
@@ -152,13 +153,25 @@ def simulate(stack, photons=10**6, seed=0, threads=None, source=None, tallies=No
         raise _core.ParameterError(f"progress = {progress!r} is not callable")
 
     layers, n_above, n_below = stack._to_core()
-    d = _core.mc_simulate(layers, n_above, n_below, photons, seed, threads, source._to_core(), progress,
-                          None if tallies is None else {**tallies.to_dict(), "brdf": tallies.brdf})
+    d = _core.mc_simulate(
+        layers,
+        n_above,
+        n_below,
+        photons,
+        seed,
+        threads,
+        source._to_core(),
+        progress,
+        None if tallies is None else {**tallies.to_dict(), "brdf": tallies.brdf},
+    )
     if d["partial"]:
         warnings.warn(
             f"subsurf.simulate interrupted: returning the {d['photons']} of {photons} photons traced so far",
-            RuntimeWarning, stacklevel=2)
+            RuntimeWarning,
+            stacklevel=2,
+        )
     from . import __version__
+
     return Result(
         specular_reflectance=d["specular_reflectance"],
         specular_reflectance_stderr=d["specular_reflectance_stderr"],
@@ -179,9 +192,13 @@ def simulate(stack, photons=10**6, seed=0, threads=None, source=None, tallies=No
         photons_requested=photons,
         partial=d["partial"],
         histograms={h["name"]: _histogram(h) for h in d["histograms"]},
-        config={"stack": _stack_dict(stack), "source": source.to_dict(),
-                "tallies": None if tallies is None else tallies.to_dict(),
-                "photons": photons, "seed": seed},
+        config={
+            "stack": _stack_dict(stack),
+            "source": source.to_dict(),
+            "tallies": None if tallies is None else tallies.to_dict(),
+            "photons": photons,
+            "seed": seed,
+        },
         version=__version__,
     )
 

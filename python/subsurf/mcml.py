@@ -19,19 +19,32 @@ histograms use exact bin measures (R(θ): ring solid angle 2π(cos θ₀ − cos
 measures and divided by MCML's, which reproduces MCML's numbers bin for bin. Like MCML, subsurf's
 last r and z bins collect everything beyond the grid.
 """
+
 from __future__ import annotations
 
 import dataclasses
 import math
 import os
-from typing import Callable, Sequence
+from collections.abc import Sequence
+from typing import Callable
 
 import numpy as np
 
 from . import _core
 
-__all__ = ["McmlInputError", "McmlRun", "read_mci", "parse_mci", "run_to_stack", "run_to_tallies", "write_mco",
-           "format_mco", "read_mco", "mcml_arrays", "run_mci"]
+__all__ = [
+    "McmlInputError",
+    "McmlRun",
+    "read_mci",
+    "parse_mci",
+    "run_to_stack",
+    "run_to_tallies",
+    "write_mco",
+    "format_mco",
+    "read_mco",
+    "mcml_arrays",
+    "run_mci",
+]
 
 MM_PER_CM = 10.0
 
@@ -131,9 +144,13 @@ def parse_mci(text: str, path: str = "<string>") -> list[McmlRun]:
         for k in range(nl):
             ln, vals = take(f"layer {k + 1} of {nl}: n mua mus g d", 5, [float] * 5)
             n, mua, mus, g, d = vals
-            for name, v, ok, allowed in (("n", n, n >= 1.0, ">= 1"), ("mua", mua, mua >= 0, ">= 0 (1/cm)"),
-                                         ("mus", mus, mus >= 0, ">= 0 (1/cm)"), ("g", g, -1 < g < 1, "in (-1, 1)"),
-                                         ("d", d, 0 < d < math.inf, "> 0 (cm)")):
+            for name, v, ok, allowed in (
+                ("n", n, n >= 1.0, ">= 1"),
+                ("mua", mua, mua >= 0, ">= 0 (1/cm)"),
+                ("mus", mus, mus >= 0, ">= 0 (1/cm)"),
+                ("g", g, -1 < g < 1, "in (-1, 1)"),
+                ("d", d, 0 < d < math.inf, "> 0 (cm)"),
+            ):
                 if not ok:
                     raise fail(ln, f"layer {k + 1}: {name} = {v:g} is out of range: must be {allowed}")
             layers.append((n, mua, mus, g, d))
@@ -169,11 +186,13 @@ def run_to_tallies(run: McmlRun):
     """The ``subsurf.Tallies`` of a run: MCML's grids in mm."""
     import subsurf
 
-    return subsurf.Tallies(nr=run.nr, dr=run.dr * MM_PER_CM, nz=run.nz, dz=run.dz * MM_PER_CM, na=run.na,
-                           spatial=True, angular=True)
+    return subsurf.Tallies(
+        nr=run.nr, dr=run.dr * MM_PER_CM, nz=run.nz, dz=run.dz * MM_PER_CM, na=run.na, spatial=True, angular=True
+    )
 
 
 # --- bin measures -----------------------------------------------------------------------------
+
 
 def _area_exact(edges):
     e = np.asarray(edges, dtype=float)
@@ -198,7 +217,7 @@ def mcml_arrays(run: McmlRun, result) -> dict:
     ``Rd_r, Tt_r`` [cm⁻²], ``Rd_a, Tt_a`` [sr⁻¹], ``A_rz`` [cm⁻³] (shape nr × nz),
     ``Rd_ra, Tt_ra`` [cm⁻² sr⁻¹] (shape nr × na).
     """
-    nr, nz, na, da = run.nr, run.nz, run.na, run.da
+    nr, na, da = run.nr, run.na, run.da
     ir = np.arange(nr) + 0.5
     ia = (np.arange(na) + 0.5) * da
     out = {
@@ -210,25 +229,28 @@ def mcml_arrays(run: McmlRun, result) -> dict:
     }
     h = result.histograms
     # 1-D: subsurf divides by exact measures; MCML's radial area 2π(i+½)Δr² is exact too.
-    out["A_z"] = np.asarray(h["a_z"].values, dtype=float) * MM_PER_CM            # mm⁻¹ → cm⁻¹
-    out["A_rz"] = np.asarray(h["a_rz"].values, dtype=float) * MM_PER_CM**3       # mm⁻³ → cm⁻³
+    out["A_z"] = np.asarray(h["a_z"].values, dtype=float) * MM_PER_CM  # mm⁻¹ → cm⁻¹
+    out["A_rz"] = np.asarray(h["a_rz"].values, dtype=float) * MM_PER_CM**3  # mm⁻³ → cm⁻³
     for side in ("rd", "tt"):
         key = "Rd" if side == "rd" else "Tt"
         out[f"{key}_r"] = np.asarray(h[f"{side}_r"].values, dtype=float) * MM_PER_CM**2  # mm⁻² → cm⁻²
         ha = h[f"{side}_a"]
         raw_a = np.asarray(ha.values, dtype=float) * _solid_angle_exact(ha.edges[0])
-        out[f"{key}_a"] = raw_a / (2.0 * math.pi * da * np.sin(ia))               # ScaleRdTt, Rd_a
+        out[f"{key}_a"] = raw_a / (2.0 * math.pi * da * np.sin(ia))  # ScaleRdTt, Rd_a
         hra = h[f"{side}_ra"]
-        raw_ra = (np.asarray(hra.values, dtype=float)
-                  * _area_exact(hra.edges[0])[:, None]                            # bin weight (no unit)
-                  * _projected_solid_angle_exact(hra.edges[1])[None, :])
+        raw_ra = (
+            np.asarray(hra.values, dtype=float)
+            * _area_exact(hra.edges[0])[:, None]  # bin weight (no unit)
+            * _projected_solid_angle_exact(hra.edges[1])[None, :]
+        )
         scale = 4.0 * math.pi**2 * run.dr  # cm²·sr
         scale = scale * math.sin(da / 2) * run.dr * ir[:, None] * np.sin(2.0 * ia)[None, :]
-        out[f"{key}_ra"] = raw_ra / scale                                          # ScaleRdTt, Rd_ra
+        out[f"{key}_ra"] = raw_ra / scale  # ScaleRdTt, Rd_ra
     return out
 
 
 # --- writing ------------------------------------------------------------------------------------
+
 
 def _c(fmt: str, x: float) -> str:
     """C printf formatting (Python's % operator follows C for these conversions)."""
@@ -253,46 +275,55 @@ def format_mco(run: McmlRun, result, user_time_s: float | None = None) -> str:
     secs = float(result.elapsed_s if user_time_s is None else user_time_s)
     out = []
     out.append(f"{'B1' if run.out_format == 'B' else 'A1'} \t# Version number of the file format.\n\n")
-    out.append("####\n# Data categories include: \n# InParm, RAT, \n# A_l, A_z, Rd_r, Rd_a, Tt_r, Tt_a, \n"
-               "# A_rz, Rd_ra, Tt_ra \n####\n\n")
-    out.append("# " + ("User time: %8.0f sec = %8.2f hr.  %s\n" % (secs, secs / 3600.0,
-                                                                  " Simulation time of this run.")) + "\n")
+    out.append(
+        "####\n# Data categories include: \n# InParm, RAT, \n# A_l, A_z, Rd_r, Rd_a, Tt_r, Tt_a, \n"
+        "# A_rz, Rd_ra, Tt_ra \n####\n\n"
+    )
+    out.append(
+        "# "
+        + ("User time: {:8.0f} sec = {:8.2f} hr.  {}\n".format(secs, secs / 3600.0, " Simulation time of this run."))
+        + "\n"
+    )
     out.append("InParm \t\t\t# Input parameters. cm is used.\n")
     out.append(f"{run.out_fname} \tA\t\t# output file name, ASCII.\n")
     out.append("%d \t\t\t# No. of photons\n" % run.photons)
-    out.append("%G\t%G\t\t# dz, dr [cm]\n" % (run.dz, run.dr))
+    out.append(f"{run.dz:G}\t{run.dr:G}\t\t# dz, dr [cm]\n")
     out.append("%d\t%d\t%d\t# No. of dz, dr, da.\n\n" % (run.nz, run.nr, run.na))
     out.append("%d\t\t\t\t\t# Number of layers\n" % len(run.layers))
     out.append("#n\tmua\tmus\tg\td\t# One line for each layer\n")
-    out.append("%G\t\t\t\t\t# n for medium above\n" % run.n_above)
+    out.append(f"{run.n_above:G}\t\t\t\t\t# n for medium above\n")
     for i, (n, mua, mus, g, d) in enumerate(run.layers, 1):
         out.append("%G\t%G\t%G\t%G\t%G\t# layer %d\n" % (n, mua, mus, g, d, i))
-    out.append("%G\t\t\t\t\t# n for medium below\n\n" % run.n_below)
+    out.append(f"{run.n_below:G}\t\t\t\t\t# n for medium below\n\n")
     out.append("RAT #Reflectance, absorption, transmission. \n")
-    out.append("%-14.6G \t#Specular reflectance [-]\n" % q["Rsp"])
-    out.append("%-14.6G \t#Diffuse reflectance [-]\n" % q["Rd"])
-    out.append("%-14.6G \t#Absorbed fraction [-]\n" % q["A"])
-    out.append("%-14.6G \t#Transmittance [-]\n" % q["Tt"])
+    out.append("{:<14.6G} \t#Specular reflectance [-]\n".format(q["Rsp"]))
+    out.append("{:<14.6G} \t#Diffuse reflectance [-]\n".format(q["Rd"]))
+    out.append("{:<14.6G} \t#Absorbed fraction [-]\n".format(q["A"]))
+    out.append("{:<14.6G} \t#Transmittance [-]\n".format(q["Tt"]))
     out.append("\n")
     out.append("A_l #Absorption as a function of layer. [-]\n")
-    out.append("".join("%12.4G\n" % v for v in q["A_l"]) + "\n")
+    out.append("".join(f"{v:12.4G}\n" for v in q["A_l"]) + "\n")
     out.append("A_z #A[0], [1],..A[nz-1]. [1/cm]\n")
-    out.append("".join("%12.4E\n" % v for v in q["A_z"]) + "\n")
+    out.append("".join(f"{v:12.4E}\n" for v in q["A_z"]) + "\n")
     out.append("Rd_r #Rd[0], [1],..Rd[nr-1]. [1/cm2]\n")
-    out.append("".join("%12.4E\n" % v for v in q["Rd_r"]) + "\n")
+    out.append("".join(f"{v:12.4E}\n" for v in q["Rd_r"]) + "\n")
     out.append("Rd_a #Rd[0], [1],..Rd[na-1]. [sr-1]\n")
-    out.append("".join("%12.4E\n" % v for v in q["Rd_a"]) + "\n")
+    out.append("".join(f"{v:12.4E}\n" for v in q["Rd_a"]) + "\n")
     out.append("Tt_r #Tt[0], [1],..Tt[nr-1]. [1/cm2]\n")
-    out.append("".join("%12.4E\n" % v for v in q["Tt_r"]) + "\n")
+    out.append("".join(f"{v:12.4E}\n" for v in q["Tt_r"]) + "\n")
     out.append("Tt_a #Tt[0], [1],..Tt[na-1]. [sr-1]\n")
-    out.append("".join("%12.4E\n" % v for v in q["Tt_a"]) + "\n")
-    out.append("# A[r][z]. [1/cm3]\n# A[0][0], [0][1],..[0][nz-1]\n# A[1][0], [1][1],..[1][nz-1]\n# ...\n"
-               "# A[nr-1][0], [nr-1][1],..[nr-1][nz-1]\nA_rz\n")
+    out.append("".join(f"{v:12.4E}\n" for v in q["Tt_a"]) + "\n")
+    out.append(
+        "# A[r][z]. [1/cm3]\n# A[0][0], [0][1],..[0][nz-1]\n# A[1][0], [1][1],..[1][nz-1]\n# ...\n"
+        "# A[nr-1][0], [nr-1][1],..[nr-1][nz-1]\nA_rz\n"
+    )
     _grid(out, q["A_rz"])
     for key in ("Rd", "Tt"):
-        out.append(f"# {key}[r][angle]. [1/(cm2sr)].\n# {key}[0][0], [0][1],..[0][na-1]\n"
-                   f"# {key}[1][0], [1][1],..[1][na-1]\n# ...\n# {key}[nr-1][0], [nr-1][1],..[nr-1][na-1]\n"
-                   f"{key}_ra\n")
+        out.append(
+            f"# {key}[r][angle]. [1/(cm2sr)].\n# {key}[0][0], [0][1],..[0][na-1]\n"
+            f"# {key}[1][0], [1][1],..[1][na-1]\n# ...\n# {key}[nr-1][0], [nr-1][1],..[nr-1][na-1]\n"
+            f"{key}_ra\n"
+        )
         _grid(out, q[f"{key}_ra"])
     return "".join(out)
 
@@ -359,8 +390,16 @@ def read_mco(path: str | os.PathLike) -> dict:
 
 # --- running ------------------------------------------------------------------------------------
 
-def run_mci(path: str | os.PathLike, force: bool = False, seed: int = 1, threads: int | None = None,
-            progress_factory=None, out_dir: str | None = None, photons: int | None = None) -> list:
+
+def run_mci(
+    path: str | os.PathLike,
+    force: bool = False,
+    seed: int = 1,
+    threads: int | None = None,
+    progress_factory=None,
+    out_dir: str | None = None,
+    photons: int | None = None,
+) -> list:
     """Simulate every run of an ``.mci`` file and write each ``.mco``; returns [(path, result)].
 
     Output names are taken relative to ``out_dir`` (default: the current directory, as MCML).

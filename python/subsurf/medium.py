@@ -4,10 +4,12 @@ Coefficients are in mm⁻¹, thicknesses in mm. Validation is done by the Rust c
 rules (and messages) are the same everywhere: invalid values raise
 :class:`subsurf.ParameterError` (a ``ValueError``) naming the field and the allowed range.
 """
+
 from __future__ import annotations
 
 import math
-from typing import Iterable, NamedTuple, Sequence
+from collections.abc import Iterable, Sequence
+from typing import NamedTuple
 
 from . import _core
 

@@ -18,10 +18,11 @@ References: Born & Wolf, *Principles of Optics* §1.5 (Fresnel); Henyey & Greens
 Egan & Hilgeman 1979 via Jensen et al. 2001 (diffuse Fresnel fit); d'Eon 2012 and pbrt-v3
 (Fresnel moments); Wang, Jacques & Zheng 1995 (MCML sampling).
 """
+
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -77,7 +78,7 @@ def _out(flat: np.ndarray, shape):
 
 def _polarization(p) -> str:
     if not isinstance(p, str):
-        raise _core.ParameterError(f"polarization = {p!r} is not allowed: must be \"unpolarized\", \"s\" or \"p\"")
+        raise _core.ParameterError(f'polarization = {p!r} is not allowed: must be "unpolarized", "s" or "p"')
     return p.lower()
 
 
@@ -257,7 +258,9 @@ def free_path_pdf(s, sigma_t):
     """pdf of :func:`sample_free_path` in mm⁻¹: σt exp(−σt s) for s ≥ 0, else 0."""
     shape, (ss, st) = _broadcast(s=s, sigma_t=sigma_t)
     if np.any(~(np.isfinite(st) & (st > 0))):
-        raise _core.ParameterError(f"sigma_t = {st[~(np.isfinite(st) & (st > 0))][0]} is out of range: must be a finite number > 0")
+        raise _core.ParameterError(
+            f"sigma_t = {st[~(np.isfinite(st) & (st > 0))][0]} is out of range: must be a finite number > 0"
+        )
     with np.errstate(over="ignore"):
         p = np.where(ss >= 0, st * np.exp(-st * np.maximum(ss, 0)), 0.0)
     return _out(p, shape)

@@ -13,6 +13,7 @@ returns the axes it drew on; :func:`figure` lays out every panel a result suppor
 * :func:`in_plane` — the BRDF/BTDF in the plane of incidence (φ = 0 and φ = π bins) vs θ.
 * :func:`orders` — totals by scattering order 0…K, >K.
 """
+
 from __future__ import annotations
 
 import math
@@ -20,11 +21,26 @@ import os
 
 import numpy as np
 
-__all__ = ["reflectance_profile", "absorption_depth", "hemisphere_map", "in_plane", "orders", "figure",
-           "save_figure", "top_layer_optics", "layer_boundaries"]
+__all__ = [
+    "reflectance_profile",
+    "absorption_depth",
+    "hemisphere_map",
+    "in_plane",
+    "orders",
+    "figure",
+    "save_figure",
+    "top_layer_optics",
+    "layer_boundaries",
+]
 
-_UNITS = {"mm^-1": "mm$^{-1}$", "mm^-2": "mm$^{-2}$", "mm^-3": "mm$^{-3}$", "sr^-1": "sr$^{-1}$",
-          "mm^-2 sr^-1": "mm$^{-2}$ sr$^{-1}$", "1": "1"}
+_UNITS = {
+    "mm^-1": "mm$^{-1}$",
+    "mm^-2": "mm$^{-2}$",
+    "mm^-3": "mm$^{-3}$",
+    "sr^-1": "sr$^{-1}$",
+    "mm^-2 sr^-1": "mm$^{-2}$ sr$^{-1}$",
+    "1": "1",
+}
 
 
 def _u(units: str) -> str:
@@ -99,8 +115,9 @@ def reflectance_profile(result, ax=None, name: str = "rd_r", models=("dipole", "
     v, s = np.asarray(h.values, float)[keep], np.asarray(h.stderr, float)[keep]
     ok = v > 0
     label = "Monte Carlo" + (f" ({result.photons:.3g} photons)" if result.photons else "")
-    ax.errorbar(r[ok], v[ok], yerr=np.minimum(s[ok], v[ok] * 0.999), fmt="o", ms=3, lw=0.8, capsize=1.5,
-                color="k", label=label)
+    ax.errorbar(
+        r[ok], v[ok], yerr=np.minimum(s[ok], v[ok] * 0.999), fmt="o", ms=3, lw=0.8, capsize=1.5, color="k", label=label
+    )
     if models and name == "rd_r":
         optics = optics if optics is not None else top_layer_optics(result)
         if optics is not None:
@@ -109,8 +126,10 @@ def reflectance_profile(result, ax=None, name: str = "rd_r", models=("dipole", "
             except ImportError:
                 diffusion = None
             rr = np.geomspace(max(r[0], 1e-4), r[-1], 200)
-            styles = {"dipole": ("C0", "-", "dipole (Jensen et al. 2001)"),
-                      "better_dipole": ("C3", "--", "better dipole (d'Eon 2012)")}
+            styles = {
+                "dipole": ("C0", "-", "dipole (Jensen et al. 2001)"),
+                "better_dipole": ("C3", "--", "better dipole (d'Eon 2012)"),
+            }
             for m in models:
                 fn = getattr(diffusion, f"{m}_rd", None) if diffusion is not None else None
                 if fn is None:
@@ -186,11 +205,22 @@ def in_plane(result, ax=None, name: str = "brdf"):
     v, s = np.asarray(h.values, float), np.asarray(h.stderr, float)
     pc = 0.5 * (pe[1:] + pe[:-1])
     theta = np.degrees(np.arccos(0.5 * (ce[1:] + ce[:-1])))
-    for target, sign, lab, c in ((0.0, 1, "φ ≈ 0 (forward, θ > 0)", "C0"), (math.pi, -1, "φ ≈ π (backward, θ < 0)",
-                                                                              "C3")):
+    for target, sign, lab, c in (
+        (0.0, 1, "φ ≈ 0 (forward, θ > 0)", "C0"),
+        (math.pi, -1, "φ ≈ π (backward, θ < 0)", "C3"),
+    ):
         j = int(np.argmin(np.abs(np.angle(np.exp(1j * (pc - target))))))
-        ax.errorbar(sign * theta, v[:, j], yerr=s[:, j], fmt="o-", ms=3, lw=1, capsize=1.5, color=c,
-                    label=f"{lab}, bin φ = {math.degrees(pc[j]):.0f}°")
+        ax.errorbar(
+            sign * theta,
+            v[:, j],
+            yerr=s[:, j],
+            fmt="o-",
+            ms=3,
+            lw=1,
+            capsize=1.5,
+            color=c,
+            label=f"{lab}, bin φ = {math.degrees(pc[j]):.0f}°",
+        )
     ax.set_xlabel("exit polar angle θ (deg), signed by side of the plane of incidence")
     ax.set_ylabel(f"{name.upper()} f ({_u(h.units)})")
     ax.set_xlim(-90, 90)
@@ -251,9 +281,12 @@ def figure(result, models=("dipole", "better_dipole"), optics=None):
         ax.text(0.5, 0.5, "no histograms in this result", ha="center", va="center")
         ax.set_axis_off()
     state = ", PARTIAL" if result.partial else ""
-    fig.suptitle(f"subsurf: R_d = {result.diffuse_reflectance:.4f} ± {result.diffuse_reflectance_stderr:.1g}, "
-                 f"T = {result.transmittance:.4f}, A = {result.absorbed:.4f}  "
-                 f"({result.photons:.3g} photons, seed {result.seed}{state})", fontsize=10)
+    fig.suptitle(
+        f"subsurf: R_d = {result.diffuse_reflectance:.4f} ± {result.diffuse_reflectance_stderr:.1g}, "
+        f"T = {result.transmittance:.4f}, A = {result.absorbed:.4f}  "
+        f"({result.photons:.3g} photons, seed {result.seed}{state})",
+        fontsize=10,
+    )
     return fig
 
 

@@ -4,6 +4,7 @@
 :func:`subsurf.simulate`. It stays silent when its stream is not a terminal, when ``quiet`` is set,
 or during the first ``delay`` seconds (so runs shorter than a second print nothing).
 """
+
 from __future__ import annotations
 
 import sys
@@ -33,8 +34,16 @@ class ProgressBar:
     ``enabled`` is False when output is suppressed (quiet, or the stream is not a TTY).
     """
 
-    def __init__(self, label: str = "", stream=None, quiet: bool = False, delay: float = 1.0, width: int = 28,
-                 force: bool = False, clock=time.monotonic):
+    def __init__(
+        self,
+        label: str = "",
+        stream=None,
+        quiet: bool = False,
+        delay: float = 1.0,
+        width: int = 28,
+        force: bool = False,
+        clock=time.monotonic,
+    ):
         self.stream = sys.stderr if stream is None else stream
         isatty = getattr(self.stream, "isatty", lambda: False)
         self.enabled = not quiet and (force or bool(isatty()))
@@ -52,8 +61,10 @@ class ProgressBar:
         rate = done / el
         eta = (total - done) / rate if rate > 0 else float("inf")
         lab = f"{self.label} " if self.label else ""
-        return (f"{lab}[{'#' * fill}{'.' * (self.width - fill)}] {100 * frac:5.1f}%  "
-                f"{_fmt_rate(rate)} photons/s  elapsed {_fmt_time(el)}  ETA {_fmt_time(eta)}")
+        return (
+            f"{lab}[{'#' * fill}{'.' * (self.width - fill)}] {100 * frac:5.1f}%  "
+            f"{_fmt_rate(rate)} photons/s  elapsed {_fmt_time(el)}  ETA {_fmt_time(eta)}"
+        )
 
     def __call__(self, done: int, total: int) -> None:
         if not self.enabled:

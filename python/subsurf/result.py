@@ -3,6 +3,7 @@
 A :class:`Histogram` is one tally with its standard error, bin edges and units; a
 :class:`Result` holds the totals of a run, its histograms by name and its provenance.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -104,6 +105,8 @@ class Result:
         for i, (a, s) in enumerate(zip(self.absorbed_per_layer, self.absorbed_per_layer_stderr)):
             lines.append(f"{'  absorbed, layer ' + str(i):<{w}}  {a:>10.6f}  {s:>10.2e}")
         state = " (PARTIAL: interrupted)" if self.partial else ""
-        lines.append(f"{self.photons} photons, seed {self.seed}, {self.elapsed_s:.2f} s, "
-                     f"{self.events_per_s:.3g} scattering events/s{state}")
+        lines.append(
+            f"{self.photons} photons, seed {self.seed}, {self.elapsed_s:.2f} s, "
+            f"{self.events_per_s:.3g} scattering events/s{state}"
+        )
         return "\n".join(lines)

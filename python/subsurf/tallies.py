@@ -7,11 +7,12 @@ everything beyond the grid, so every histogram integrates to its total; exit ang
 ambient medium after refraction. See ``crates/subsurf-core/src/mc/tally/set.rs`` for every
 normalisation.
 """
+
 from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Optional, Tuple
+from typing import Any
 
 from ._core import ParameterError
 
@@ -65,8 +66,8 @@ class Tallies:
     na: int = 30
     nt: int = 0
     dt: float = 1.0
-    brdf: Optional[Tuple[int, int]] = None
-    max_order: Optional[int] = None
+    brdf: tuple[int, int] | None = None
+    max_order: int | None = None
     spatial: bool = True
     angular: bool = True
 
@@ -84,13 +85,16 @@ class Tallies:
                 nc, nphi = self.brdf
             except (TypeError, ValueError):
                 raise ParameterError(
-                    f"tallies.brdf = {self.brdf!r} is invalid: must be None or a pair (n_cos_theta, n_phi) of integers >= 1"
+                    f"tallies.brdf = {self.brdf!r} is invalid: "
+                    "must be None or a pair (n_cos_theta, n_phi) of integers >= 1"
                 ) from None
             set_("brdf", (_count("brdf[0]", nc, 1), _count("brdf[1]", nphi, 1)))
         if self.max_order is not None:
             k = self.max_order
             if isinstance(k, bool) or not hasattr(k, "__index__") or not 0 <= int(k) <= MAX_ORDER:
-                raise ParameterError(f"tallies.max_order = {k!r} is out of range: must be None or an integer in [0, {MAX_ORDER}]")
+                raise ParameterError(
+                    f"tallies.max_order = {k!r} is out of range: must be None or an integer in [0, {MAX_ORDER}]"
+                )
             set_("max_order", int(k))
         for name in ("spatial", "angular"):
             v = getattr(self, name)
@@ -105,7 +109,9 @@ class Tallies:
             sizes.append(("brdf_order", (self.max_order + 2) * self.brdf[0] * self.brdf[1]))
         for what, n in sizes:
             if n > MAX_BINS:
-                raise ParameterError(f"tallies: the {what} histogram would have {n} bins, more than {MAX_BINS}; use coarser grids")
+                raise ParameterError(
+                    f"tallies: the {what} histogram would have {n} bins, more than {MAX_BINS}; use coarser grids"
+                )
 
     def to_dict(self) -> dict:
         """Plain values (JSON/TOML friendly): ``brdf`` as a list or None."""
@@ -114,7 +120,7 @@ class Tallies:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Tallies":
+    def from_dict(cls, d: dict) -> Tallies:
         """Inverse of :meth:`to_dict`; missing keys take their defaults, unknown keys are refused."""
         if not isinstance(d, dict):
             raise ParameterError(f"tallies: expected a dict, got {type(d).__name__}")

@@ -27,11 +27,12 @@ Use fixed seeds (``seed=``) so a test is reproducible; choose N so that most cel
 expected count well above 5. The special functions (χ² survival, Šidák) and the pooling are
 computed by the Rust core (``subsurf_core::stats``), shared with the Rust tests.
 """
+
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Optional
+from typing import Callable
 
 import numpy as np
 
@@ -107,7 +108,9 @@ def graded_cos_edges(n_end: int = 12, n_mid: int = 16, min_gap: float = 1e-5) ->
     return _core.graded_cos_edges(int(n_end), int(n_mid), float(min_gap))
 
 
-def chi2_pooled(observed, expected, *, min_expected: float = 5.0, significance: float = 0.01, tests: int = 1) -> Chi2Result:
+def chi2_pooled(
+    observed, expected, *, min_expected: float = 5.0, significance: float = 0.01, tests: int = 1
+) -> Chi2Result:
     """Pearson's χ² of observed against expected counts (any shape, flattened), pooling every
     cell with expected count < ``min_expected`` into one cell. Degrees of freedom: cells − 1
     (the caller's expected counts should sum to the number of samples)."""
@@ -131,7 +134,8 @@ def _samples_2d(samples, n_samples: int, seed: int) -> np.ndarray:
     s = np.asarray(samples, dtype=np.float64)
     if s.ndim != 2 or s.shape[1] not in (2, 3):
         raise _core.ParameterError(
-            f"samples: expected shape (N, 2) of (cos θ, φ) or (N, 3) unit vectors, got {s.shape}")
+            f"samples: expected shape (N, 2) of (cos θ, φ) or (N, 3) unit vectors, got {s.shape}"
+        )
     return to_cos_phi(s) if s.shape[1] == 3 else s
 
 
@@ -232,7 +236,9 @@ def chi2_test(
     pe = _edges("phi", phi_edges, n_phi, 0.0, 2.0 * math.pi)
     inside = (s[:, 0] >= ce[0]) & (s[:, 0] <= ce[-1]) & (s[:, 1] >= pe[0]) & (s[:, 1] <= pe[-1])
     obs, _, _ = np.histogram2d(s[inside, 0], s[inside, 1], bins=[ce, pe])
-    prob, err = _expected(lambda sub: _cell_integrals_2d(pdf, ce, pe, sub, int(quad_points)), len(s), int(max_subdivisions))
+    prob, err = _expected(
+        lambda sub: _cell_integrals_2d(pdf, ce, pe, sub, int(quad_points)), len(s), int(max_subdivisions)
+    )
     return _finish(obs, prob, len(s), int((~inside).sum()), min_expected, significance, tests, err)
 
 

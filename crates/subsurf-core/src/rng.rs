@@ -253,7 +253,7 @@ mod tests {
             cov / ((sxx / m - (sx / m).powi(2)) * (syy / m - (sy / m).powi(2))).sqrt()
         };
         let mut prev = draws(3, 0);
-        let mut sets: Vec<Vec<(f64, f64)>> = vec![Vec::with_capacity(n as usize); 6];
+        let mut sets: Vec<Vec<(f64, f64)>> = (0..6).map(|_| Vec::with_capacity(n as usize)).collect();
         for p in 1..=n {
             let cur = draws(3, p);
             let other_seed = draws(4, p);

@@ -302,7 +302,16 @@ pub fn integrate_adaptive(f: &mut dyn FnMut(f64) -> f64, a: f64, b: f64, tol: f6
 }
 
 #[allow(clippy::too_many_arguments)]
-fn adapt(f: &mut dyn FnMut(f64) -> f64, a: f64, b: f64, whole: f64, tol_per_len: f64, x: &[f64], w: &[f64], depth: u32) -> f64 {
+fn adapt(
+    f: &mut dyn FnMut(f64) -> f64,
+    a: f64,
+    b: f64,
+    whole: f64,
+    tol_per_len: f64,
+    x: &[f64],
+    w: &[f64],
+    depth: u32,
+) -> f64 {
     let m = 0.5 * (a + b);
     let left = gl_panel(f, a, m, x, w);
     let right = gl_panel(f, m, b, x, w);
@@ -395,7 +404,12 @@ pub fn histogram_cos_phi(samples: &[(f64, f64)], cos_edges: &[f64], phi_edges: &
 /// (dω = d cos θ dφ). Adaptive Gauss–Legendre per cell to an absolute probability error of
 /// 1e-12 (or 1e-14 relative), so sharply peaked pdfs (HG with g = 0.99) are integrated
 /// accurately.
-pub fn expected_cos_phi(pdf: &dyn Fn(f64, f64) -> f64, cos_edges: &[f64], phi_edges: &[f64], n_samples: f64) -> Result<Vec<f64>> {
+pub fn expected_cos_phi(
+    pdf: &dyn Fn(f64, f64) -> f64,
+    cos_edges: &[f64],
+    phi_edges: &[f64],
+    n_samples: f64,
+) -> Result<Vec<f64>> {
     check_edges("cos_edges", cos_edges)?;
     check_edges("phi_edges", phi_edges)?;
     let mut out = Vec::with_capacity((cos_edges.len() - 1) * (phi_edges.len() - 1));
@@ -427,7 +441,6 @@ pub fn chi2_test_cos_phi(
     exp.push(rest);
     chi2_pooled(&obs, &exp, 5.0)
 }
-
 
 #[cfg(test)]
 mod tests {
@@ -547,7 +560,9 @@ mod tests {
 
     #[test]
     fn histogram_edges_and_outside() {
-        let (c, out) = histogram_cos_phi(&[(-1.0, 0.0), (1.0, 6.0), (0.0, 3.0), (1.5, 0.0)], &[-1.0, 0.0, 1.0], &[0.0, 2.0 * PI]).unwrap();
+        let (c, out) =
+            histogram_cos_phi(&[(-1.0, 0.0), (1.0, 6.0), (0.0, 3.0), (1.5, 0.0)], &[-1.0, 0.0, 1.0], &[0.0, 2.0 * PI])
+                .unwrap();
         assert_eq!((c, out), (vec![1.0, 2.0], 1));
         assert!(histogram_cos_phi(&[], &[0.0, 0.0], &[0.0, 1.0]).is_err());
     }

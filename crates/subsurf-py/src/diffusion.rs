@@ -12,22 +12,15 @@ type Arr<'py> = PyReadonlyArray1<'py, f64>;
 type Out<'py> = Bound<'py, PyArray1<f64>>;
 
 fn slice<'a>(a: &'a Arr<'_>) -> PyResult<&'a [f64]> {
-    a.as_slice()
-        .map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))
+    a.as_slice().map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))
 }
 
 /// Name the element: `sigma_a` → `sigma_a[3]` (only for arrays longer than one).
 fn at_index(e: Error, i: usize, n: usize) -> Error {
     match e {
-        Error::Parameter {
-            field,
-            value,
-            allowed,
-        } if n > 1 => Error::Parameter {
-            field: format!("{field}[{i}]"),
-            value,
-            allowed,
-        },
+        Error::Parameter { field, value, allowed } if n > 1 => {
+            Error::Parameter { field: format!("{field}[{i}]"), value, allowed }
+        }
         other => other,
     }
 }
@@ -39,10 +32,7 @@ where
 {
     let n = cols.first().map_or(0, |c| c.len());
     if cols.iter().any(|c| c.len() != n) {
-        return Err(Error::Invalid(
-            "diffusion: input arrays must have equal lengths".into(),
-        ))
-        .py();
+        return Err(Error::Invalid("diffusion: input arrays must have equal lengths".into())).py();
     }
     py.detach(|| {
         let mut row = vec![0.0; cols.len()];
@@ -85,17 +75,10 @@ fn diffusion_a<'py>(py: Python<'py>, model_name: &str, eta: Arr<'py>) -> PyResul
 
 /// d'Eon's Fresnel moments (C1, C2).
 #[pyfunction]
-fn diffusion_fresnel_moments<'py>(
-    py: Python<'py>,
-    eta: Arr<'py>,
-) -> PyResult<(Out<'py>, Out<'py>)> {
+fn diffusion_fresnel_moments<'py>(py: Python<'py>, eta: Arr<'py>) -> PyResult<(Out<'py>, Out<'py>)> {
     let e = slice(&eta)?;
-    let c1 = map_cols(py, &[e], |x| {
-        Ok(dif::fresnel_moment1(dif::check_eta(x[0])?))
-    })?;
-    let c2 = map_cols(py, &[e], |x| {
-        Ok(dif::fresnel_moment2(dif::check_eta(x[0])?))
-    })?;
+    let c1 = map_cols(py, &[e], |x| Ok(dif::fresnel_moment1(dif::check_eta(x[0])?)))?;
+    let c2 = map_cols(py, &[e], |x| Ok(dif::fresnel_moment2(dif::check_eta(x[0])?)))?;
     Ok((PyArray1::from_vec(py, c1), PyArray1::from_vec(py, c2)))
 }
 
@@ -141,12 +124,7 @@ fn diffusion_rd<'py>(
     eta: Arr<'py>,
 ) -> PyResult<Out<'py>> {
     let m = model(model_name)?;
-    let cols = [
-        slice(&r)?,
-        slice(&sigma_a)?,
-        slice(&sigma_s_prime)?,
-        slice(&eta)?,
-    ];
+    let cols = [slice(&r)?, slice(&sigma_a)?, slice(&sigma_s_prime)?, slice(&eta)?];
     let v = map_cols(py, &cols, |x| m.rd(x[0], x[1], x[2], x[3]))?;
     Ok(PyArray1::from_vec(py, v))
 }
@@ -160,9 +138,7 @@ fn diffusion_total_rd<'py>(
     eta: Arr<'py>,
 ) -> PyResult<Out<'py>> {
     let m = model(model_name)?;
-    let v = map_cols(py, &[slice(&alpha_prime)?, slice(&eta)?], |x| {
-        m.total_rd(x[0], x[1])
-    })?;
+    let v = map_cols(py, &[slice(&alpha_prime)?, slice(&eta)?], |x| m.total_rd(x[0], x[1]))?;
     Ok(PyArray1::from_vec(py, v))
 }
 
@@ -175,9 +151,7 @@ fn diffusion_alpha_prime_from_rd<'py>(
     eta: Arr<'py>,
 ) -> PyResult<Out<'py>> {
     let m = model(model_name)?;
-    let v = map_cols(py, &[slice(&rd)?, slice(&eta)?], |x| {
-        dif::alpha_prime_from_rd(x[0], x[1], m)
-    })?;
+    let v = map_cols(py, &[slice(&rd)?, slice(&eta)?], |x| dif::alpha_prime_from_rd(x[0], x[1], m))?;
     Ok(PyArray1::from_vec(py, v))
 }
 
@@ -195,27 +169,17 @@ fn diffusion_properties_from_color<'py>(
     let kind = MeanFreePath::from_name(mfp_kind).py()?;
     let cols = [slice(&rd)?, slice(&mfp)?, slice(&eta)?];
     let sa = map_cols(py, &cols, |x| {
-        dif::properties_from_color(x[0], x[1], x[2], m, kind)
-            .map(|p| p.0)
-            .map_err(|e| rename(e, "rd", "diffuse_color"))
+        dif::properties_from_color(x[0], x[1], x[2], m, kind).map(|p| p.0).map_err(|e| rename(e, "rd", "diffuse_color"))
     })?;
-    let ssp = map_cols(py, &cols, |x| {
-        dif::properties_from_color(x[0], x[1], x[2], m, kind).map(|p| p.1)
-    })?;
+    let ssp = map_cols(py, &cols, |x| dif::properties_from_color(x[0], x[1], x[2], m, kind).map(|p| p.1))?;
     Ok((PyArray1::from_vec(py, sa), PyArray1::from_vec(py, ssp)))
 }
 
 fn rename(e: Error, from: &str, to: &str) -> Error {
     match e {
-        Error::Parameter {
-            field,
-            value,
-            allowed,
-        } if field == from => Error::Parameter {
-            field: to.into(),
-            value,
-            allowed,
-        },
+        Error::Parameter { field, value, allowed } if field == from => {
+            Error::Parameter { field: to.into(), value, allowed }
+        }
         other => other,
     }
 }
@@ -243,24 +207,12 @@ fn diffusion_sd<'py>(
     let (sa, ssp, e) = (slice(&sigma_a)?, slice(&sigma_s_prime)?, slice(&eta)?);
     let n = sa.len();
     if [xi, wi, xo, wo].iter().any(|c| c.len() != 3 * n) {
-        return Err(Error::Invalid(
-            "diffusion_sd: points/directions must hold 3 values per element".into(),
-        ))
-        .py();
+        return Err(Error::Invalid("diffusion_sd: points/directions must hold 3 values per element".into())).py();
     }
     let idx: Vec<f64> = (0..n).map(|i| i as f64).collect();
     let v = map_cols(py, &[&idx, sa, ssp, e], |x| {
         let i = x[0] as usize;
-        dif::sd(
-            v3(xi, i),
-            v3(wi, i),
-            v3(xo, i),
-            v3(wo, i),
-            m,
-            x[1],
-            x[2],
-            x[3],
-        )
+        dif::sd(v3(xi, i), v3(wi, i), v3(xo, i), v3(wo, i), m, x[1], x[2], x[3])
     })?;
     Ok(PyArray1::from_vec(py, v))
 }
@@ -281,10 +233,7 @@ fn diffusion_brdf<'py>(
     let (sa, ssp, e) = (slice(&sigma_a)?, slice(&sigma_s_prime)?, slice(&eta)?);
     let n = sa.len();
     if wi.len() != 3 * n || wo.len() != 3 * n {
-        return Err(Error::Invalid(
-            "diffusion_brdf: directions must hold 3 values per element".into(),
-        ))
-        .py();
+        return Err(Error::Invalid("diffusion_brdf: directions must hold 3 values per element".into())).py();
     }
     let idx: Vec<f64> = (0..n).map(|i| i as f64).collect();
     let v = map_cols(py, &[&idx, sa, ssp, e], |x| {
@@ -300,11 +249,7 @@ fn diffusion_ft<'py>(py: Python<'py>, eta: Arr<'py>, cos_theta: Arr<'py>) -> PyR
     let v = map_cols(py, &[slice(&eta)?, slice(&cos_theta)?], |x| {
         let e = dif::check_eta(x[0])?;
         if !(x[1].is_finite() && x[1].abs() <= 1.0) {
-            return Err(Error::param(
-                "cos_theta",
-                x[1],
-                "a finite number in [-1, 1]",
-            ));
+            return Err(Error::param("cos_theta", x[1], "a finite number in [-1, 1]"));
         }
         Ok(dif::bssrdf::ft(e, x[1]))
     })?;

@@ -7,7 +7,12 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-create_exception!(subsurf, ParameterError, PyValueError, "An input outside its allowed range; the message names the field and the range.");
+create_exception!(
+    subsurf,
+    ParameterError,
+    PyValueError,
+    "An input outside its allowed range; the message names the field and the range."
+);
 
 /// Convert a core error into a Python exception.
 pub fn to_py(e: subsurf_core::Error) -> PyErr {

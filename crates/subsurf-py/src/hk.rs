@@ -57,7 +57,12 @@ fn pairwise(
     let s = stack(stack_t)?;
     let (a, b) = (triples("wi", &wi)?, triples("wo", &wo)?);
     if a.len() != b.len() {
-        return Err(Error::Invalid(format!("wi and wo: {} and {} directions, must be equal", a.len() / 3, b.len() / 3))).py();
+        return Err(Error::Invalid(format!(
+            "wi and wo: {} and {} directions, must be equal",
+            a.len() / 3,
+            b.len() / 3
+        )))
+        .py();
     }
     let out: subsurf_core::Result<Vec<f64>> =
         py.detach(|| (0..a.len() / 3).map(|k| f(&s, at(a, k), at(b, k)).map_err(|e| index_error(e, k))).collect());
@@ -66,13 +71,23 @@ fn pairwise(
 
 /// First-order BRDF f_r(wi, wo) in sr⁻¹ for N direction pairs (flat arrays of 3N).
 #[pyfunction]
-fn hk_brdf(py: Python<'_>, stack: StackTuple, wi: PyReadonlyArray1<'_, f64>, wo: PyReadonlyArray1<'_, f64>) -> PyResult<Py<PyArray1<f64>>> {
+fn hk_brdf(
+    py: Python<'_>,
+    stack: StackTuple,
+    wi: PyReadonlyArray1<'_, f64>,
+    wo: PyReadonlyArray1<'_, f64>,
+) -> PyResult<Py<PyArray1<f64>>> {
     pairwise(py, stack, wi, wo, hk::single_scattering_brdf)
 }
 
 /// First-order BTDF f_t(wi, wo) in sr⁻¹ for N direction pairs (flat arrays of 3N).
 #[pyfunction]
-fn hk_btdf(py: Python<'_>, stack: StackTuple, wi: PyReadonlyArray1<'_, f64>, wo: PyReadonlyArray1<'_, f64>) -> PyResult<Py<PyArray1<f64>>> {
+fn hk_btdf(
+    py: Python<'_>,
+    stack: StackTuple,
+    wi: PyReadonlyArray1<'_, f64>,
+    wo: PyReadonlyArray1<'_, f64>,
+) -> PyResult<Py<PyArray1<f64>>> {
     pairwise(py, stack, wi, wo, hk::single_scattering_btdf)
 }
 
@@ -89,7 +104,12 @@ fn hk_layer_terms(
     let s = self::stack(stack)?;
     let (a, b) = (triples("wi", &wi)?, triples("wo", &wo)?);
     if a.len() != b.len() {
-        return Err(Error::Invalid(format!("wi and wo: {} and {} directions, must be equal", a.len() / 3, b.len() / 3))).py();
+        return Err(Error::Invalid(format!(
+            "wi and wo: {} and {} directions, must be equal",
+            a.len() / 3,
+            b.len() / 3
+        )))
+        .py();
     }
     let f = if transmission { hk::single_scattering_btdf_layers } else { hk::single_scattering_brdf_layers };
     let out: subsurf_core::Result<Vec<f64>> = py.detach(|| {
@@ -102,10 +122,13 @@ fn hk_layer_terms(
     Ok(PyArray1::from_vec(py, out.py()?).unbind())
 }
 
+/// An owned 1-D float64 numpy array.
+type Arr = Py<PyArray1<f64>>;
+
 /// Unscattered transmittance and exit direction for N incident directions: returns
 /// (T: N, wt: 3N; wt is NaN where T = 0).
 #[pyfunction]
-fn hk_unscattered(py: Python<'_>, stack: StackTuple, wi: PyReadonlyArray1<'_, f64>) -> PyResult<(Py<PyArray1<f64>>, Py<PyArray1<f64>>)> {
+fn hk_unscattered(py: Python<'_>, stack: StackTuple, wi: PyReadonlyArray1<'_, f64>) -> PyResult<(Arr, Arr)> {
     let s = self::stack(stack)?;
     let a = triples("wi", &wi)?;
     let n = a.len() / 3;
@@ -137,8 +160,8 @@ fn hk_albedo(
     let s = self::stack(stack)?;
     let a = triples("wi", &wi)?;
     let f = if transmission { hk::single_scattering_transmittance } else { hk::single_scattering_reflectance };
-    let out: subsurf_core::Result<Vec<f64>> =
-        py.detach(|| (0..a.len() / 3).map(|k| f(&s, at(a, k), n_theta, n_phi).map_err(|e| index_error(e, k))).collect());
+    let out: subsurf_core::Result<Vec<f64>> = py
+        .detach(|| (0..a.len() / 3).map(|k| f(&s, at(a, k), n_theta, n_phi).map_err(|e| index_error(e, k))).collect());
     Ok(PyArray1::from_vec(py, out.py()?).unbind())
 }
 

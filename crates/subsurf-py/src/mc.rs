@@ -8,9 +8,9 @@
 
 use crate::errors::IntoPyResult;
 use crate::medium::{stack_from_py, LayerTuple};
+use numpy::PyArray1;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError};
 use pyo3::prelude::*;
-use numpy::PyArray1;
 use pyo3::types::{PyDict, PyList};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{mpsc, Arc};
@@ -27,7 +27,9 @@ fn source_from_py(kind: &str, theta: f64, phi: f64) -> subsurf_core::Result<Sour
     let s = match kind {
         "pencil" => Source::Pencil { theta, phi },
         "diffuse" => Source::Diffuse,
-        other => return Err(subsurf_core::Error::Invalid(format!("source: unknown kind {other:?} (pencil or diffuse)"))),
+        other => {
+            return Err(subsurf_core::Error::Invalid(format!("source: unknown kind {other:?} (pencil or diffuse)")))
+        }
     };
     s.validate()?;
     Ok(s)
@@ -44,7 +46,9 @@ fn tally_config_from_py(d: &Bound<'_, PyDict>) -> PyResult<TallyConfig> {
     macro_rules! get {
         ($k:literal) => {
             d.get_item($k)?
-                .ok_or_else(|| crate::errors::to_py(subsurf_core::Error::Invalid(format!("tallies: missing field {}", $k))))?
+                .ok_or_else(|| {
+                    crate::errors::to_py(subsurf_core::Error::Invalid(format!("tallies: missing field {}", $k)))
+                })?
                 .extract()?
         };
     }

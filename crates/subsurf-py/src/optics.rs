@@ -53,7 +53,9 @@ fn polarization(p: &str) -> Result<Polarization> {
         "unpolarized" | "unpolarised" => Ok(Polarization::Unpolarized),
         "s" => Ok(Polarization::S),
         "p" => Ok(Polarization::P),
-        _ => Err(Error::Invalid(format!("polarization = {p:?} is not allowed: must be \"unpolarized\", \"s\" or \"p\""))),
+        _ => {
+            Err(Error::Invalid(format!("polarization = {p:?} is not allowed: must be \"unpolarized\", \"s\" or \"p\"")))
+        }
     }
 }
 
@@ -68,7 +70,8 @@ fn fresnel_v<'py>(
     transmit: bool,
 ) -> PyResult<Arr<'py>> {
     let pol = self::polarization(polarization).py()?;
-    let (c, ei, et) = (slice(&cos_theta_i, "cos_theta_i").py()?, slice(&eta_i, "eta_i").py()?, slice(&eta_t, "eta_t").py()?);
+    let (c, ei, et) =
+        (slice(&cos_theta_i, "cos_theta_i").py()?, slice(&eta_i, "eta_i").py()?, slice(&eta_t, "eta_t").py()?);
     same_len(&["cos_theta_i", "eta_i", "eta_t"], &[c.len(), ei.len(), et.len()]).py()?;
     check_all("cos_theta_i", c, cosine, COSINE).py()?;
     check_all("eta_i", ei, positive, POSITIVE).py()?;
@@ -95,7 +98,12 @@ fn refract_v<'py>(
     eta_i: PyReadonlyArray1<'py, f64>,
     eta_t: PyReadonlyArray1<'py, f64>,
 ) -> PyResult<Arr<'py>> {
-    let (d, n, ei, et) = (slice(&d, "d").py()?, slice(&normal, "normal").py()?, slice(&eta_i, "eta_i").py()?, slice(&eta_t, "eta_t").py()?);
+    let (d, n, ei, et) = (
+        slice(&d, "d").py()?,
+        slice(&normal, "normal").py()?,
+        slice(&eta_i, "eta_i").py()?,
+        slice(&eta_t, "eta_t").py()?,
+    );
     same_len(&["d", "normal"], &[d.len(), n.len()]).py()?;
     same_len(&["rows of d", "eta_i", "eta_t"], &[d.len() / 3, ei.len(), et.len()]).py()?;
     check_all("eta_i", ei, positive, POSITIVE).py()?;
@@ -113,21 +121,33 @@ fn refract_v<'py>(
 
 /// Mirror reflection of rows of `d` about `normal` (flat, 3 per row).
 #[pyfunction]
-fn reflect_v<'py>(py: Python<'py>, d: PyReadonlyArray1<'py, f64>, normal: PyReadonlyArray1<'py, f64>) -> PyResult<Arr<'py>> {
+fn reflect_v<'py>(
+    py: Python<'py>,
+    d: PyReadonlyArray1<'py, f64>,
+    normal: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Arr<'py>> {
     let (d, n) = (slice(&d, "d").py()?, slice(&normal, "normal").py()?);
     same_len(&["d", "normal"], &[d.len(), n.len()]).py()?;
     let mut out = Vec::with_capacity(d.len());
     for k in 0..d.len() / 3 {
-        out.extend_from_slice(&optics::reflect([d[3 * k], d[3 * k + 1], d[3 * k + 2]], [n[3 * k], n[3 * k + 1], n[3 * k + 2]]));
+        out.extend_from_slice(&optics::reflect(
+            [d[3 * k], d[3 * k + 1], d[3 * k + 2]],
+            [n[3 * k], n[3 * k + 1], n[3 * k + 2]],
+        ));
     }
     Ok(PyArray1::from_vec(py, out))
 }
 
 /// Diffuse Fresnel reflectance by quadrature for each eta (n_inside/n_outside).
 #[pyfunction]
-fn diffuse_fresnel_reflectance_v<'py>(py: Python<'py>, eta: PyReadonlyArray1<'py, f64>, internal: bool) -> PyResult<Arr<'py>> {
+fn diffuse_fresnel_reflectance_v<'py>(
+    py: Python<'py>,
+    eta: PyReadonlyArray1<'py, f64>,
+    internal: bool,
+) -> PyResult<Arr<'py>> {
     let e = slice(&eta, "eta").py()?;
-    let out: Vec<f64> = e.iter().map(|&x| optics::diffuse_fresnel_reflectance(x, internal)).collect::<Result<_>>().py()?;
+    let out: Vec<f64> =
+        e.iter().map(|&x| optics::diffuse_fresnel_reflectance(x, internal)).collect::<Result<_>>().py()?;
     Ok(PyArray1::from_vec(py, out))
 }
 
@@ -156,7 +176,11 @@ fn phase_from(lobes: &[(f64, f64)]) -> Result<Phase> {
 
 /// HG phase p(cos θ; g) (sr⁻¹) elementwise.
 #[pyfunction]
-fn hg_phase_v<'py>(py: Python<'py>, cos_theta: PyReadonlyArray1<'py, f64>, g: PyReadonlyArray1<'py, f64>) -> PyResult<Arr<'py>> {
+fn hg_phase_v<'py>(
+    py: Python<'py>,
+    cos_theta: PyReadonlyArray1<'py, f64>,
+    g: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Arr<'py>> {
     let (c, g) = (slice(&cos_theta, "cos_theta").py()?, slice(&g, "g").py()?);
     same_len(&["cos_theta", "g"], &[c.len(), g.len()]).py()?;
     check_all("cos_theta", c, cosine, COSINE).py()?;
@@ -166,7 +190,11 @@ fn hg_phase_v<'py>(py: Python<'py>, cos_theta: PyReadonlyArray1<'py, f64>, g: Py
 
 /// HG sampling cos θ = sample_hg(u, g) elementwise.
 #[pyfunction]
-fn sample_hg_v<'py>(py: Python<'py>, u: PyReadonlyArray1<'py, f64>, g: PyReadonlyArray1<'py, f64>) -> PyResult<Arr<'py>> {
+fn sample_hg_v<'py>(
+    py: Python<'py>,
+    u: PyReadonlyArray1<'py, f64>,
+    g: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Arr<'py>> {
     let (u, g) = (slice(&u, "u").py()?, slice(&g, "g").py()?);
     same_len(&["u", "g"], &[u.len(), g.len()]).py()?;
     check_all("u", u, unit_interval, UNIT).py()?;
@@ -176,7 +204,11 @@ fn sample_hg_v<'py>(py: Python<'py>, u: PyReadonlyArray1<'py, f64>, g: PyReadonl
 
 /// Mixture of HG lobes [(weight, g)]: evaluate p(cos θ).
 #[pyfunction]
-fn mixture_phase_v<'py>(py: Python<'py>, cos_theta: PyReadonlyArray1<'py, f64>, lobes: Vec<(f64, f64)>) -> PyResult<Arr<'py>> {
+fn mixture_phase_v<'py>(
+    py: Python<'py>,
+    cos_theta: PyReadonlyArray1<'py, f64>,
+    lobes: Vec<(f64, f64)>,
+) -> PyResult<Arr<'py>> {
     let ph = phase_from(&lobes).py()?;
     let c = slice(&cos_theta, "cos_theta").py()?;
     check_all("cos_theta", c, cosine, COSINE).py()?;
@@ -194,7 +226,11 @@ fn sample_mixture_v<'py>(py: Python<'py>, u: PyReadonlyArray1<'py, f64>, lobes: 
 
 /// Beer–Lambert transmittance exp(−μt d) elementwise.
 #[pyfunction]
-fn beer_lambert_v<'py>(py: Python<'py>, mu_t: PyReadonlyArray1<'py, f64>, distance: PyReadonlyArray1<'py, f64>) -> PyResult<Arr<'py>> {
+fn beer_lambert_v<'py>(
+    py: Python<'py>,
+    mu_t: PyReadonlyArray1<'py, f64>,
+    distance: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Arr<'py>> {
     let (m, d) = (slice(&mu_t, "mu_t").py()?, slice(&distance, "distance").py()?);
     same_len(&["mu_t", "distance"], &[m.len(), d.len()]).py()?;
     check_all("mu_t", m, |x| x.is_finite() && x >= 0.0, "a finite number >= 0").py()?;
@@ -204,7 +240,11 @@ fn beer_lambert_v<'py>(py: Python<'py>, mu_t: PyReadonlyArray1<'py, f64>, distan
 
 /// Free-path sampling s = −ln(1 − u)/σt elementwise.
 #[pyfunction]
-fn sample_free_path_v<'py>(py: Python<'py>, u: PyReadonlyArray1<'py, f64>, sigma_t: PyReadonlyArray1<'py, f64>) -> PyResult<Arr<'py>> {
+fn sample_free_path_v<'py>(
+    py: Python<'py>,
+    u: PyReadonlyArray1<'py, f64>,
+    sigma_t: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Arr<'py>> {
     let (u, s) = (slice(&u, "u").py()?, slice(&sigma_t, "sigma_t").py()?);
     same_len(&["u", "sigma_t"], &[u.len(), s.len()]).py()?;
     check_all("u", u, unit_interval, UNIT).py()?;
@@ -214,7 +254,11 @@ fn sample_free_path_v<'py>(py: Python<'py>, u: PyReadonlyArray1<'py, f64>, sigma
 
 /// Cosine-weighted hemisphere directions (flat, 3 per row) from u1, u2.
 #[pyfunction]
-fn sample_cosine_hemisphere_v<'py>(py: Python<'py>, u1: PyReadonlyArray1<'py, f64>, u2: PyReadonlyArray1<'py, f64>) -> PyResult<Arr<'py>> {
+fn sample_cosine_hemisphere_v<'py>(
+    py: Python<'py>,
+    u1: PyReadonlyArray1<'py, f64>,
+    u2: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Arr<'py>> {
     let (a, b) = (slice(&u1, "u1").py()?, slice(&u2, "u2").py()?);
     same_len(&["u1", "u2"], &[a.len(), b.len()]).py()?;
     check_all("u1", a, unit_interval, UNIT).py()?;
@@ -250,8 +294,13 @@ fn sidak_alpha(significance: f64, tests: usize) -> PyResult<f64> {
 
 /// Pearson χ² with pooling: returns (statistic, dof, p_value, pooled_cells).
 #[pyfunction]
-fn chi2_pooled(observed: PyReadonlyArray1<'_, f64>, expected: PyReadonlyArray1<'_, f64>, min_expected: f64) -> PyResult<(f64, usize, f64, usize)> {
-    let r = stats::chi2_pooled(slice(&observed, "observed").py()?, slice(&expected, "expected").py()?, min_expected).py()?;
+fn chi2_pooled(
+    observed: PyReadonlyArray1<'_, f64>,
+    expected: PyReadonlyArray1<'_, f64>,
+    min_expected: f64,
+) -> PyResult<(f64, usize, f64, usize)> {
+    let r = stats::chi2_pooled(slice(&observed, "observed").py()?, slice(&expected, "expected").py()?, min_expected)
+        .py()?;
     Ok((r.statistic, r.dof, r.p_value, r.pooled_cells))
 }
 

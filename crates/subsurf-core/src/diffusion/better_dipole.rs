@@ -24,8 +24,7 @@ use std::f64::consts::PI;
 #[inline]
 pub fn fresnel_moment1(eta: f64) -> f64 {
     let e = eta;
-    let two_c1 =
-        -9.23372 + e * (22.2272 + e * (-20.9292 + e * (10.2291 + e * (-2.54396 + 0.254913 * e))));
+    let two_c1 = -9.23372 + e * (22.2272 + e * (-20.9292 + e * (10.2291 + e * (-2.54396 + 0.254913 * e))));
     0.5 * two_c1
 }
 
@@ -51,10 +50,7 @@ pub fn better_a(eta: f64) -> f64 {
 /// Exitance weights (C_φ, C_E) = ((1 − 2C₁)/4, (1 − 3C₂)/2).
 #[inline]
 pub fn exitance_weights(eta: f64) -> (f64, f64) {
-    (
-        0.25 * (1.0 - 2.0 * fresnel_moment1(eta)),
-        0.5 * (1.0 - 3.0 * fresnel_moment2(eta)),
-    )
+    (0.25 * (1.0 - 2.0 * fresnel_moment1(eta)), 0.5 * (1.0 - 3.0 * fresnel_moment2(eta)))
 }
 
 /// The better dipole for one set of optical properties.
@@ -109,8 +105,7 @@ impl BetterDipole {
         let s = self.sigma_tr;
         let (er, ev) = ((-s * dr).exp(), (-s * dv).exp());
         let phi = (er / dr - ev / dv) / self.d;
-        let e = self.z_r * (1.0 + s * dr) * er / (dr * dr * dr)
-            + self.z_v * (1.0 + s * dv) * ev / (dv * dv * dv);
+        let e = self.z_r * (1.0 + s * dr) * er / (dr * dr * dr) + self.z_v * (1.0 + s * dv) * ev / (dv * dv * dv);
         self.alpha_prime * self.alpha_prime / (4.0 * PI) * (self.c_phi * phi + self.c_e * e)
     }
 }
@@ -137,11 +132,7 @@ pub fn better_dipole_total_rd(alpha_prime: f64, eta: f64) -> Result<f64> {
     let t = 4.0 * a * s_d;
     let x = (-t).exp();
     // (1 − e^{−t})/(σtr D) = 4A (1 − e^{−t})/t, with the t → 0 limit 4A.
-    let ratio = if t > 1e-8 {
-        -(-t).exp_m1() / t
-    } else {
-        1.0 - 0.5 * t
-    };
+    let ratio = if t > 1e-8 { -(-t).exp_m1() / t } else { 1.0 - 0.5 * t };
     Ok(0.5 * ap * ap * (-s_zr).exp() * (c_e * (1.0 + x) + c_phi * 4.0 * a * ratio))
 }
 
@@ -174,20 +165,9 @@ mod tests {
         let mut eta = 1.0;
         while eta <= 2.5 + 1e-12 {
             let (c1, c2) = (moment(eta, 1), moment(eta, 2));
-            assert!(
-                (fresnel_moment1(eta) - c1).abs() < 2.5e-3,
-                "C1({eta}) fit {} vs {c1}",
-                fresnel_moment1(eta)
-            );
-            assert!(
-                (fresnel_moment2(eta) - c2).abs() < 2.5e-3,
-                "C2({eta}) fit {} vs {c2}",
-                fresnel_moment2(eta)
-            );
-            assert!(
-                (crate::diffusion::fdr(eta) - 2.0 * c1).abs() < 5.5e-3,
-                "Fdr({eta})"
-            );
+            assert!((fresnel_moment1(eta) - c1).abs() < 2.5e-3, "C1({eta}) fit {} vs {c1}", fresnel_moment1(eta));
+            assert!((fresnel_moment2(eta) - c2).abs() < 2.5e-3, "C2({eta}) fit {} vs {c2}", fresnel_moment2(eta));
+            assert!((crate::diffusion::fdr(eta) - 2.0 * c1).abs() < 5.5e-3, "Fdr({eta})");
             eta += 0.05;
         }
         // Outside the range the C₁ fit departs (why η > 2.5 is refused).
@@ -196,21 +176,12 @@ mod tests {
 
     #[test]
     fn integral_matches_closed_form() {
-        for &(sa, ssp) in &[
-            (0.01, 1.0),
-            (0.1, 1.0),
-            (0.5, 0.5),
-            (0.0032, 2.29),
-            (1.45, 0.03),
-        ] {
+        for &(sa, ssp) in &[(0.01, 1.0), (0.1, 1.0), (0.5, 0.5), (0.0032, 2.29), (1.45, 0.03)] {
             for &eta in &[1.0, 1.3, 1.5, 2.0] {
                 let d = BetterDipole::new(sa, ssp, eta).unwrap();
                 let num = radial_integral(|r| d.rd(r), 1.0 / (sa + ssp));
                 let exact = better_dipole_total_rd(d.alpha_prime, eta).unwrap();
-                assert!(
-                    ((num - exact) / exact).abs() < 1e-9,
-                    "{sa} {ssp} {eta}: {num} vs {exact}"
-                );
+                assert!(((num - exact) / exact).abs() < 1e-9, "{sa} {ssp} {eta}: {num} vs {exact}");
             }
         }
         assert!((better_dipole_total_rd(1.0, 1.4).unwrap() - 1.0).abs() < 1e-14);

@@ -20,11 +20,7 @@ use std::f64::consts::FRAC_1_PI;
 pub fn check_direction(field: &str, w: [f64; 3]) -> Result<f64> {
     let n2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
     if !(n2.is_finite() && (n2.sqrt() - 1.0).abs() <= 1e-6) {
-        return Err(Error::param(
-            field,
-            n2.sqrt(),
-            "a unit vector (|w| = 1 within 1e-6) given as its length here",
-        ));
+        return Err(Error::param(field, n2.sqrt(), "a unit vector (|w| = 1 within 1e-6) given as its length here"));
     }
     Ok(w[2])
 }
@@ -33,11 +29,7 @@ pub fn check_direction(field: &str, w: [f64; 3]) -> Result<f64> {
 pub fn check_point(field: &str, p: [f64; 3]) -> Result<()> {
     for (k, v) in p.iter().enumerate() {
         if !v.is_finite() {
-            return Err(Error::param(
-                format!("{field}[{k}]"),
-                *v,
-                "a finite coordinate (mm)",
-            ));
+            return Err(Error::param(format!("{field}[{k}]"), *v, "a finite coordinate (mm)"));
         }
     }
     Ok(())
@@ -101,56 +93,13 @@ mod tests {
         let th = 0.6f64;
         let wi = [th.sin(), 0.0, th.cos()];
         let wo = [0.0, 0.0, 1.0];
-        let s = sd(
-            [0.0; 3],
-            wi,
-            [0.3, 0.4, 0.0],
-            wo,
-            Model::Dipole,
-            0.1,
-            1.0,
-            1.3,
-        )
-        .unwrap();
+        let s = sd([0.0; 3], wi, [0.3, 0.4, 0.0], wo, Model::Dipole, 0.1, 1.0, 1.3).unwrap();
         let rd = super::super::dipole_rd(0.5, 0.1, 1.0, 1.3).unwrap();
         let fi = 1.0 - fr_dielectric(th.cos(), 1.0, 1.3);
         let fo = 1.0 - (0.3f64 / 2.3).powi(2);
         assert!((s - FRAC_1_PI * fi * rd * fo).abs() < 1e-15 * s.abs().max(1.0));
-        assert_eq!(
-            sd(
-                [0.0; 3],
-                [0.0, 0.0, -1.0],
-                [0.0; 3],
-                wo,
-                Model::Dipole,
-                0.1,
-                1.0,
-                1.3
-            )
-            .unwrap(),
-            0.0
-        );
-        assert!(sd(
-            [0.0; 3],
-            [0.0, 0.0, 2.0],
-            [0.0; 3],
-            wo,
-            Model::Dipole,
-            0.1,
-            1.0,
-            1.3
-        )
-        .is_err());
-        assert!(sd(
-            [f64::NAN, 0.0, 0.0],
-            wo,
-            [0.0; 3],
-            wo,
-            Model::Dipole,
-            0.1,
-            1.0,
-            1.3
-        )
-        .is_err());
+        assert_eq!(sd([0.0; 3], [0.0, 0.0, -1.0], [0.0; 3], wo, Model::Dipole, 0.1, 1.0, 1.3).unwrap(), 0.0);
+        assert!(sd([0.0; 3], [0.0, 0.0, 2.0], [0.0; 3], wo, Model::Dipole, 0.1, 1.0, 1.3).is_err());
+        assert!(sd([f64::NAN, 0.0, 0.0], wo, [0.0; 3], wo, Model::Dipole, 0.1, 1.0, 1.3).is_err());
     }
 }

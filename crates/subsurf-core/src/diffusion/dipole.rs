@@ -101,20 +101,10 @@ pub(crate) mod tests {
     /// closed form). Panels from 1e-9 to 1e4 transport lengths.
     pub(crate) fn radial_integral(f: impl Fn(f64) -> f64, scale: f64) -> f64 {
         // 10-point Gauss–Legendre nodes/weights on [-1, 1].
-        const X: [f64; 5] = [
-            0.1488743389816312,
-            0.4333953941292472,
-            0.6794095682990244,
-            0.8650633666889845,
-            0.9739065285171717,
-        ];
-        const W: [f64; 5] = [
-            0.2955242247147529,
-            0.2692667193099963,
-            0.2190863625159820,
-            0.1494513491505806,
-            0.0666713443086881,
-        ];
+        const X: [f64; 5] =
+            [0.1488743389816312, 0.4333953941292472, 0.6794095682990244, 0.8650633666889845, 0.9739065285171717];
+        const W: [f64; 5] =
+            [0.2955242247147529, 0.2692667193099963, 0.2190863625159820, 0.1494513491505806, 0.0666713443086881];
         let mut edges = vec![0.0];
         let n = 400;
         let (lo, hi) = ((1e-9f64).ln(), (1e4f64).ln());
@@ -137,21 +127,12 @@ pub(crate) mod tests {
 
     #[test]
     fn integral_matches_closed_form() {
-        for &(sa, ssp) in &[
-            (0.01, 1.0),
-            (0.1, 1.0),
-            (0.5, 0.5),
-            (0.0032, 2.29),
-            (1.45, 0.03),
-        ] {
+        for &(sa, ssp) in &[(0.01, 1.0), (0.1, 1.0), (0.5, 0.5), (0.0032, 2.29), (1.45, 0.03)] {
             for &eta in &[1.0, 1.3, 1.5, 2.0] {
                 let d = Dipole::new(sa, ssp, eta).unwrap();
                 let num = radial_integral(|r| d.rd(r), 1.0 / (sa + ssp));
                 let exact = dipole_total_rd(d.alpha_prime, eta).unwrap();
-                assert!(
-                    ((num - exact) / exact).abs() < 1e-9,
-                    "{sa} {ssp} {eta}: {num} vs {exact}"
-                );
+                assert!(((num - exact) / exact).abs() < 1e-9, "{sa} {ssp} {eta}: {num} vs {exact}");
             }
         }
     }

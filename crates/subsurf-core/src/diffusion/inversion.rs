@@ -73,19 +73,9 @@ impl MeanFreePath {
 /// α' = alpha_prime_from_rd(rd, η); σt' = 1/ℓ (transport) or σtr/(ℓ_d σtr/σt') (diffuse);
 /// σs' = α' σt'; σa = σt' − σs' = (1 − α') σt'.
 /// For the diffuse kind, rd = 1 (α' = 1, σtr = 0) has no finite σt' and is refused.
-pub fn properties_from_color(
-    rd: f64,
-    mfp: f64,
-    eta: f64,
-    model: Model,
-    kind: MeanFreePath,
-) -> Result<(f64, f64)> {
+pub fn properties_from_color(rd: f64, mfp: f64, eta: f64, model: Model, kind: MeanFreePath) -> Result<(f64, f64)> {
     if !(mfp.is_finite() && mfp > 0.0) {
-        return Err(Error::param(
-            "mean_free_path",
-            mfp,
-            "a finite number > 0 (mm)",
-        ));
+        return Err(Error::param("mean_free_path", mfp, "a finite number > 0 (mm)"));
     }
     let ap = alpha_prime_from_rd(rd, eta, model)?;
     let st = match kind {
@@ -146,11 +136,7 @@ mod tests {
                 assert!((l - 2.0).abs() < 1e-12, "{model:?} {kind:?} {l}");
             }
         }
-        assert!(
-            properties_from_color(1.0, 2.0, 1.3, Model::Dipole, MeanFreePath::Diffuse).is_err()
-        );
-        assert!(
-            properties_from_color(0.5, 0.0, 1.3, Model::Dipole, MeanFreePath::Transport).is_err()
-        );
+        assert!(properties_from_color(1.0, 2.0, 1.3, Model::Dipole, MeanFreePath::Diffuse).is_err());
+        assert!(properties_from_color(0.5, 0.0, 1.3, Model::Dipole, MeanFreePath::Transport).is_err());
     }
 }

@@ -24,9 +24,7 @@ pub mod bssrdf;
 pub mod dipole;
 pub mod inversion;
 
-pub use better_dipole::{
-    better_dipole_rd, better_dipole_total_rd, fresnel_moment1, fresnel_moment2, BetterDipole,
-};
+pub use better_dipole::{better_dipole_rd, better_dipole_total_rd, fresnel_moment1, fresnel_moment2, BetterDipole};
 pub use bssrdf::{diffusion_brdf, sd};
 pub use dipole::{a_coefficient, dipole_rd, dipole_total_rd, fdr, Dipole};
 pub use inversion::{alpha_prime_from_rd, properties_from_color, MeanFreePath};
@@ -83,11 +81,7 @@ pub fn check_eta(eta: f64) -> Result<f64> {
     if eta.is_finite() && (1.0..=ETA_MAX).contains(&eta) {
         Ok(eta)
     } else {
-        Err(Error::param(
-            "eta",
-            eta,
-            "a finite number in [1, 2.5] (eta = n_medium / n_outside)",
-        ))
+        Err(Error::param("eta", eta, "a finite number in [1, 2.5] (eta = n_medium / n_outside)"))
     }
 }
 
@@ -96,11 +90,7 @@ pub fn check_alpha_prime(alpha_prime: f64) -> Result<f64> {
     if alpha_prime.is_finite() && (0.0..=1.0).contains(&alpha_prime) {
         Ok(alpha_prime)
     } else {
-        Err(Error::param(
-            "alpha_prime",
-            alpha_prime,
-            "a finite number in [0, 1]",
-        ))
+        Err(Error::param("alpha_prime", alpha_prime, "a finite number in [0, 1]"))
     }
 }
 
@@ -111,11 +101,7 @@ pub fn check_properties(sigma_a: f64, sigma_s_prime: f64, eta: f64) -> Result<f6
     check_eta(eta)?;
     let st = sigma_a + sigma_s_prime;
     if !(st > 0.0 && st.is_finite()) {
-        return Err(Error::param(
-            "sigma_a + sigma_s_prime",
-            st,
-            "a finite number > 0 (a non-empty medium)",
-        ));
+        return Err(Error::param("sigma_a + sigma_s_prime", st, "a finite number > 0 (a non-empty medium)"));
     }
     Ok(st)
 }

@@ -29,13 +29,7 @@ fn check_nodes(field: &str, n: usize) -> Result<()> {
     }
 }
 
-fn hemispherical(
-    stack: &Stack,
-    wi: [f64; 3],
-    reflection: bool,
-    n_theta: usize,
-    n_phi: usize,
-) -> Result<f64> {
+fn hemispherical(stack: &Stack, wi: [f64; 3], reflection: bool, n_theta: usize, n_phi: usize) -> Result<f64> {
     let wi = check_direction("wi", wi, true)?;
     check_nodes("n_theta", n_theta)?;
     check_nodes("n_phi", n_phi)?;
@@ -71,23 +65,13 @@ fn hemispherical(
 /// ρ₁(wi) = ∫_{H+} f_r(wi, wo) cos θo dωo (dimensionless), by `n_theta` × `n_phi` product
 /// quadrature (see module docs). `wi` unit with z > 0. The Monte Carlo counterpart is the total
 /// of the order-1, no-interface-reflection paths (`rd_single_direct`).
-pub fn single_scattering_reflectance(
-    stack: &Stack,
-    wi: [f64; 3],
-    n_theta: usize,
-    n_phi: usize,
-) -> Result<f64> {
+pub fn single_scattering_reflectance(stack: &Stack, wi: [f64; 3], n_theta: usize, n_phi: usize) -> Result<f64> {
     hemispherical(stack, wi, true, n_theta, n_phi)
 }
 
 /// Single-scattering (first-order) directional-hemispherical transmittance
 /// τ₁(wi) = ∫_{H−} f_t(wi, wo) |cos θo| dωo (dimensionless); zero for a semi-infinite stack.
-pub fn single_scattering_transmittance(
-    stack: &Stack,
-    wi: [f64; 3],
-    n_theta: usize,
-    n_phi: usize,
-) -> Result<f64> {
+pub fn single_scattering_transmittance(stack: &Stack, wi: [f64; 3], n_theta: usize, n_phi: usize) -> Result<f64> {
     if stack.is_semi_infinite() {
         check_direction("wi", wi, true)?;
         return Ok(0.0);

@@ -80,9 +80,7 @@ pub fn layer_reflection(layer: &Layer, d_in: [f64; 3], d_out: [f64; 3]) -> f64 {
         return 0.0;
     }
     let p = layer.phase.eval(cos_between(d_in, d_out));
-    layer.albedo()
-        * p
-        * reflection_depth_factor(layer.optical_thickness(), d_in[2].abs(), d_out[2].abs())
+    layer.albedo() * p * reflection_depth_factor(layer.optical_thickness(), d_in[2].abs(), d_out[2].abs())
 }
 
 /// Single-scattered transmission of one layer in its own medium: the radiance leaving through
@@ -95,9 +93,7 @@ pub fn layer_transmission(layer: &Layer, d_in: [f64; 3], d_out: [f64; 3]) -> f64
         return 0.0;
     }
     let p = layer.phase.eval(cos_between(d_in, d_out));
-    layer.albedo()
-        * p
-        * transmission_depth_factor(layer.optical_thickness(), d_in[2].abs(), d_out[2].abs())
+    layer.albedo() * p * transmission_depth_factor(layer.optical_thickness(), d_in[2].abs(), d_out[2].abs())
 }
 
 /// Unscattered (order-0) attenuation of a path crossing the whole layer at cosine `mu`:
@@ -128,22 +124,11 @@ mod tests {
 
     #[test]
     fn depth_factors_match_direct_integration() {
-        for &(tau, mi, mo) in &[
-            (0.3, 0.9, 0.4),
-            (2.0, 0.2, 0.7),
-            (1.0, 0.5, 0.5),
-            (5.0, 1.0, 0.999_999),
-        ] {
+        for &(tau, mi, mo) in &[(0.3, 0.9, 0.4), (2.0, 0.2, 0.7), (1.0, 0.5, 0.5), (5.0, 1.0, 0.999_999)] {
             let r = simpson(|t| (-t / mi - t / mo).exp(), 0.0, tau, 2000) / (mi * mo);
-            assert!(
-                (reflection_depth_factor(tau, mi, mo) - r).abs() < 1e-10 * r,
-                "{tau} {mi} {mo}"
-            );
+            assert!((reflection_depth_factor(tau, mi, mo) - r).abs() < 1e-10 * r, "{tau} {mi} {mo}");
             let t = simpson(|t| (-t / mi - (tau - t) / mo).exp(), 0.0, tau, 2000) / (mi * mo);
-            assert!(
-                (transmission_depth_factor(tau, mi, mo) - t).abs() < 1e-10 * t,
-                "{tau} {mi} {mo}"
-            );
+            assert!((transmission_depth_factor(tau, mi, mo) - t).abs() < 1e-10 * t, "{tau} {mi} {mo}");
         }
     }
 
@@ -154,17 +139,12 @@ mod tests {
         assert!((transmission_depth_factor(tau, mu, mu) - exact).abs() < 1e-15 * exact);
         // near-equal cosines: the naive formula is still accurate to ~1e-9 at eps = 1e-6, and the
         // stable one must agree with it there and with the limit at eps = 1e-14.
-        let naive = |mi: f64, mo: f64| {
-            ((-tau / mi).exp() - (-tau / mo).exp()) / (mi * mo * (1.0 / mo - 1.0 / mi))
-        };
+        let naive = |mi: f64, mo: f64| ((-tau / mi).exp() - (-tau / mo).exp()) / (mi * mo * (1.0 / mo - 1.0 / mi));
         let v = transmission_depth_factor(tau, mu, mu + 1e-6);
         assert!((v - naive(mu, mu + 1e-6)).abs() < 1e-8 * exact);
         assert!((transmission_depth_factor(tau, mu, mu + 1e-14) - exact).abs() < 1e-12 * exact);
         // symmetric
-        assert_eq!(
-            transmission_depth_factor(tau, 0.3, 0.8),
-            transmission_depth_factor(tau, 0.8, 0.3)
-        );
+        assert_eq!(transmission_depth_factor(tau, 0.3, 0.8), transmission_depth_factor(tau, 0.8, 0.3));
     }
 
     #[test]

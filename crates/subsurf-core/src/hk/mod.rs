@@ -11,12 +11,9 @@ pub mod albedo;
 pub mod layer;
 pub mod stack;
 
-pub use albedo::{
-    gauss_legendre_01, single_scattering_reflectance, single_scattering_transmittance,
-};
+pub use albedo::{gauss_legendre_01, single_scattering_reflectance, single_scattering_transmittance};
 pub use layer::{
-    layer_attenuation, layer_reflection, layer_transmission, reflection_depth_factor,
-    transmission_depth_factor,
+    layer_attenuation, layer_reflection, layer_transmission, reflection_depth_factor, transmission_depth_factor,
 };
 pub use stack::{
     check_direction, single_scattering_brdf, single_scattering_brdf_layers, single_scattering_btdf,
@@ -36,12 +33,7 @@ mod tests {
     }
 
     fn one(n: f64, mua: f64, mus: f64, g: f64, d: f64, n_above: f64, n_below: f64) -> Stack {
-        Stack::new(
-            vec![Layer::new(n, mua, mus, g, d).unwrap()],
-            n_above,
-            n_below,
-        )
-        .unwrap()
+        Stack::new(vec![Layer::new(n, mua, mus, g, d).unwrap()], n_above, n_below).unwrap()
     }
 
     #[test]
@@ -88,9 +80,7 @@ mod tests {
             for l in 0..nphi {
                 let dphi = (l as f64 + 0.5) * 2.0 * PI / nphi as f64;
                 let cos = -si * so * dphi.cos() - mi * mo; // d_in=(si,0,-mi), d_out=(-so cos, .., mo)
-                acc +=
-                    wk * (1.0 - mc) * (2.0 * PI / nphi as f64) * alb * phase.eval(cos) * t_out * mo
-                        / (mi + mo);
+                acc += wk * (1.0 - mc) * (2.0 * PI / nphi as f64) * alb * phase.eval(cos) * t_out * mo / (mi + mo);
             }
         }
         let power = t_in * acc;
@@ -115,9 +105,7 @@ mod tests {
         ];
         let mut seed = 12345u64;
         let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         for s in &stacks {
@@ -131,19 +119,11 @@ mod tests {
                 let c = dir((rnd() * 0.999).acos(), 2.0 * PI * rnd(), false);
                 if !s.is_semi_infinite() {
                     let ft = single_scattering_btdf(s, a, c).unwrap();
-                    let flipped = Stack::new(
-                        s.layers.iter().rev().cloned().collect(),
-                        s.n_below,
-                        s.n_above,
-                    )
-                    .unwrap();
+                    let flipped = Stack::new(s.layers.iter().rev().cloned().collect(), s.n_below, s.n_above).unwrap();
                     let (cr, ar) = ([c[0], c[1], -c[2]], [a[0], a[1], -a[2]]);
                     let fr = single_scattering_btdf(&flipped, cr, ar).unwrap();
                     let (na2, nb2) = (s.n_above * s.n_above, s.n_below * s.n_below);
-                    assert!(
-                        (ft / nb2 - fr / na2).abs() <= 1e-12 * (ft / nb2).max(1e-300),
-                        "{ft} {fr}"
-                    );
+                    assert!((ft / nb2 - fr / na2).abs() <= 1e-12 * (ft / nb2).max(1e-300), "{ft} {fr}");
                 }
             }
         }
@@ -179,16 +159,10 @@ mod tests {
         let a = single_scattering_brdf(&thick, wi, wo).unwrap();
         let b = single_scattering_brdf(&semi, wi, wo).unwrap();
         assert!((a - b).abs() < 1e-14 * b);
-        assert_eq!(
-            single_scattering_btdf(&semi, wi, dir(0.3, 0.0, false)).unwrap(),
-            0.0
-        );
+        assert_eq!(single_scattering_btdf(&semi, wi, dir(0.3, 0.0, false)).unwrap(), 0.0);
         let clear = one(1.3, 0.5, 0.0, 0.2, 1.0, 1.0, 1.0);
         assert_eq!(single_scattering_brdf(&clear, wi, wo).unwrap(), 0.0);
-        assert_eq!(
-            single_scattering_btdf(&clear, wi, dir(0.3, 0.0, false)).unwrap(),
-            0.0
-        );
+        assert_eq!(single_scattering_btdf(&clear, wi, dir(0.3, 0.0, false)).unwrap(), 0.0);
     }
 
     #[test]
@@ -202,30 +176,13 @@ mod tests {
             * (-1.2 * 0.7 / mu1).exp();
         assert!((t - expect).abs() < 1e-15);
         let d = dir_out.unwrap();
-        assert!(
-            (1.33 * (d[0] * d[0] + d[1] * d[1]).sqrt() - th.sin()).abs() < 1e-14
-                && d[0] < 0.0
-                && d[2] < 0.0
-        );
+        assert!((1.33 * (d[0] * d[0] + d[1] * d[1]).sqrt() - th.sin()).abs() < 1e-14 && d[0] < 0.0 && d[2] < 0.0);
         // glass above a lower-index layer: TIR past the critical angle
         let s = one(1.0, 0.0, 1.0, 0.0, 1.0, 1.5, 1.5);
         let th_c = (1.0f64 / 1.5).asin();
-        assert_eq!(
-            unscattered_transmittance(&s, dir(th_c + 0.01, 0.0, true))
-                .unwrap()
-                .0,
-            0.0
-        );
-        assert!(
-            unscattered_transmittance(&s, dir(th_c - 0.01, 0.0, true))
-                .unwrap()
-                .0
-                > 0.0
-        );
-        assert_eq!(
-            single_scattering_brdf(&s, dir(th_c + 0.01, 0.0, true), dir(0.1, 0.0, true)).unwrap(),
-            0.0
-        );
+        assert_eq!(unscattered_transmittance(&s, dir(th_c + 0.01, 0.0, true)).unwrap().0, 0.0);
+        assert!(unscattered_transmittance(&s, dir(th_c - 0.01, 0.0, true)).unwrap().0 > 0.0);
+        assert_eq!(single_scattering_brdf(&s, dir(th_c + 0.01, 0.0, true), dir(0.1, 0.0, true)).unwrap(), 0.0);
     }
 
     #[test]
@@ -245,17 +202,11 @@ mod tests {
     #[test]
     fn directions_are_validated() {
         let s = one(1.3, 0.1, 1.0, 0.0, 1.0, 1.0, 1.0);
-        let e = single_scattering_brdf(&s, [0.0, 0.0, 1.1], [0.0, 0.0, 1.0])
-            .unwrap_err()
-            .to_string();
+        let e = single_scattering_brdf(&s, [0.0, 0.0, 1.1], [0.0, 0.0, 1.0]).unwrap_err().to_string();
         assert!(e.starts_with("|wi| = 1.1"), "{e}");
-        let e = single_scattering_brdf(&s, [0.0, 0.0, 1.0], [0.0, 0.0, -1.0])
-            .unwrap_err()
-            .to_string();
+        let e = single_scattering_brdf(&s, [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]).unwrap_err().to_string();
         assert!(e.starts_with("wo.z = -1"), "{e}");
-        let e = single_scattering_btdf(&s, [0.0, 0.0, 1.0], [0.0, 0.0, 1.0])
-            .unwrap_err()
-            .to_string();
+        let e = single_scattering_btdf(&s, [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]).unwrap_err().to_string();
         assert!(e.starts_with("wo.z = 1"), "{e}");
         assert!(single_scattering_brdf(&s, [f64::NAN, 0.0, 1.0], [0.0, 0.0, 1.0]).is_err());
         assert!(single_scattering_reflectance(&s, [0.0, 0.0, 1.0], 2, 8).is_err());

@@ -47,11 +47,7 @@ pub const UNIT_TOLERANCE: f64 = 1e-6;
 pub fn check_direction(field: &str, w: [f64; 3], upper: bool) -> Result<[f64; 3]> {
     let norm = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
     if !(norm.is_finite() && (norm - 1.0).abs() <= UNIT_TOLERANCE) {
-        return Err(Error::param(
-            format!("|{field}|"),
-            norm,
-            "1 within 1e-6 (a unit vector)",
-        ));
+        return Err(Error::param(format!("|{field}|"), norm, "1 within 1e-6 (a unit vector)"));
     }
     let z = w[2] / norm;
     if upper && !(z > 0.0) {
@@ -143,7 +139,7 @@ fn through_to_bottom(stack: &Stack, n: &[f64], mu: &[Option<f64>]) -> Vec<f64> {
         let (Some(mu_m), Some(mu_next)) = (mu[m], mu[m + 1]) else {
             break;
         };
-        if m + 1 <= lm - 1 {
+        if m < lm - 1 {
             acc *= layer_attenuation(&stack.layers[m], mu_next);
         }
         acc *= t12(mu_m, mu_next, n[m], n[m + 1]);
@@ -160,10 +156,7 @@ fn brdf_terms(stack: &Stack, wi: [f64; 3], wo: [f64; 3]) -> Vec<f64> {
     let ko = [n0 * wo[0], n0 * wo[1]];
     let mu_i = cosines(&n, ki[0] * ki[0] + ki[1] * ki[1]);
     let mu_o = cosines(&n, ko[0] * ko[0] + ko[1] * ko[1]);
-    let (down_i, down_o) = (
-        through_from_top(stack, &n, &mu_i),
-        through_from_top(stack, &n, &mu_o),
-    );
+    let (down_i, down_o) = (through_from_top(stack, &n, &mu_i), through_from_top(stack, &n, &mu_o));
     let mut terms = vec![0.0; stack.layers.len()];
     for (j, layer) in stack.layers.iter().enumerate() {
         let m = j + 1;
@@ -226,11 +219,7 @@ pub fn single_scattering_brdf(stack: &Stack, wi: [f64; 3], wo: [f64; 3]) -> Resu
 }
 
 /// Per-layer contributions to [`single_scattering_brdf`] (sr⁻¹; they sum to it).
-pub fn single_scattering_brdf_layers(
-    stack: &Stack,
-    wi: [f64; 3],
-    wo: [f64; 3],
-) -> Result<Vec<f64>> {
+pub fn single_scattering_brdf_layers(stack: &Stack, wi: [f64; 3], wo: [f64; 3]) -> Result<Vec<f64>> {
     let wi = check_direction("wi", wi, true)?;
     let wo = check_direction("wo", wo, true)?;
     Ok(brdf_terms(stack, wi, wo))
@@ -246,11 +235,7 @@ pub fn single_scattering_btdf(stack: &Stack, wi: [f64; 3], wo: [f64; 3]) -> Resu
 }
 
 /// Per-layer contributions to [`single_scattering_btdf`] (sr⁻¹; they sum to it).
-pub fn single_scattering_btdf_layers(
-    stack: &Stack,
-    wi: [f64; 3],
-    wo: [f64; 3],
-) -> Result<Vec<f64>> {
+pub fn single_scattering_btdf_layers(stack: &Stack, wi: [f64; 3], wo: [f64; 3]) -> Result<Vec<f64>> {
     let wi = check_direction("wi", wi, true)?;
     let wo = check_direction("wo", wo, false)?;
     Ok(btdf_terms(stack, wi, wo))
@@ -282,15 +267,8 @@ pub fn unscattered_transmittance(stack: &Stack, wi: [f64; 3]) -> Result<(f64, Op
 /// layer j can leave: min(1, min over the traversed layers' indices / n_exit). Used by the
 /// hemispherical integrals to put the TIR cut-off at an end of the integration range.
 pub(crate) fn exit_sine_limit(stack: &Stack, j: usize, reflection: bool) -> f64 {
-    let (n_exit, range) = if reflection {
-        (stack.n_above, 0..j + 1)
-    } else {
-        (stack.n_below, j..stack.layers.len())
-    };
-    let nmin = stack.layers[range]
-        .iter()
-        .map(|l| l.n)
-        .fold(f64::INFINITY, f64::min);
+    let (n_exit, range) = if reflection { (stack.n_above, 0..j + 1) } else { (stack.n_below, j..stack.layers.len()) };
+    let nmin = stack.layers[range].iter().map(|l| l.n).fold(f64::INFINITY, f64::min);
     (nmin / n_exit).min(1.0)
 }
 

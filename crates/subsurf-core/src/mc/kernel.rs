@@ -210,8 +210,11 @@ impl Kernel {
             if hit {
                 // At an interface: place the packet exactly on it, then Fresnel.
                 let up = dz < 0.0;
-                let (n_t, eta, cc) =
-                    if up { (lay.n_up, lay.eta_up, lay.cos_crit_up) } else { (lay.n_down, lay.eta_down, lay.cos_crit_down) };
+                let (n_t, eta, cc) = if up {
+                    (lay.n_up, lay.eta_up, lay.cos_crit_up)
+                } else {
+                    (lay.n_down, lay.eta_down, lay.cos_crit_down)
+                };
                 p.pos[2] = if up { lay.z0 } else { lay.z1 };
                 let cos_i = dz.abs();
                 let (r, cos_t) = if cos_i <= cc {
@@ -347,7 +350,7 @@ mod tests {
         let mut rng = PhotonRng::new(9, 9);
         for i in 0..10_000 {
             let uz: f64 = if i % 100 == 0 { 1.0 } else { 2.0 * rng.uniform() - 1.0 };
-            let ph = 6.283185307179586 * rng.uniform();
+            let ph = std::f64::consts::TAU * rng.uniform();
             let st = (1.0 - uz * uz).sqrt();
             let d = [st * ph.cos(), st * ph.sin(), uz];
             let ct = 2.0 * rng.uniform() - 1.0;

@@ -45,7 +45,7 @@ fn trace_chunk<T: Tally, const CLEAR: bool, const MIXTURE: bool>(
 ) -> Option<u64> {
     let mut events = 0;
     for i in range.clone() {
-        if (i - range.start) % CANCEL_POLL == 0 && cancel.load(Ordering::Relaxed) {
+        if (i - range.start).is_multiple_of(CANCEL_POLL) && cancel.load(Ordering::Relaxed) {
             return None;
         }
         events += k.trace::<T, CLEAR, MIXTURE>(seed, i, tally);
@@ -57,7 +57,13 @@ fn trace_chunk<T: Tally, const CLEAR: bool, const MIXTURE: bool>(
 ///
 /// Errors: an invalid configuration ([`RunConfig::validate`]) or a thread pool that cannot be
 /// built. `cancel` stops the run early (see the module docs); `progress` counts photons done.
-pub fn run<T, F>(stack: &Stack, cfg: &RunConfig, make_tally: F, cancel: &AtomicBool, progress: &AtomicU64) -> Result<RunOutput<T>>
+pub fn run<T, F>(
+    stack: &Stack,
+    cfg: &RunConfig,
+    make_tally: F,
+    cancel: &AtomicBool,
+    progress: &AtomicU64,
+) -> Result<RunOutput<T>>
 where
     T: Tally,
     F: Fn() -> T + Sync,

@@ -40,7 +40,11 @@ impl Layer {
         check_nonneg(&format!("{prefix}mua"), self.mua)?;
         check_nonneg(&format!("{prefix}mus"), self.mus)?;
         for (i, l) in self.phase.lobes().iter().enumerate() {
-            let field = if self.phase.lobes().len() == 1 { format!("{prefix}g") } else { format!("{prefix}phase.lobes[{i}].g") };
+            let field = if self.phase.lobes().len() == 1 {
+                format!("{prefix}g")
+            } else {
+                format!("{prefix}phase.lobes[{i}].g")
+            };
             crate::error::check_g(&field, l.g)?;
         }
         if self.thickness.is_nan() || self.thickness <= 0.0 {
@@ -60,7 +64,11 @@ impl Layer {
     /// Single-scattering albedo σs/σt (0 for a non-interacting layer).
     pub fn albedo(&self) -> f64 {
         let t = self.sigma_t();
-        if t > 0.0 { self.mus / t } else { 0.0 }
+        if t > 0.0 {
+            self.mus / t
+        } else {
+            0.0
+        }
     }
     /// Reduced scattering coefficient σs' = σs (1 − g), mm⁻¹.
     pub fn mus_prime(&self) -> f64 {
@@ -77,7 +85,11 @@ impl Layer {
     /// Optical thickness τ = σt d (infinite for a semi-infinite layer unless σt = 0, then 0).
     pub fn optical_thickness(&self) -> f64 {
         let t = self.sigma_t();
-        if t == 0.0 { 0.0 } else { t * self.thickness }
+        if t == 0.0 {
+            0.0
+        } else {
+            t * self.thickness
+        }
     }
 }
 

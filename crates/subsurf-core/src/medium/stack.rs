@@ -57,7 +57,7 @@ impl Stack {
 
     /// Whether the last layer is semi-infinite.
     pub fn is_semi_infinite(&self) -> bool {
-        self.layers.last().map_or(false, |l| l.thickness.is_infinite())
+        self.layers.last().is_some_and(|l| l.thickness.is_infinite())
     }
 }
 

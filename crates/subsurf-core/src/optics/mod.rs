@@ -12,8 +12,8 @@ pub use diffuse::{
     diffuse_fresnel_reflectance, diffuse_fresnel_reflectance_fit, fresnel_moment, fresnel_moment1, fresnel_moment2,
 };
 pub use fresnel::{
-    cos_transmitted, fr_dielectric, fr_dielectric_cos_t, fr_dielectric_sp, fresnel_reflectance,
-    fresnel_transmittance, reflect, refract, Polarization,
+    cos_transmitted, fr_dielectric, fr_dielectric_cos_t, fr_dielectric_sp, fresnel_reflectance, fresnel_transmittance,
+    reflect, refract, Polarization,
 };
 pub use phase::{hg_phase, isotropic_phase, sample_hg, sample_isotropic, spin, HgLobe, Phase, MAX_LOBES};
 pub use sampling::{

@@ -206,7 +206,9 @@ mod tests {
 #[cfg(test)]
 mod stat_tests {
     use super::*;
-    use crate::stats::{chi2_test_cos_phi, graded_cos_edges, integrate_adaptive, sidak_alpha, uniform_edges, Chi2, SplitMix64};
+    use crate::stats::{
+        chi2_test_cos_phi, graded_cos_edges, integrate_adaptive, sidak_alpha, uniform_edges, Chi2, SplitMix64,
+    };
 
     /// Orthonormal basis (t1, t2) completing the unit vector n (Duff et al. 2017, JCGT 6(1)).
     fn frame(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {

@@ -107,13 +107,16 @@ mod tests {
             samples.push(to_cos_phi(w));
         }
         let pdf = |c: f64, _p: f64| cosine_hemisphere_pdf(c);
-        let r = chi2_test_cos_phi(&samples, &pdf, &uniform_edges(0.0, 1.0, 20), &uniform_edges(0.0, 2.0 * PI, 16)).unwrap();
+        let r =
+            chi2_test_cos_phi(&samples, &pdf, &uniform_edges(0.0, 1.0, 20), &uniform_edges(0.0, 2.0 * PI, 16)).unwrap();
         println!("cosine hemisphere χ²: {r:?}");
         assert!(r.p_value > sidak_alpha(0.01, 2).unwrap());
         // Uniform sphere with the same kit.
-        let samples: Vec<_> = (0..n).map(|_| to_cos_phi(sample_uniform_sphere(rng.next_f64(), rng.next_f64()))).collect();
+        let samples: Vec<_> =
+            (0..n).map(|_| to_cos_phi(sample_uniform_sphere(rng.next_f64(), rng.next_f64()))).collect();
         let pdf = |_c: f64, _p: f64| uniform_sphere_pdf();
-        let r = chi2_test_cos_phi(&samples, &pdf, &uniform_edges(-1.0, 1.0, 20), &uniform_edges(0.0, 2.0 * PI, 16)).unwrap();
+        let r = chi2_test_cos_phi(&samples, &pdf, &uniform_edges(-1.0, 1.0, 20), &uniform_edges(0.0, 2.0 * PI, 16))
+            .unwrap();
         println!("uniform sphere χ²: {r:?}");
         assert!(r.p_value > sidak_alpha(0.01, 2).unwrap());
     }
@@ -129,7 +132,8 @@ mod tests {
             })
             .collect();
         let pdf = |c: f64, _p: f64| cosine_hemisphere_pdf(c);
-        let r = chi2_test_cos_phi(&samples, &pdf, &uniform_edges(0.0, 1.0, 20), &uniform_edges(0.0, 2.0 * PI, 8)).unwrap();
+        let r =
+            chi2_test_cos_phi(&samples, &pdf, &uniform_edges(0.0, 1.0, 20), &uniform_edges(0.0, 2.0 * PI, 8)).unwrap();
         assert!(r.p_value < 1e-12, "{r:?}");
     }
 

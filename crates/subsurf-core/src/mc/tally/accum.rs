@@ -23,12 +23,7 @@ struct Cell {
     owner: u64,
 }
 
-const EMPTY: Cell = Cell {
-    sum: 0.0,
-    sum2: 0.0,
-    cur: 0.0,
-    owner: NONE,
-};
+const EMPTY: Cell = Cell { sum: 0.0, sum2: 0.0, cur: 0.0, owner: NONE };
 
 /// A flat array of bins with per-photon second moments (see the module docs).
 #[derive(Clone, Debug, PartialEq)]

@@ -60,11 +60,7 @@ impl Default for TallyConfig {
 
 fn check_count(field: &str, n: usize, min: usize) -> Result<()> {
     if n < min || n > MAX_BINS {
-        let allowed = if min == 0 {
-            "an integer in [0, 10000000]"
-        } else {
-            "an integer in [1, 10000000]"
-        };
+        let allowed = if min == 0 { "an integer in [0, 10000000]" } else { "an integer in [1, 10000000]" };
         return Err(Error::param(field, n as f64, allowed));
     }
     Ok(())
@@ -151,10 +147,7 @@ mod tests {
             c.nz = 10_000
         })
         .contains("a_rz"));
-        let mut ok = TallyConfig::default();
-        ok.nt = 0;
-        ok.brdf = Some((10, 1));
-        ok.max_order = Some(0);
+        let ok = TallyConfig { nt: 0, brdf: Some((10, 1)), max_order: Some(0), ..Default::default() };
         assert!(ok.validate().is_ok());
     }
 }

@@ -40,11 +40,7 @@ pub(crate) struct Axis {
 impl Axis {
     /// `n` bins of width `w` from 0 (the last one also collects overflow).
     pub fn uniform(name: &'static str, unit: &'static str, n: usize, w: f64) -> Self {
-        Axis {
-            name,
-            unit,
-            edges: (0..=n).map(|i| i as f64 * w).collect(),
-        }
+        Axis { name, unit, edges: (0..=n).map(|i| i as f64 * w).collect() }
     }
     /// `n` bins over [lo, hi], last edge exactly `hi`.
     pub fn span(name: &'static str, unit: &'static str, n: usize, lo: f64, hi: f64) -> Self {
@@ -54,19 +50,11 @@ impl Axis {
     }
     /// Order axis 0, 1, …, K+2: bins 0…K and "more than K".
     pub fn order(k: u32) -> Self {
-        Axis {
-            name: "order",
-            unit: "1",
-            edges: (0..=k as usize + 2).map(|i| i as f64).collect(),
-        }
+        Axis { name: "order", unit: "1", edges: (0..=k as usize + 2).map(|i| i as f64).collect() }
     }
     /// The single-bin axis [1, 2) of the order-1 `*_single_direct` tallies.
     pub fn order_one() -> Self {
-        Axis {
-            name: "order",
-            unit: "1",
-            edges: vec![1.0, 2.0],
-        }
+        Axis { name: "order", unit: "1", edges: vec![1.0, 2.0] }
     }
     pub fn len(&self) -> usize {
         self.edges.len() - 1

@@ -163,11 +163,7 @@ impl TallySet {
             n_cos,
             n_phi,
             max_order: cfg.max_order.unwrap_or(0),
-            inv_mua: stack
-                .layers
-                .iter()
-                .map(|l| if l.mua > 0.0 { 1.0 / l.mua } else { 0.0 })
-                .collect(),
+            inv_mua: stack.layers.iter().map(|l| if l.mua > 0.0 { 1.0 / l.mua } else { 0.0 }).collect(),
             bounds: stack.boundaries(),
             rd: SideTallies::new(cfg, true),
             tt: SideTallies::new(cfg, false),
@@ -194,11 +190,7 @@ impl TallySet {
     /// Indices of the layers that overlap depth bin `iz` (the last bin reaches to infinity).
     fn layers_touching(&self, iz: usize) -> impl Iterator<Item = usize> + '_ {
         let z0 = iz as f64 * self.cfg.dz;
-        let z1 = if iz + 1 == self.cfg.nz {
-            f64::INFINITY
-        } else {
-            (iz + 1) as f64 * self.cfg.dz
-        };
+        let z1 = if iz + 1 == self.cfg.nz { f64::INFINITY } else { (iz + 1) as f64 * self.cfg.dz };
         (0..self.inv_mua.len()).filter(move |&j| z0 < self.bounds[j + 1] && self.bounds[j] < z1)
     }
 
@@ -217,48 +209,29 @@ impl TallySet {
     pub fn finalize(&self, photons: u64) -> Vec<HistogramOut> {
         let c = &self.cfg;
         let n = photons;
-        let (r_ax, z_ax) = (
-            Axis::uniform("r", "mm", c.nr, c.dr),
-            Axis::uniform("z", "mm", c.nz, c.dz),
-        );
+        let (r_ax, z_ax) = (Axis::uniform("r", "mm", c.nr, c.dr), Axis::uniform("z", "mm", c.nz, c.dz));
         let a_ax = Axis::span("theta", "rad", c.na, 0.0, PI / 2.0);
         let t_ax = Axis::uniform("t", "ps", c.nt, c.dt);
         let area = |i: usize| annulus_area(i, c.dr);
         let th = &a_ax.edges;
         let mut out = Vec::new();
         for (side, s) in [("rd", &self.rd), ("tt", &self.tt)] {
-            let what = if side == "rd" {
-                "diffuse reflectance"
-            } else {
-                "transmittance"
-            };
+            let what = if side == "rd" { "diffuse reflectance" } else { "transmittance" };
             let mcml = if side == "rd" { "Rd" } else { "Tt" };
             if !s.r.is_empty() {
                 let d = format!(
                     "{what} per unit area vs radius ({mcml}_r); last bin also holds r > {} mm",
                     c.nr as f64 * c.dr
                 );
-                out.push(histogram(
-                    &format!("{side}_r"),
-                    &s.r,
-                    n,
-                    &[r_ax.clone()],
-                    "mm^-2",
-                    &d,
-                    |i| 1.0 / area(i),
-                ));
+                out.push(histogram(&format!("{side}_r"), &s.r, n, std::slice::from_ref(&r_ax), "mm^-2", &d, |i| {
+                    1.0 / area(i)
+                }));
             }
             if !s.a.is_empty() {
                 let d = format!("{what} per unit solid angle vs exit angle in the ambient medium ({mcml}_a)");
-                out.push(histogram(
-                    &format!("{side}_a"),
-                    &s.a,
-                    n,
-                    &[a_ax.clone()],
-                    "sr^-1",
-                    &d,
-                    |i| 1.0 / ring_solid_angle(th[i], th[i + 1]),
-                ));
+                out.push(histogram(&format!("{side}_a"), &s.a, n, std::slice::from_ref(&a_ax), "sr^-1", &d, |i| {
+                    1.0 / ring_solid_angle(th[i], th[i + 1])
+                }));
             }
             if !s.ra.is_empty() {
                 let d =
@@ -281,15 +254,9 @@ impl TallySet {
                     "time-resolved {what} (time = optical path / c); last bin also holds t > {} ps",
                     c.nt as f64 * c.dt
                 );
-                out.push(histogram(
-                    &format!("{side}_t"),
-                    &s.t,
-                    n,
-                    &[t_ax.clone()],
-                    "ps^-1",
-                    &d,
-                    |_| 1.0 / c.dt,
-                ));
+                out.push(histogram(&format!("{side}_t"), &s.t, n, std::slice::from_ref(&t_ax), "ps^-1", &d, |_| {
+                    1.0 / c.dt
+                }));
             }
             if !s.rt.is_empty() {
                 let d = format!("time-resolved {what} per unit area vs radius and time");
@@ -318,27 +285,18 @@ impl TallySet {
                 bsdf.to_uppercase()
             );
             if !s.brdf.is_empty() {
-                out.push(histogram(
-                    bsdf,
-                    &s.brdf,
-                    n,
-                    &[mu_ax.clone(), phi_ax.clone()],
-                    "sr^-1",
-                    &bsdf_d,
-                    |b| 1.0 / proj(b),
-                ));
+                out.push(histogram(bsdf, &s.brdf, n, &[mu_ax.clone(), phi_ax.clone()], "sr^-1", &bsdf_d, |b| {
+                    1.0 / proj(b)
+                }));
             }
             if !s.order.is_empty() {
                 let o_ax = Axis::order(self.max_order);
-                let d = format!(
-                    "{what} by scattering order 0 … {k} and > {k} (last bin)",
-                    k = self.max_order
-                );
+                let d = format!("{what} by scattering order 0 … {k} and > {k} (last bin)", k = self.max_order);
                 out.push(histogram(
                     &format!("{side}_order"),
                     &s.order,
                     n,
-                    &[o_ax.clone()],
+                    std::slice::from_ref(&o_ax),
                     "1",
                     &d,
                     |_| 1.0,
@@ -357,26 +315,14 @@ impl TallySet {
                 if nb > 0 {
                     let d = format!("{bsdf_d}, by scattering order (last order bin: > {})", self.max_order);
                     let axes = [o_ax, mu_ax.clone(), phi_ax.clone()];
-                    out.push(histogram(
-                        &format!("{bsdf}_order"),
-                        &s.brdf_order,
-                        n,
-                        &axes,
-                        "sr^-1",
-                        &d,
-                        |b| 1.0 / proj(b),
-                    ));
+                    out.push(histogram(&format!("{bsdf}_order"), &s.brdf_order, n, &axes, "sr^-1", &d, |b| {
+                        1.0 / proj(b)
+                    }));
                     let d = format!("{bsdf_d}, single scattering with no interface reflection (Hanrahan–Krueger)");
                     let axes = [Axis::order_one(), mu_ax.clone(), phi_ax.clone()];
-                    out.push(histogram(
-                        &format!("{bsdf}_single_direct"),
-                        &s.brdf_single,
-                        n,
-                        &axes,
-                        "sr^-1",
-                        &d,
-                        |b| 1.0 / proj(b),
-                    ));
+                    out.push(histogram(&format!("{bsdf}_single_direct"), &s.brdf_single, n, &axes, "sr^-1", &d, |b| {
+                        1.0 / proj(b)
+                    }));
                 }
             }
         }
@@ -386,19 +332,15 @@ impl TallySet {
                 "a_z",
                 &self.a_z,
                 n,
-                &[z_ax.clone()],
+                std::slice::from_ref(&z_ax),
                 "mm^-1",
                 &format!("absorbed fraction per unit depth (A_z); {over}"),
                 |_| 1.0 / c.dz,
             ));
             let rz = [r_ax.clone(), z_ax.clone()];
-            let d = format!(
-                "absorbed fraction per unit volume (A_rz); {over}, last r bin r > {} mm",
-                c.nr as f64 * c.dr
-            );
-            out.push(histogram("a_rz", &self.a_rz, n, &rz, "mm^-3", &d, |i| {
-                1.0 / (area(i / c.nz) * c.dz)
-            }));
+            let d =
+                format!("absorbed fraction per unit volume (A_rz); {over}, last r bin r > {} mm", c.nr as f64 * c.dr);
+            out.push(histogram("a_rz", &self.a_rz, n, &rz, "mm^-3", &d, |i| 1.0 / (area(i / c.nz) * c.dz)));
             let mut fz = histogram("fluence_z", &self.phi_z, n, &[z_ax], "1", &format!("fluence A/mu_a integrated over the plane, per unit incident power (F_z); {over}; NaN where mu_a = 0"), |_| 1.0 / c.dz);
             let mut frz = histogram(
                 "fluence_rz",

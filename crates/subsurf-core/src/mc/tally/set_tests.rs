@@ -42,15 +42,7 @@ fn splitmix(state: &mut u64) -> f64 {
 }
 
 fn packet(pos: [f64; 3], layer: usize, order: u32, reflections: u32, path: f64) -> Packet {
-    Packet {
-        pos,
-        dir: [0.0, 0.0, 1.0],
-        w: 1.0,
-        layer,
-        order,
-        reflections,
-        path,
-    }
+    Packet { pos, dir: [0.0, 0.0, 1.0], w: 1.0, layer, order, reflections, path }
 }
 
 /// What a synthetic run put in, for the identities.
@@ -100,12 +92,7 @@ fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut T
         let path = splitmix(&mut st) * 1.5; // up to 5 ps, beyond the 4 ps grid
         let dz = if top { -mu } else { mu };
         let p = packet([r, 0.0, if top { 0.0 } else { 1.0 }], 0, order, refl, path);
-        t.escape(
-            &p,
-            if top { Side::Top } else { Side::Bottom },
-            [sin * phi.cos(), sin * phi.sin(), dz],
-            w,
-        );
+        t.escape(&p, if top { Side::Top } else { Side::Bottom }, [sin * phi.cos(), sin * phi.sin(), dz], w);
         t.end_photon();
         if top {
             truth.top += w;
@@ -123,9 +110,7 @@ fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut T
 }
 
 fn get<'a>(h: &'a [HistogramOut], name: &str) -> &'a HistogramOut {
-    h.iter()
-        .find(|x| x.name == name)
-        .unwrap_or_else(|| panic!("no histogram {name}"))
+    h.iter().find(|x| x.name == name).unwrap_or_else(|| panic!("no histogram {name}"))
 }
 
 fn close(a: f64, b: f64) -> bool {
@@ -148,9 +133,7 @@ fn normalisations_integrate_to_totals() {
         assert_eq!(r.shape, vec![cfg.nr]);
         assert!(close((0..cfg.nr).map(|i| r.values[i] * area(i)).sum(), total));
         let a = get(&h, &format!("{side}_a"));
-        let sa: f64 = (0..cfg.na)
-            .map(|i| a.values[i] * 2.0 * PI * (th(i).cos() - th(i + 1).cos()))
-            .sum();
+        let sa: f64 = (0..cfg.na).map(|i| a.values[i] * 2.0 * PI * (th(i).cos() - th(i + 1).cos())).sum();
         assert!(close(sa, total), "{sa} {total}");
         let ra = get(&h, &format!("{side}_ra"));
         let mut s = 0.0;
@@ -179,20 +162,9 @@ fn normalisations_integrate_to_totals() {
             assert!(close(s, bsdf.values[b]), "order split of bin {b}");
         }
         let single = get(&h, &format!("{side}_single_direct")).values[0];
-        let want = if side == "rd" {
-            truth.top_single
-        } else {
-            truth.bottom_single
-        } / nf;
+        let want = if side == "rd" { truth.top_single } else { truth.bottom_single } / nf;
         assert!(close(single, want));
-        let bs = get(
-            &h,
-            if side == "rd" {
-                "brdf_single_direct"
-            } else {
-                "btdf_single_direct"
-            },
-        );
+        let bs = get(&h, if side == "rd" { "brdf_single_direct" } else { "btdf_single_direct" });
         let s: f64 = (0..20).map(|b| bs.values[b] * proj(b / 4)).sum();
         assert!(close(s, want));
         for b in 0..20 {
@@ -206,18 +178,14 @@ fn normalisations_integrate_to_totals() {
     let rt = get(&h, "rd_t");
     assert!(close(rt.values.iter().map(|v| v * cfg.dt).sum(), truth.top / nf));
     let rrt = get(&h, "rd_rt");
-    let s: f64 = (0..cfg.nr * cfg.nt)
-        .map(|i| rrt.values[i] * area(i / cfg.nt) * cfg.dt)
-        .sum();
+    let s: f64 = (0..cfg.nr * cfg.nt).map(|i| rrt.values[i] * area(i / cfg.nt) * cfg.dt).sum();
     assert!(close(s, truth.top / nf));
     assert!(h.iter().all(|x| x.name != "tt_t"), "no time-resolved transmittance");
     let az = get(&h, "a_z");
     assert!(close(az.values.iter().map(|v| v * cfg.dz).sum(), truth.absorbed / nf));
     let arz = get(&h, "a_rz");
     assert_eq!(arz.axes, vec!["r", "z"]);
-    let s: f64 = (0..cfg.nr * cfg.nz)
-        .map(|i| arz.values[i] * area(i / cfg.nz) * cfg.dz)
-        .sum();
+    let s: f64 = (0..cfg.nr * cfg.nz).map(|i| arz.values[i] * area(i / cfg.nz) * cfg.dz).sum();
     assert!(close(s, truth.absorbed / nf));
     // fluence: NaN in the bins of the glass layer z ∈ [0.0625, 0.09375] (bins 4, 5); the last
     // bin [0.171875, ∞) lies in layer 2 only.
@@ -369,78 +337,40 @@ fn merge_is_deterministic_and_matches_a_single_tally() {
 fn switches_select_histograms() {
     let mut cfg = TallyConfig::default();
     let names = |c: &TallyConfig| -> Vec<String> {
-        TallySet::new(c, &stack())
-            .unwrap()
-            .finalize(10)
-            .into_iter()
-            .map(|h| h.name)
-            .collect()
+        TallySet::new(c, &stack()).unwrap().finalize(10).into_iter().map(|h| h.name).collect()
     };
     assert_eq!(
         names(&cfg),
-        [
-            "rd_r",
-            "rd_a",
-            "rd_ra",
-            "tt_r",
-            "tt_a",
-            "tt_ra",
-            "a_z",
-            "a_rz",
-            "fluence_z",
-            "fluence_rz"
-        ]
+        ["rd_r", "rd_a", "rd_ra", "tt_r", "tt_a", "tt_ra", "a_z", "a_rz", "fluence_z", "fluence_rz"]
     );
     cfg.spatial = false;
     cfg.angular = false;
     assert!(names(&cfg).is_empty());
     cfg.nt = 3;
     cfg.max_order = Some(0);
-    assert_eq!(
-        names(&cfg),
-        ["rd_t", "rd_order", "rd_single_direct", "tt_order", "tt_single_direct"]
-    );
+    assert_eq!(names(&cfg), ["rd_t", "rd_order", "rd_single_direct", "tt_order", "tt_single_direct"]);
     cfg.brdf = Some((2, 1));
     assert_eq!(names(&cfg).len(), 11);
     // a disabled TallySet ignores events without touching memory
-    cfg = TallyConfig {
-        spatial: false,
-        angular: false,
-        ..TallyConfig::default()
-    };
+    cfg = TallyConfig { spatial: false, angular: false, ..TallyConfig::default() };
     let mut t = TallySet::new(&cfg, &stack()).unwrap();
     t.begin_photon(0);
     t.absorb(&packet([0.0, 0.0, 0.1], 0, 0, 0, 0.0), 1.0);
     t.escape(&packet([0.0, 0.0, 0.0], 0, 0, 0, 0.0), Side::Top, [0.0, 0.0, -1.0], 1.0);
     assert!(t.finalize(1).is_empty());
-    let bad = TallyConfig {
-        nr: 0,
-        ..TallyConfig::default()
-    };
-    assert!(TallySet::new(&bad, &stack())
-        .unwrap_err()
-        .to_string()
-        .starts_with("tallies.nr"));
+    let bad = TallyConfig { nr: 0, ..TallyConfig::default() };
+    assert!(TallySet::new(&bad, &stack()).unwrap_err().to_string().starts_with("tallies.nr"));
 }
 
 #[test]
 fn fluence_in_a_bin_straddling_two_absorbing_layers() {
     let s = Stack::new(
-        vec![
-            Layer::new(1.4, 1.0, 5.0, 0.0, 0.015).unwrap(),
-            Layer::new(1.4, 4.0, 5.0, 0.0, f64::INFINITY).unwrap(),
-        ],
+        vec![Layer::new(1.4, 1.0, 5.0, 0.0, 0.015).unwrap(), Layer::new(1.4, 4.0, 5.0, 0.0, f64::INFINITY).unwrap()],
         1.0,
         1.0,
     )
     .unwrap();
-    let cfg = TallyConfig {
-        nr: 2,
-        dr: 0.1,
-        nz: 3,
-        dz: 0.01,
-        ..TallyConfig::default()
-    };
+    let cfg = TallyConfig { nr: 2, dr: 0.1, nz: 3, dz: 0.01, ..TallyConfig::default() };
     let mut t = TallySet::new(&cfg, &s).unwrap();
     t.begin_photon(0);
     t.absorb(&packet([0.0, 0.0, 0.005], 0, 1, 0, 0.0), 0.2); // bin 0, layer 0
@@ -455,12 +385,7 @@ fn fluence_in_a_bin_straddling_two_absorbing_layers() {
     let (fz, frz) = (get(&h, "fluence_z"), get(&h, "fluence_rz"));
     let want = [0.2 / 1.0, 0.3 / 1.0 + 0.4 / 4.0 + 0.4 / 4.0, 0.8 / 4.0].map(|x| x / 2.0 / 0.01);
     for iz in 0..3 {
-        assert!(
-            close(fz.values[iz], want[iz]),
-            "bin {iz}: {} {}",
-            fz.values[iz],
-            want[iz]
-        );
+        assert!(close(fz.values[iz], want[iz]), "bin {iz}: {} {}", fz.values[iz], want[iz]);
         assert!(close(frz.values[iz], want[iz] / (PI * 0.01)), "rz bin {iz}");
         assert_eq!(frz.values[3 + iz], 0.0);
     }
