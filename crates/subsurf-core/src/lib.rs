@@ -10,9 +10,11 @@
 //! - [`rng`]: the counter-based random number generator (reproducible for any thread count).
 //! - [`mc`]: the Monte Carlo photon-packet engine and its tallies.
 //! - [`hk`]: Hanrahan–Krueger first-order (single-scattering) BRDF/BTDF.
+//! - [`bssrdf`]: radial BSSRDF profiles behind one trait, [`bssrdf::RadialProfile`].
 //! - [`diffusion`]: the Jensen et al. dipole and d'Eon's better dipole.
 //! - [`stats`]: χ² goodness-of-fit kit and quadrature for testing samplers.
 
+pub mod bssrdf;
 pub mod diffusion;
 pub mod error;
 pub mod hk;
