@@ -292,7 +292,9 @@ fn gl_panel(f: &mut dyn FnMut(f64) -> f64, a: f64, b: f64, x: &[f64], w: &[f64])
 /// ∫_a^b f by adaptive bisection of 10-point Gauss–Legendre panels: a panel is accepted when
 /// its estimate and the sum over its two halves differ by less than `tol` scaled by the panel
 /// width (so the total error is ≲ `tol` in practice); `tol` is floored at 1e-14 of the
-/// integral's first estimate, and the recursion depth is capped at 30.
+/// integral's first estimate, and the recursion depth is capped at 30. A non-finite panel
+/// (NaN or ±∞ integrand) ends the refinement there, so the result is then non-finite at once
+/// rather than after 2³⁰ panels.
 pub fn integrate_adaptive(f: &mut dyn FnMut(f64) -> f64, a: f64, b: f64, tol: f64) -> f64 {
     let (x, w) = gauss_legendre(10);
     let whole = gl_panel(f, a, b, &x, &w);
@@ -316,7 +318,7 @@ fn adapt(
     let left = gl_panel(f, a, m, x, w);
     let right = gl_panel(f, m, b, x, w);
     let both = left + right;
-    if depth >= 30 || (both - whole).abs() <= tol_per_len * (b - a).abs() {
+    if depth >= 30 || !both.is_finite() || (both - whole).abs() <= tol_per_len * (b - a).abs() {
         return both;
     }
     adapt(f, a, m, left, tol_per_len, x, w, depth + 1) + adapt(f, m, b, right, tol_per_len, x, w, depth + 1)
@@ -550,6 +552,17 @@ mod tests {
         }
         let i = integrate_adaptive(&mut |t: f64| t.sqrt(), 0.0, 1.0, 1e-12);
         assert!((i - 2.0 / 3.0).abs() < 1e-11);
+        let mut calls = 0;
+        let nan = integrate_adaptive(
+            &mut |_| {
+                calls += 1;
+                f64::NAN
+            },
+            0.0,
+            1.0,
+            1e-12,
+        );
+        assert!(nan.is_nan() && calls < 100, "{calls} evaluations");
         let i = integrate_2d(&|a, b| a * b.cos(), [0.0, 2.0], [0.0, 1.0], 1e-12);
         assert!((i - 2.0 * 1f64.sin()).abs() < 1e-11);
         let e = graded_cos_edges(10, 20, 1e-5);

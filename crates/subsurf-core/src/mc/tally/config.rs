@@ -3,10 +3,16 @@
 
 use crate::error::{Error, Result};
 
-/// Largest number of bins allowed in one histogram (each bin costs 32 bytes per chunk tally).
+/// Largest number of bins allowed in one histogram (each bin costs 32 bytes per chunk tally in
+/// flight and 72 bytes of exact sums; see `mc::run::memory_estimate`).
 pub const MAX_BINS: usize = 10_000_000;
 /// Largest scattering order `K` of the per-order split.
 pub const MAX_ORDER: u32 = 10_000;
+/// Smallest bin width (dr, dz in mm; dt in ps): bin measures (dr² for annuli) and their
+/// reciprocals stay normal floating-point numbers.
+pub const MIN_WIDTH: f64 = 1e-100;
+/// Largest bin width (same units as [`MIN_WIDTH`]).
+pub const MAX_WIDTH: f64 = 1e100;
 
 /// Grids and switches of the optional tallies. Radial, depth and time axes start at 0 and
 /// their last bin also collects everything beyond the grid (MCML's convention, Wang et al.
@@ -67,10 +73,10 @@ fn check_count(field: &str, n: usize, min: usize) -> Result<()> {
 }
 
 fn check_width(field: &str, w: f64) -> Result<()> {
-    if w.is_finite() && w > 0.0 {
+    if (MIN_WIDTH..=MAX_WIDTH).contains(&w) {
         Ok(())
     } else {
-        Err(Error::param(field, w, "a finite number > 0"))
+        Err(Error::param(field, w, "a number in [1e-100, 1e100]"))
     }
 }
 
@@ -97,6 +103,7 @@ impl TallyConfig {
         if let Some((nc, np)) = self.brdf {
             check_count("tallies.brdf[0]", nc, 1)?;
             check_count("tallies.brdf[1]", np, 1)?;
+            check_product("brdf", &[nc, np])?;
         }
         if let Some(k) = self.max_order {
             if k > MAX_ORDER {
@@ -137,6 +144,9 @@ mod tests {
         assert!(bad(|c| c.nr = 0).starts_with("tallies.nr = 0"));
         assert!(bad(|c| c.dr = 0.0).starts_with("tallies.dr = 0"));
         assert!(bad(|c| c.dz = f64::NAN).starts_with("tallies.dz = NaN"));
+        assert!(bad(|c| c.dr = 1e-200).starts_with("tallies.dr = 1e-200 is out of range"));
+        assert!(bad(|c| c.dt = 1e101).contains("[1e-100, 1e100]"));
+        assert!(bad(|c| c.brdf = Some((10_000_000, 10_000_000))).contains("brdf"));
         assert!(bad(|c| c.na = 0).starts_with("tallies.na"));
         assert!(bad(|c| c.dt = -1.0).starts_with("tallies.dt"));
         assert!(bad(|c| c.brdf = Some((0, 4))).starts_with("tallies.brdf[0]"));
