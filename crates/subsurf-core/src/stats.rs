@@ -153,7 +153,7 @@ pub fn sidak_alpha(alpha: f64, m: usize) -> Result<f64> {
         return Err(Error::param("significance", alpha, "a number in (0, 1)"));
     }
     if m == 0 {
-        return Err(Error::param("tests", 0.0, "an integer >= 1"));
+        return Err(Error::param_int("tests", 0, "an integer >= 1"));
     }
     Ok(-((-alpha).ln_1p() / m as f64).exp_m1())
 }
@@ -343,8 +343,12 @@ pub fn uniform_edges(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 
 /// Edges on [−1, 1] refined geometrically towards both poles, for peaked pdfs (HG with
 /// |g| → 1): `n_end` cells on each side whose widths grow geometrically from `min_gap` at
-/// ±1 to a total of 0.1, and `n_mid` equal cells over [−0.9, 0.9].
-pub fn graded_cos_edges(n_end: usize, n_mid: usize, min_gap: f64) -> Vec<f64> {
+/// ±1 to a total of 0.1, and `n_mid` equal cells over [−0.9, 0.9]. Errors: `min_gap` not a
+/// finite number > 0.
+pub fn graded_cos_edges(n_end: usize, n_mid: usize, min_gap: f64) -> Result<Vec<f64>> {
+    if !(min_gap.is_finite() && min_gap > 0.0) {
+        return Err(Error::param("min_gap", min_gap, "a finite number > 0"));
+    }
     let n_end = n_end.max(1);
     let min_gap = min_gap.clamp(1e-12, 0.1 / n_end as f64);
     // distances from the pole: 0, min_gap·r^0 … geometric up to 0.1
@@ -358,7 +362,7 @@ pub fn graded_cos_edges(n_end: usize, n_mid: usize, min_gap: f64) -> Vec<f64> {
     let mid = uniform_edges(-0.9, 0.9, n_mid.max(1));
     e.extend_from_slice(&mid[1..mid.len() - 1]);
     e.extend(dist.iter().rev().map(|d| 1.0 - d));
-    e
+    Ok(e)
 }
 
 fn check_edges(name: &str, e: &[f64]) -> Result<()> {
@@ -565,7 +569,8 @@ mod tests {
         assert!(nan.is_nan() && calls < 100, "{calls} evaluations");
         let i = integrate_2d(&|a, b| a * b.cos(), [0.0, 2.0], [0.0, 1.0], 1e-12);
         assert!((i - 2.0 * 1f64.sin()).abs() < 1e-11);
-        let e = graded_cos_edges(10, 20, 1e-5);
+        assert!(graded_cos_edges(10, 20, 0.0).is_err());
+        let e = graded_cos_edges(10, 20, 1e-5).unwrap();
         assert_eq!(e.len(), 41);
         assert!(e.windows(2).all(|p| p[1] > p[0]) && e[0] == -1.0 && e[40] == 1.0);
         assert!((e[1] + 1.0 - 1e-5).abs() < 1e-15);

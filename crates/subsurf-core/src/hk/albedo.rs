@@ -25,7 +25,7 @@ fn check_nodes(field: &str, n: usize) -> Result<()> {
     if (4..=4096).contains(&n) {
         Ok(())
     } else {
-        Err(Error::param(field, n as f64, "an integer in [4, 4096]"))
+        Err(Error::param_int(field, n as i128, "an integer in [4, 4096]"))
     }
 }
 

@@ -14,6 +14,13 @@ pub const ROULETTE_THRESHOLD: f64 = 1e-4;
 /// Most worker threads a run may use (each holds up to two chunk tallies; see `mc::run`).
 pub const MAX_THREADS: usize = 1024;
 
+/// The allowed values of `photons`, as messages state them.
+pub const PHOTONS_ALLOWED: &str = "an integer in [1, 2**64 - 1]";
+/// The allowed values of `seed`.
+pub const SEED_ALLOWED: &str = "an integer in [0, 2**64 - 1]";
+/// The allowed values of `threads`.
+pub const THREADS_ALLOWED: &str = "an integer in [1, 1024] (or None for one per core)";
+
 /// Russian roulette: a packet survives with probability 1/m and its weight is multiplied by m
 /// (MCML's `CHANCE` = 1/m = 0.1).
 pub const ROULETTE_M: f64 = 10.0;
@@ -45,11 +52,11 @@ impl RunConfig {
     /// Check every field.
     pub fn validate(&self) -> Result<()> {
         if self.photons == 0 {
-            return Err(Error::param("photons", 0.0, "an integer >= 1"));
+            return Err(Error::param_int("photons", 0, PHOTONS_ALLOWED));
         }
         if let Some(t) = self.threads {
             if !(1..=MAX_THREADS).contains(&t) {
-                return Err(Error::param("threads", t as f64, "an integer in [1, 1024] (or None for one per core)"));
+                return Err(Error::param_int("threads", t as i128, THREADS_ALLOWED));
             }
         }
         self.source.validate()

@@ -214,7 +214,7 @@ fn hostile_inputs_are_refused_or_answered() {
     // a non-absorbing semi-infinite medium is refused with the explanation
     let white = Stack::new(vec![layer(1.0, 0.0, 1.0, f64::INFINITY).unwrap()], 1.0, 1.0).unwrap();
     let e = run(&white, &RunConfig::new(10, 0), || (), &AtomicBool::new(false), &AtomicU64::new(0));
-    assert!(e.unwrap_err().to_string().starts_with("layers[0].mua = 0 is out of range"));
+    assert!(e.unwrap_err().to_string().starts_with("layers[0].mua = 0.0 is out of range"));
 }
 
 /// The same photons give the same bits however they are split: one run with 1, 2 or 3 threads,

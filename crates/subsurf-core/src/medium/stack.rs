@@ -106,9 +106,9 @@ mod tests {
         // a 1 mm layer below 1e308 mm of glass cannot be resolved; total depth must stay finite
         let glass = |d| Layer::new(1.0, 0.0, 0.0, 0.0, d).unwrap();
         let e = Stack::new(vec![glass(1e308), layer(1.0)], 1.0, 1.0).unwrap_err().to_string();
-        assert!(e.starts_with("layers[1].thickness = 1 is out of range"), "{e}");
+        assert!(e.starts_with("layers[1].thickness = 1.0 is out of range"), "{e}");
         let e = Stack::new(vec![glass(1e308), glass(1e308)], 1.0, 1.0).unwrap_err().to_string();
-        assert!(e.starts_with("layers[1].thickness = 1e308"), "{e}");
+        assert!(e.starts_with("layers[1].thickness = 1e+308"), "{e}");
         assert!(Stack::new(vec![glass(1e6), layer(1e-6), layer(f64::INFINITY)], 1.0, 1.0).is_ok());
         assert_eq!(MIN_THICKNESS_PER_DEPTH, 2f64.powi(-40));
         let s = Stack::new(vec![layer(1.0), layer(f64::INFINITY)], 1.0, 1.0).unwrap();

@@ -152,7 +152,7 @@ mod tests {
         assert!(msg(fresnel_rt(1.5, 1.0, 1.5, Polarization::S, false)).starts_with("cos_theta_i = 1.5"));
         assert!(msg(fresnel_rt(0.5, 0.0, 1.5, Polarization::S, false)).starts_with("eta_i = 0"));
         assert!(msg(hg_phase(0.0, 1.0)).starts_with("g = 1"));
-        assert!(msg(sample_hg(f64::NAN, 0.0)).starts_with("u = NaN"));
+        assert!(msg(sample_hg(f64::NAN, 0.0)).starts_with("u = nan"));
         assert!(msg(isotropic_phase(-1.1)).starts_with("cos_theta"));
         assert!(msg(free_path_pdf(1.0, f64::INFINITY)).starts_with("sigma_t = inf"));
         assert!(msg(beer_lambert(1.0, -1.0)).starts_with("distance"));

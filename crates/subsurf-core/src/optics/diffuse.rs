@@ -63,7 +63,7 @@ fn moment_ratio(x: f64, i: i32) -> f64 {
 pub fn fresnel_moment(eta: f64, i: u32) -> Result<f64> {
     check_eta("eta", eta)?;
     if i > 16 {
-        return Err(Error::param("i", i as f64, "an integer in [0, 16]"));
+        return Err(Error::param_int("i", i, "an integer in [0, 16]"));
     }
     Ok(moment_ratio(eta, i as i32))
 }
@@ -199,7 +199,7 @@ mod tests {
             assert!(fresnel_moment1(bad).is_err());
         }
         assert!(fresnel_moment(1.3, 17).is_err());
-        assert!(fresnel_moment2(1e155).unwrap_err().to_string().starts_with("eta = 1e155 is out of range"));
+        assert!(fresnel_moment2(1e155).unwrap_err().to_string().starts_with("eta = 1e+155 is out of range"));
         assert!(diffuse_fresnel_reflectance(1e-200, false).is_err());
         // both ends of the range are computed (and bounded by the TIR-only limits)
         for eta in [ETA_MIN, ETA_MAX] {

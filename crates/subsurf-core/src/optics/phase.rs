@@ -244,7 +244,7 @@ mod stat_tests {
             }
             samples.push((dot(e, d).clamp(-1.0, 1.0), p));
         }
-        let edges = graded_cos_edges(12, 16, 1e-5);
+        let edges = graded_cos_edges(12, 16, 1e-5).unwrap();
         chi2_test_cos_phi(&samples, &|c, _| pdf(c), &edges, &uniform_edges(0.0, 2.0 * PI, 8)).unwrap()
     }
 

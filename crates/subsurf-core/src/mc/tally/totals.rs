@@ -44,6 +44,12 @@ pub enum Total {
 /// Number of [`Total`] quantities.
 pub const NQ: usize = 6;
 
+impl Total {
+    /// Every total, in index order.
+    pub const ALL: [Total; NQ] =
+        [Total::Specular, Total::Diffuse, Total::Transmittance, Total::Unscattered, Total::Absorbed, Total::Roulette];
+}
+
 /// Names of the [`Total`]s, in index order (the Python result's attribute names).
 pub const TOTAL_NAMES: [&str; NQ] = [
     "specular_reflectance",
