@@ -211,6 +211,46 @@ fn chi2_pooled(observed: In<'_>, expected: In<'_>, min_expected: f64) -> PyResul
     Ok((r.statistic, r.dof, r.p_value, r.pooled_cells))
 }
 
+/// The χ² test on a grid of 1 or 2 axes (`subsurf_core::stats::grid`): samples and edges per
+/// axis (named by `names` in errors), `pdf(*coordinates)` a vectorised density returning a flat
+/// float64 array; returns (statistic, dof, p_value, pooled_cells, outside, pdf_integral,
+/// quadrature_error). An exception raised by `pdf` propagates.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn chi2_test_grid(
+    py: Python<'_>,
+    samples: Vec<In<'_>>,
+    edges: Vec<In<'_>>,
+    names: Vec<String>,
+    pdf: Py<PyAny>,
+    min_expected: f64,
+    quad_points: usize,
+    max_subdivisions: usize,
+) -> PyResult<(f64, usize, f64, usize, usize, f64, f64)> {
+    let s: Vec<&[f64]> = samples.iter().map(|a| slice(a, "samples")).collect::<PyResult<_>>()?;
+    let e: Vec<&[f64]> = edges.iter().map(|a| slice(a, "edges")).collect::<PyResult<_>>()?;
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let mut raised: Option<PyErr> = None;
+    let mut batch = |coords: &[Vec<f64>]| -> Result<Vec<f64>> {
+        let args: Vec<Bound<'_, PyArray1<f64>>> = coords.iter().map(|c| PyArray1::from_slice(py, c)).collect();
+        let called = pyo3::types::PyTuple::new(py, args).and_then(|t| pdf.call1(py, t)).and_then(|v| {
+            let a: PyReadonlyArray1<'_, f64> = v.extract(py)?;
+            Ok(a.as_slice()?.to_vec())
+        });
+        called.map_err(|e| {
+            raised = Some(e);
+            Error::Invalid("pdf raised an exception".into())
+        })
+    };
+    let r = stats::chi2_test_grid(&s, &e, &names, &mut batch, min_expected, quad_points, max_subdivisions);
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    let r = r.py()?;
+    let c = r.chi2;
+    Ok((c.statistic, c.dof, c.p_value, c.pooled_cells, r.outside, r.pdf_integral, r.quadrature_error))
+}
+
 /// Edges on [−1, 1] refined geometrically towards both poles.
 #[pyfunction]
 fn graded_cos_edges<'py>(py: Python<'py>, n_end: usize, n_mid: usize, min_gap: f64) -> PyResult<Arr<'py>> {
@@ -239,5 +279,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sidak_alpha, m)?)?;
     m.add_function(wrap_pyfunction!(chi2_pooled, m)?)?;
     m.add_function(wrap_pyfunction!(graded_cos_edges, m)?)?;
+    m.add_function(wrap_pyfunction!(chi2_test_grid, m)?)?;
     Ok(())
 }
