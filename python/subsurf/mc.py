@@ -215,6 +215,7 @@ def simulate(
     """
     stack, seed, threads, source, tallies = _prepare(stack, seed, threads, source, tallies, progress)
     photons = _integer("photons", photons)
+    _core.mc_validate_run(photons, seed, threads)
     prior, elapsed0 = None, 0.0
     if resume is not None:
         if isinstance(resume, Result):
@@ -259,6 +260,7 @@ def simulate_range(stack, start, stop, seed=0, threads=None, source=None, tallie
     """
     stack, seed, threads, source, tallies = _prepare(stack, seed, threads, source, tallies, progress)
     start, stop = _integer("start", start), _integer("stop", stop)
+    _core.mc_validate_run(stop, seed, threads)
     _warn_cost(stack, max(stop - start, 0))
     d = _run(stack, stop, seed, threads, source, tallies, progress, start=start)
     state = TallyState(d["state"])

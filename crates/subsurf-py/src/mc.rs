@@ -245,6 +245,9 @@ fn mc_run<'py>(
     start: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let su = setup(&layers, n_above, n_below, Some(&photons), &seed, threads.as_ref(), &source, tallies.as_ref())?;
+    // refuse before anything of the tallies' size is allocated
+    subsurf_core::mc::run::check_memory(&su.layout, su.cfg.thread_count(), None).py()?;
+    cost::check(&su.stack).py()?;
     let mut st = match &state {
         Some(d) => {
             let s = state_from_py(d)?;
@@ -262,8 +265,6 @@ fn mc_run<'py>(
             TallyState::new(su.layout.clone(), su.fingerprint, start).py()?
         }
     };
-    subsurf_core::mc::run::check_memory(&su.layout, su.cfg.thread_count(), None).py()?;
-    cost::check(&su.stack).py()?;
     let total = su.cfg.photons - st.end;
     let cancel = Arc::new(AtomicBool::new(false));
     let done = Arc::new(AtomicU64::new(0));
