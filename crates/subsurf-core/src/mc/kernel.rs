@@ -15,8 +15,8 @@
 //!    internal reflection); an index-matched interface is crossed without a draw. Refraction
 //!    out of the top (bottom) of the stack is an escape: `Tally::escape(Side::Top/Bottom)`.
 //!    Downwards in a semi-infinite clear last layer the packet is transmitted.
-//! 3. **Absorption by weight** (implicit capture, MCML §3.6, eq. 3.24): Δw = w σa/σt is
-//!    deposited (`Tally::absorb`), w ← w − Δw.
+//! 3. **Absorption by weight** (implicit capture, MCML §3.6, eq. 3.24): w′ = w σs/σt and the
+//!    exact difference Δw = w − w′ (≈ w σa/σt) is deposited (`Tally::absorb`), w ← w′.
 //! 4. **Scattering** (MCML §3.7, eqs. 3.28–3.30): cos θ from the layer's phase function
 //!    ([`Phase::sample`], HG inversion with [`HgSampler`]), azimuth φ uniform, drawn without
 //!    trigonometry from a point (x, y) uniform in the unit disc ([`PhotonRng::disc_point`]):
@@ -131,6 +131,8 @@ pub(crate) struct KLayer {
     inv_sigma_t: f64,
     /// σa/σt, the fraction of weight deposited per interaction.
     absorb_frac: f64,
+    /// σs/σt = 1 − σa/σt, the fraction kept.
+    keep_frac: f64,
     hg: HgSampler,
     phase: Phase,
     /// Index above / below the layer (the neighbour's or the ambient's).
@@ -204,6 +206,7 @@ impl Kernel {
                 sigma_t: st,
                 inv_sigma_t: if st > 0.0 { 1.0 / st } else { f64::INFINITY },
                 absorb_frac: if st > 0.0 { l.mua / st } else { 0.0 },
+                keep_frac: if st > 0.0 { l.mus / st } else { 1.0 },
                 hg: HgSampler::new(l.phase.lobes()[0].g),
                 phase: l.phase,
                 n_up,
@@ -274,27 +277,18 @@ impl Kernel {
                     tally.roulette(p, p.w); // trapped (see the module docs)
                     return Some(());
                 }
-                let up = if hits > CLEAR_HITS_STEPWISE && lay.z1.is_finite() {
-                    match clear_bounces(p, lay, rng) {
-                        Some(up) => up,
-                        None => {
-                            tally.roulette(p, p.w); // both faces reflect totally: trapped
-                            return Some(());
-                        }
+                if hits > CLEAR_HITS_STEPWISE && lay.z1.is_finite() {
+                    let Some(up) = clear_bounces(p, lay, rng) else {
+                        tally.roulette(p, p.w); // both faces reflect totally: trapped
+                        return Some(());
+                    };
+                    match self.transmit(p, lay, up, tally) {
+                        Crossing::Escaped => return Some(()),
+                        Crossing::Inside => continue,
                     }
-                } else {
-                    let up = dz < 0.0;
-                    let db = if up { (lay.z0 - p.pos[2]) / dz } else { (lay.z1 - p.pos[2]) / dz };
-                    hop(p, db, lay.n);
-                    p.pos[2] = if up { lay.z0 } else { lay.z1 };
-                    if !fresnel_transmits(lay, up, dz.abs(), rng) {
-                        p.dir[2] = -dz;
-                        p.reflections += 1;
-                        continue;
-                    }
-                    up
-                };
-                match self.transmit(p, lay, up, tally) {
+                }
+                let (up, _) = move_to_face(p, lay);
+                match self.at_face(p, lay, up, rng, tally) {
                     Crossing::Escaped => return Some(()),
                     Crossing::Inside => continue,
                 }
@@ -307,22 +301,14 @@ impl Kernel {
             let z_new = p.pos[2] + s * dz;
             if z_new > lay.z1 || z_new < lay.z0 {
                 // reaches the interface ahead: move onto it, keep the unused optical depth
-                let up = dz < 0.0;
-                let db = if up { (lay.z0 - p.pos[2]) / dz } else { (lay.z1 - p.pos[2]) / dz };
-                hop(p, db, lay.n);
+                let (up, db) = move_to_face(p, lay);
                 s_left -= db * lay.sigma_t;
-                p.pos[2] = if up { lay.z0 } else { lay.z1 };
                 hits += 1;
                 if hits > MAX_HITS_WITHOUT_INTERACTION {
                     tally.roulette(p, p.w); // trapped (see the module docs)
                     return Some(());
                 }
-                if !fresnel_transmits(lay, up, dz.abs(), rng) {
-                    p.dir[2] = -dz;
-                    p.reflections += 1;
-                    continue;
-                }
-                match self.transmit(p, lay, up, tally) {
+                match self.at_face(p, lay, up, rng, tally) {
                     Crossing::Escaped => return Some(()),
                     Crossing::Inside => continue,
                 }
@@ -331,10 +317,13 @@ impl Kernel {
             s_left = 0.0;
             hits = 0;
 
-            // Interaction: absorption by weight, then scattering.
-            let dw = p.w * lay.absorb_frac;
-            if dw != 0.0 {
-                p.w -= dw;
+            // Interaction: absorption by weight, then scattering. The deposit is the exact
+            // weight change (w − w′ is exact for w′ ≥ w/2), so that histories of 10⁷ events
+            // still conserve energy to rounding of the tallies' sums.
+            if lay.absorb_frac != 0.0 {
+                let w_new = p.w * lay.keep_frac;
+                let dw = p.w - w_new;
+                p.w = w_new;
                 tally.absorb(p, dw);
                 if p.w <= 0.0 {
                     return Some(());
@@ -354,6 +343,26 @@ impl Kernel {
                     return Some(());
                 }
             }
+        }
+    }
+
+    /// The packet sits on its layer's face up (`up`) or down: all-or-none Fresnel reflection
+    /// ([`fresnel_transmits`]) back into the layer, else refraction out of it ([`Kernel::transmit`]).
+    #[inline(always)]
+    fn at_face<T: Tally>(
+        &self,
+        p: &mut Packet,
+        lay: &KLayer,
+        up: bool,
+        rng: &mut PhotonRng,
+        tally: &mut T,
+    ) -> Crossing {
+        if fresnel_transmits(lay, up, p.dir[2].abs(), rng) {
+            self.transmit(p, lay, up, tally)
+        } else {
+            p.dir[2] = -p.dir[2];
+            p.reflections += 1;
+            Crossing::Inside
         }
     }
 
@@ -380,6 +389,18 @@ impl Kernel {
         }
         Crossing::Inside
     }
+}
+
+/// Move the packet along its direction onto the face of `lay` it heads to (placed exactly on
+/// it); returns whether that is the upper face and the distance travelled, mm.
+#[inline(always)]
+fn move_to_face(p: &mut Packet, lay: &KLayer) -> (bool, f64) {
+    let dz = p.dir[2];
+    let up = dz < 0.0;
+    let db = if up { (lay.z0 - p.pos[2]) / dz } else { (lay.z1 - p.pos[2]) / dz };
+    hop(p, db, lay.n);
+    p.pos[2] = if up { lay.z0 } else { lay.z1 };
+    (up, db)
 }
 
 /// All-or-none Fresnel test at the face up/down for the incidence cosine `cos_i`: transmit

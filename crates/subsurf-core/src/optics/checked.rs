@@ -76,6 +76,7 @@ pub fn refract(d: [f64; 3], normal: [f64; 3], eta_i: f64, eta_t: f64) -> Result<
     check_vector("normal", normal)?;
     check_positive("eta_i", eta_i)?;
     check_positive("eta_t", eta_t)?;
+    check_positive("eta_i / eta_t", eta_i / eta_t)?;
     Ok(fresnel::refract(d, normal, eta_i, eta_t))
 }
 

@@ -66,7 +66,13 @@ pub const TOTAL_NAMES: [&str; NQ] = [
 pub struct Totals {
     photons: u64,
     layers: usize,
-    cur: Vec<f64>,
+    /// The current photon's scores: the [`Total`]s, and the physical absorption per layer.
+    cur: [f64; NQ],
+    cur_layer: Vec<f64>,
+    /// Over photons, slots of the [`Total`]s then of the layers: Σx, Σx², and the bounds of x
+    /// (a chunk keeps only whether x was the same for every photon — cheaper than min/max per
+    /// photon — as bounds (x, x), or (−∞, ∞) when it varied; merged states then hold the true
+    /// "all equal" answer, which is all [`Totals::get`] needs).
     sum: Vec<f64>,
     sum2: Vec<f64>,
     min: Vec<f64>,
@@ -96,7 +102,8 @@ impl Totals {
         Totals {
             photons: 0,
             layers,
-            cur: vec![0.0; n],
+            cur: [0.0; NQ],
+            cur_layer: vec![0.0; layers],
             sum: vec![0.0; n],
             sum2: vec![0.0; n],
             min: vec![f64::INFINITY; n],
@@ -150,7 +157,8 @@ impl Totals {
 impl Tally for Totals {
     #[inline]
     fn begin_photon(&mut self, _photon: u64) {
-        self.cur.fill(0.0);
+        self.cur = [0.0; NQ];
+        self.cur_layer.fill(0.0);
     }
     #[inline]
     fn specular(&mut self, w: f64) {
@@ -158,7 +166,7 @@ impl Tally for Totals {
     }
     #[inline]
     fn absorb(&mut self, p: &Packet, dw: f64) {
-        self.cur[NQ + p.layer] += dw;
+        self.cur_layer[p.layer] += dw;
     }
     #[inline]
     fn roulette(&mut self, _p: &Packet, dw: f64) {
@@ -179,14 +187,17 @@ impl Tally for Totals {
     #[inline]
     fn end_photon(&mut self) {
         self.photons += 1;
-        let physical: f64 = self.cur[NQ..].iter().sum();
+        let physical: f64 = self.cur_layer.iter().sum();
         self.cur[Total::Absorbed as usize] = physical + self.cur[Total::Roulette as usize];
-        for i in 0..self.cur.len() {
-            let x = self.cur[i];
+        let first = self.photons == 1;
+        for (i, &x) in self.cur.iter().chain(&self.cur_layer).enumerate() {
             self.sum[i] += x;
             self.sum2[i] += x * x;
-            self.min[i] = self.min[i].min(x);
-            self.max[i] = self.max[i].max(x);
+            if first {
+                (self.min[i], self.max[i]) = (x, x);
+            } else if x != self.min[i] {
+                (self.min[i], self.max[i]) = (f64::NEG_INFINITY, f64::INFINITY);
+            }
         }
     }
     fn channels(&self, out: &mut Vec<Channel>) {
