@@ -78,7 +78,7 @@ fn layers() -> impl Strategy<Value = Vec<LayerArgs>> {
 
 fn source() -> impl Strategy<Value = Source> {
     prop_oneof![
-        16 => (0.0f64..1.5707963267948966, -10.0f64..10.0).prop_map(|(theta, phi)| Source::Pencil { theta, phi }),
+        16 => (0.0f64..std::f64::consts::FRAC_PI_2, -10.0f64..10.0).prop_map(|(theta, phi)| Source::Pencil { theta, phi }),
         1 => Just(Source::Pencil { theta: std::f64::consts::FRAC_PI_2 - 1e-6, phi: 0.0 }),
         1 => prop_oneof![Just(Source::Pencil { theta: f64::NAN, phi: 0.0 }), Just(Source::Pencil { theta: 1.6, phi: 0.0 })],
         8 => Just(Source::Diffuse),
