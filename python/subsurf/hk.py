@@ -136,8 +136,8 @@ def _albedo(stack, wi, n_theta, n_phi, transmission):
     s = _stack(stack)
     a = _directions("wi", wi)
     for name, v in (("n_theta", n_theta), ("n_phi", n_phi)):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
-            raise _core.ParameterError(f"{name} = {v!r} is out of range: must be an integer in [4, 4096]")
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+            raise _core.ParameterError(f"{name} = {v!r} is not an integer")
     shape = a.shape[:-1]
     out = _core.hk_albedo(s, _flat(a), int(n_theta), int(n_phi), transmission, list(shape)).reshape(shape)
     return out if shape else float(out)

@@ -117,42 +117,35 @@ fn diffusion_params<'py>(
     })
 }
 
-/// R_d(r) in mm⁻².
-#[pyfunction]
-fn diffusion_rd<'py>(
-    py: Python<'py>,
-    model_name: &str,
-    r: In<'py>,
-    sigma_a: In<'py>,
-    sigma_s_prime: In<'py>,
-    eta: In<'py>,
-) -> PyResult<Out<'py>> {
-    let m = model(model_name)?;
-    map1(py, &[(&r, 1), (&sigma_a, 1), (&sigma_s_prime, 1), (&eta, 1)], |x| m.rd(x[0][0], x[1][0], x[2][0], x[3][0]))
+/// Bindings `name(model_name, a, b, …) -> array` of a model's function of per-element columns
+/// (`arg: values per element`): one line each.
+macro_rules! by_model {
+    ($($(#[$doc:meta])* $name:ident($($arg:ident: $w:literal),+) => |$m:ident, $x:ident| $body:expr;)+) => {$(
+        $(#[$doc])*
+        #[pyfunction]
+        #[allow(clippy::too_many_arguments)]
+        fn $name<'py>(py: Python<'py>, model_name: &str, $($arg: In<'py>),+) -> PyResult<Out<'py>> {
+            let $m = model(model_name)?;
+            map1(py, &[$((&$arg, $w)),+], |$x| $body)
+        }
+    )+};
 }
 
-/// Total diffuse reflectance from (alpha_prime, eta), closed form.
-#[pyfunction]
-fn diffusion_total_rd<'py>(
-    py: Python<'py>,
-    model_name: &str,
-    alpha_prime: In<'py>,
-    eta: In<'py>,
-) -> PyResult<Out<'py>> {
-    let m = model(model_name)?;
-    map1(py, &[(&alpha_prime, 1), (&eta, 1)], |x| m.total_rd(x[0][0], x[1][0]))
-}
-
-/// alpha_prime from a total diffuse reflectance.
-#[pyfunction]
-fn diffusion_alpha_prime_from_rd<'py>(
-    py: Python<'py>,
-    model_name: &str,
-    rd: In<'py>,
-    eta: In<'py>,
-) -> PyResult<Out<'py>> {
-    let m = model(model_name)?;
-    map1(py, &[(&rd, 1), (&eta, 1)], |x| dif::alpha_prime_from_rd(x[0][0], x[1][0], m))
+by_model! {
+    /// R_d(r) in mm⁻².
+    diffusion_rd(r: 1, sigma_a: 1, sigma_s_prime: 1, eta: 1) => |m, x| m.rd(x[0][0], x[1][0], x[2][0], x[3][0]);
+    /// Total diffuse reflectance from (alpha_prime, eta), closed form.
+    diffusion_total_rd(alpha_prime: 1, eta: 1) => |m, x| m.total_rd(x[0][0], x[1][0]);
+    /// alpha_prime from a total diffuse reflectance.
+    diffusion_alpha_prime_from_rd(rd: 1, eta: 1) => |m, x| dif::alpha_prime_from_rd(x[0][0], x[1][0], m);
+    /// S_d(xi, wi, xo, wo) in mm⁻² sr⁻¹; points and directions flat (3n), properties n.
+    diffusion_sd(xi: 3, wi: 3, xo: 3, wo: 3, sigma_a: 1, sigma_s_prime: 1, eta: 1) => |m, x| {
+        dif::sd(v3(x[0]), v3(x[1]), v3(x[2]), v3(x[3]), m, x[4][0], x[5][0], x[6][0])
+    };
+    /// The diffusion BRDF (1/π) F_t(wi) R_d,total F_t(wo), sr⁻¹.
+    diffusion_brdf(wi: 3, wo: 3, sigma_a: 1, sigma_s_prime: 1, eta: 1) => |m, x| {
+        dif::diffusion_brdf(v3(x[0]), v3(x[1]), m, x[2][0], x[3][0], x[4][0])
+    };
 }
 
 /// (sigma_a, sigma_s_prime) from a diffuse colour and a mean free path.
@@ -172,41 +165,6 @@ fn diffusion_properties_from_color<'py>(
     })?;
     let ssp = v.pop().expect("two outputs");
     Ok((v.pop().expect("two outputs"), ssp))
-}
-
-/// S_d(xi, wi, xo, wo) in mm⁻² sr⁻¹; points and directions flat (3n), properties n.
-#[pyfunction]
-#[allow(clippy::too_many_arguments)]
-fn diffusion_sd<'py>(
-    py: Python<'py>,
-    model_name: &str,
-    xi: In<'py>,
-    wi: In<'py>,
-    xo: In<'py>,
-    wo: In<'py>,
-    sigma_a: In<'py>,
-    sigma_s_prime: In<'py>,
-    eta: In<'py>,
-) -> PyResult<Out<'py>> {
-    let m = model(model_name)?;
-    let cols = [(&xi, 3), (&wi, 3), (&xo, 3), (&wo, 3), (&sigma_a, 1), (&sigma_s_prime, 1), (&eta, 1)];
-    map1(py, &cols, |x| dif::sd(v3(x[0]), v3(x[1]), v3(x[2]), v3(x[3]), m, x[4][0], x[5][0], x[6][0]))
-}
-
-/// The diffusion BRDF (1/π) F_t(wi) R_d,total F_t(wo), sr⁻¹.
-#[pyfunction]
-fn diffusion_brdf<'py>(
-    py: Python<'py>,
-    model_name: &str,
-    wi: In<'py>,
-    wo: In<'py>,
-    sigma_a: In<'py>,
-    sigma_s_prime: In<'py>,
-    eta: In<'py>,
-) -> PyResult<Out<'py>> {
-    let m = model(model_name)?;
-    let cols = [(&wi, 3), (&wo, 3), (&sigma_a, 1), (&sigma_s_prime, 1), (&eta, 1)];
-    map1(py, &cols, |x| dif::diffusion_brdf(v3(x[0]), v3(x[1]), m, x[2][0], x[3][0], x[4][0]))
 }
 
 /// F_t(η, cos θ) = 1 − F_r(1 → η) (0 for cos θ ≤ 0); η validated, |cos θ| ≤ 1.

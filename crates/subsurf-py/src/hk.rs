@@ -165,12 +165,13 @@ fn hk_albedo(
     py: Python<'_>,
     stack: StackTuple,
     wi: PyReadonlyArray1<'_, f64>,
-    n_theta: usize,
-    n_phi: usize,
+    n_theta: i128,
+    n_phi: i128,
     transmission: bool,
     shape: Vec<usize>,
 ) -> PyResult<Arr> {
     let s = self::stack(stack)?;
+    let (n_theta, n_phi) = (hk::albedo::nodes("n_theta", n_theta).py()?, hk::albedo::nodes("n_phi", n_phi).py()?);
     let (a, _) = directions(&wi, None)?;
     let f = if transmission { hk::single_scattering_transmittance } else { hk::single_scattering_reflectance };
     let out = each(py, a.len() / 3, &shape, |k, out| {

@@ -48,6 +48,37 @@ fn map_rows<'py, const K: usize>(
     Ok(PyArray1::from_vec(py, out.py()?))
 }
 
+/// Elementwise bindings `name_v(a, b, …) -> array` of checked core functions of scalars: one
+/// line each (doc, name, the argument names as Python passes them, the core function).
+macro_rules! elementwise {
+    ($($(#[$doc:meta])* $name:ident($($arg:ident),+) => $f:expr;)+) => {$(
+        $(#[$doc])*
+        #[pyfunction]
+        fn $name<'py>(py: Python<'py>, $($arg: In<'py>),+) -> PyResult<Arr<'py>> {
+            map_rows(py, [$((&$arg, stringify!($arg))),+], |[$($arg),+]| $f($($arg),+))
+        }
+    )+};
+}
+
+elementwise! {
+    /// Egan–Hilgeman fit of the internal diffuse Fresnel reflectance.
+    diffuse_fresnel_reflectance_fit_v(eta) => optics::diffuse_fresnel_reflectance_fit;
+    /// HG phase p(cos θ; g) (sr⁻¹).
+    hg_phase_v(cos_theta, g) => checked::hg_phase;
+    /// HG sampling cos θ = sample_hg(u, g).
+    sample_hg_v(u, g) => checked::sample_hg;
+    /// The isotropic phase function 1/(4π) at each cos θ.
+    isotropic_phase_v(cos_theta) => checked::isotropic_phase;
+    /// Beer–Lambert transmittance exp(−μt d).
+    beer_lambert_v(mu_t, distance) => checked::beer_lambert;
+    /// Free-path sampling s = −ln(1 − u)/σt.
+    sample_free_path_v(u, sigma_t) => checked::sample_free_path;
+    /// Free-path pdf σt exp(−σt s) (0 for s < 0).
+    free_path_pdf_v(s, sigma_t) => checked::free_path_pdf;
+    /// pdf max(cos θ, 0)/π of the cosine-weighted hemisphere.
+    cosine_hemisphere_pdf_v(cos_theta) => checked::cosine_hemisphere_pdf;
+}
+
 fn v3(c: &[f64], i: usize) -> [f64; 3] {
     [c[3 * i], c[3 * i + 1], c[3 * i + 2]]
 }
@@ -96,12 +127,6 @@ fn diffuse_fresnel_reflectance_v<'py>(py: Python<'py>, eta: In<'py>, internal: b
     map_rows(py, [(&eta, "eta")], |[e]| optics::diffuse_fresnel_reflectance(e, internal))
 }
 
-/// Egan–Hilgeman fit of the internal diffuse Fresnel reflectance.
-#[pyfunction]
-fn diffuse_fresnel_reflectance_fit_v<'py>(py: Python<'py>, eta: In<'py>) -> PyResult<Arr<'py>> {
-    map_rows(py, [(&eta, "eta")], |[e]| optics::diffuse_fresnel_reflectance_fit(e))
-}
-
 /// i-th internal Fresnel moment ∫_0^1 R μ^i dμ for each eta.
 #[pyfunction]
 fn fresnel_moment_v<'py>(py: Python<'py>, eta: In<'py>, i: u32) -> PyResult<Arr<'py>> {
@@ -113,24 +138,6 @@ fn phase_from(lobes: &[(f64, f64)]) -> Result<Phase> {
         [(_, g)] => Phase::hg(*g),
         _ => Phase::mixture(lobes),
     }
-}
-
-/// HG phase p(cos θ; g) (sr⁻¹) elementwise.
-#[pyfunction]
-fn hg_phase_v<'py>(py: Python<'py>, cos_theta: In<'py>, g: In<'py>) -> PyResult<Arr<'py>> {
-    map_rows(py, [(&cos_theta, "cos_theta"), (&g, "g")], |[c, g]| checked::hg_phase(c, g))
-}
-
-/// HG sampling cos θ = sample_hg(u, g) elementwise.
-#[pyfunction]
-fn sample_hg_v<'py>(py: Python<'py>, u: In<'py>, g: In<'py>) -> PyResult<Arr<'py>> {
-    map_rows(py, [(&u, "u"), (&g, "g")], |[u, g]| checked::sample_hg(u, g))
-}
-
-/// The isotropic phase function 1/(4π) at each cos θ (checked).
-#[pyfunction]
-fn isotropic_phase_v<'py>(py: Python<'py>, cos_theta: In<'py>) -> PyResult<Arr<'py>> {
-    map_rows(py, [(&cos_theta, "cos_theta")], |[c]| checked::isotropic_phase(c))
 }
 
 /// Mixture of HG lobes [(weight, g)]: evaluate p(cos θ).
@@ -147,24 +154,6 @@ fn sample_mixture_v<'py>(py: Python<'py>, u: In<'py>, lobes: Vec<(f64, f64)>) ->
     map_rows(py, [(&u, "u")], |[u]| checked::phase_sample(&ph, u))
 }
 
-/// Beer–Lambert transmittance exp(−μt d) elementwise.
-#[pyfunction]
-fn beer_lambert_v<'py>(py: Python<'py>, mu_t: In<'py>, distance: In<'py>) -> PyResult<Arr<'py>> {
-    map_rows(py, [(&mu_t, "mu_t"), (&distance, "distance")], |[m, d]| checked::beer_lambert(m, d))
-}
-
-/// Free-path sampling s = −ln(1 − u)/σt elementwise.
-#[pyfunction]
-fn sample_free_path_v<'py>(py: Python<'py>, u: In<'py>, sigma_t: In<'py>) -> PyResult<Arr<'py>> {
-    map_rows(py, [(&u, "u"), (&sigma_t, "sigma_t")], |[u, s]| checked::sample_free_path(u, s))
-}
-
-/// Free-path pdf σt exp(−σt s) (0 for s < 0) elementwise.
-#[pyfunction]
-fn free_path_pdf_v<'py>(py: Python<'py>, s: In<'py>, sigma_t: In<'py>) -> PyResult<Arr<'py>> {
-    map_rows(py, [(&s, "s"), (&sigma_t, "sigma_t")], |[s, t]| checked::free_path_pdf(s, t))
-}
-
 /// Cosine-weighted hemisphere directions (flat, 3 per row) from u1, u2.
 #[pyfunction]
 fn sample_cosine_hemisphere_v<'py>(py: Python<'py>, u1: In<'py>, u2: In<'py>) -> PyResult<Arr<'py>> {
@@ -174,12 +163,6 @@ fn sample_cosine_hemisphere_v<'py>(py: Python<'py>, u1: In<'py>, u2: In<'py>) ->
         out.extend(checked::sample_cosine_hemisphere(c[0][i], c[1][i]).py()?);
     }
     Ok(PyArray1::from_vec(py, out))
-}
-
-/// pdf max(cos θ, 0)/π of the cosine-weighted hemisphere elementwise.
-#[pyfunction]
-fn cosine_hemisphere_pdf_v<'py>(py: Python<'py>, cos_theta: In<'py>) -> PyResult<Arr<'py>> {
-    map_rows(py, [(&cos_theta, "cos_theta")], |[c]| checked::cosine_hemisphere_pdf(c))
 }
 
 // ------------------------------------------------------------------------------------------
