@@ -25,7 +25,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import math
 import os
 import tempfile
 
@@ -423,7 +422,14 @@ class SlabTable:
     def __init__(self, g, n, albedos, taus, n_above=1.0, n_below=1.0, photons=20_000, seed=0):
         self.g, self.n, self.n_above, self.n_below = float(g), float(n), float(n_above), float(n_below)
         self._t = _core.SlabTable.build(
-            self.g, self.n, self.n_above, self.n_below, list(map(float, albedos)), list(map(float, taus)), int(photons), int(seed)
+            self.g,
+            self.n,
+            self.n_above,
+            self.n_below,
+            list(map(float, albedos)),
+            list(map(float, taus)),
+            int(photons),
+            int(seed),
         )
 
     def totals(self, albedo, tau):
@@ -439,9 +445,16 @@ def fit_slab_totals(
     s = np.broadcast_to(_arr("sigma", sigma), (2,))
     t = table._t if table is not None else None
     d = _core.bssrdf_fit_slab_totals(
-        float(rd), float(tt), (float(s[0]), float(s[1])), float(thickness), float(g), float(n), float(n_above),
-        float(n_below), _model(model), tuple(map(float, initial)), t,
+        float(rd),
+        float(tt),
+        (float(s[0]), float(s[1])),
+        float(thickness),
+        float(g),
+        float(n),
+        float(n_above),
+        float(n_below),
+        _model(model),
+        tuple(map(float, initial)),
+        t,
     )
     return Fit._from(d, ("mua", "mus_prime"))
-
-
