@@ -18,7 +18,6 @@ import sys
 import time
 
 import numpy as np
-
 from subsurf import Layer, bssrdf
 from subsurf.optics import fresnel_reflectance
 

@@ -45,7 +45,12 @@ impl PyProfile {
     fn new(inner: Arc<dyn RadialProfile>, model: &str) -> Self {
         PyProfile { inner, mc: None, model: model.to_string() }
     }
-    fn map<'py>(&self, py: Python<'py>, x: Arr<'py>, f: impl Fn(&dyn RadialProfile, f64) -> f64 + Sync) -> PyResult<Out<'py>> {
+    fn map<'py>(
+        &self,
+        py: Python<'py>,
+        x: Arr<'py>,
+        f: impl Fn(&dyn RadialProfile, f64) -> f64 + Sync,
+    ) -> PyResult<Out<'py>> {
         let xs = slice(&x)?;
         let p = self.inner.clone();
         let v: Vec<f64> = py.detach(|| xs.iter().map(|&r| f(p.as_ref(), r)).collect());
@@ -94,7 +99,13 @@ impl PyProfile {
 
 fn data_to_py<'py>(py: Python<'py>, d: &RadialData) -> PyResult<Bound<'py, PyDict>> {
     let o = PyDict::new(py);
-    for (k, v) in [("edges", &d.edges), ("weight", &d.weight), ("stderr", &d.stderr), ("single", &d.single), ("single_stderr", &d.single_stderr)] {
+    for (k, v) in [
+        ("edges", &d.edges),
+        ("weight", &d.weight),
+        ("stderr", &d.stderr),
+        ("single", &d.single),
+        ("single_stderr", &d.single_stderr),
+    ] {
         o.set_item(k, PyArray1::from_vec(py, v.clone()))?;
     }
     o.set_item("total", d.total)?;
@@ -106,7 +117,9 @@ fn data_to_py<'py>(py: Python<'py>, d: &RadialData) -> PyResult<Bound<'py, PyDic
 fn data_from_py(d: &Bound<'_, PyDict>) -> PyResult<RadialData> {
     macro_rules! get {
         ($k:literal) => {
-            d.get_item($k)?.ok_or_else(|| crate::errors::to_py(Error::Invalid(format!("table point: missing {}", $k))))?.extract()?
+            d.get_item($k)?
+                .ok_or_else(|| crate::errors::to_py(Error::Invalid(format!("table point: missing {}", $k))))?
+                .extract()?
         };
     }
     Ok(RadialData {
@@ -123,7 +136,14 @@ fn data_from_py(d: &Bound<'_, PyDict>) -> PyResult<RadialData> {
 
 /// A profile of a closed-form model for a homogeneous semi-infinite medium.
 #[pyfunction]
-fn bssrdf_medium_profile(py: Python<'_>, model_name: &str, sigma_a: f64, sigma_s: f64, g: f64, eta: f64) -> PyResult<PyProfile> {
+fn bssrdf_medium_profile(
+    py: Python<'_>,
+    model_name: &str,
+    sigma_a: f64,
+    sigma_s: f64,
+    g: f64,
+    eta: f64,
+) -> PyResult<PyProfile> {
     let m = model(model_name)?;
     let med = Medium::new(sigma_a, sigma_s, g, eta).py()?;
     let p = py.detach(|| medium_profile(m, &med)).py()?;
@@ -179,7 +199,9 @@ fn bssrdf_chandrasekhar_reflectance(a: f64) -> PyResult<f64> {
 fn settings_from_py(d: &Bound<'_, PyDict>) -> PyResult<TableSettings> {
     macro_rules! get {
         ($k:literal) => {
-            d.get_item($k)?.ok_or_else(|| crate::errors::to_py(Error::Invalid(format!("table settings: missing {}", $k))))?.extract()?
+            d.get_item($k)?
+                .ok_or_else(|| crate::errors::to_py(Error::Invalid(format!("table settings: missing {}", $k))))?
+                .extract()?
         };
     }
     let s = TableSettings {
@@ -218,7 +240,11 @@ fn bssrdf_table_defaults<'py>(py: Python<'py>, g: f64, eta: f64, n_albedos: usiz
 
 /// Trace albedo point `index` of a table; returns its data dict.
 #[pyfunction]
-fn bssrdf_table_point<'py>(py: Python<'py>, settings: Bound<'py, PyDict>, index: usize) -> PyResult<Bound<'py, PyDict>> {
+fn bssrdf_table_point<'py>(
+    py: Python<'py>,
+    settings: Bound<'py, PyDict>,
+    index: usize,
+) -> PyResult<Bound<'py, PyDict>> {
     let s = settings_from_py(&settings)?;
     let d = py.detach(|| build_point(&s, index, &AtomicBool::new(false), &AtomicU64::new(0))).py()?;
     data_to_py(py, &d)
@@ -240,11 +266,16 @@ impl PyProfileTable {
         Ok(PyProfileTable { inner: Arc::new(ProfileTable::assemble(s, pts).py()?) })
     }
     fn rho_eff<'py>(&self, py: Python<'py>, albedo: Arr<'py>) -> PyResult<Out<'py>> {
-        let v = slice(&albedo)?.iter().map(|&a| self.inner.rho_eff(a)).collect::<subsurf_core::Result<Vec<_>>>().py()?;
+        let v =
+            slice(&albedo)?.iter().map(|&a| self.inner.rho_eff(a)).collect::<subsurf_core::Result<Vec<_>>>().py()?;
         Ok(PyArray1::from_vec(py, v))
     }
     fn albedo_for<'py>(&self, py: Python<'py>, rho: Arr<'py>) -> PyResult<Out<'py>> {
-        let v = slice(&rho)?.iter().map(|&r| self.inner.albedo_for(r, "rho_eff")).collect::<subsurf_core::Result<Vec<_>>>().py()?;
+        let v = slice(&rho)?
+            .iter()
+            .map(|&r| self.inner.albedo_for(r, "rho_eff"))
+            .collect::<subsurf_core::Result<Vec<_>>>()
+            .py()?;
         Ok(PyArray1::from_vec(py, v))
     }
     fn profile(&self, sigma_a: f64, sigma_s: f64) -> PyResult<PyProfile> {

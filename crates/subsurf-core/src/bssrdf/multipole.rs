@@ -191,7 +191,8 @@ pub fn profile(stack: &Stack) -> Result<Box<dyn RadialProfile>> {
     // Radii: 16 per decade from 1e-3 z_r to 60 diffusion lengths (≤ 1e3 z_r), on the same
     // log lattice as the CDF's knots (64 per decade from 1e-6 z_r), so its Gauss–Legendre
     // panels never straddle a kink of the interpolated correction.
-    let ell = slabs.iter().map(|(s, _)| if s.sigma_tr > 0.0 { 1.0 / s.sigma_tr } else { 1e3 * top.z_r }).fold(0.0, f64::max);
+    let ell =
+        slabs.iter().map(|(s, _)| if s.sigma_tr > 0.0 { 1.0 / s.sigma_tr } else { 1e3 * top.z_r }).fold(0.0, f64::max);
     let r_lo = 1e-3 * top.z_r;
     let decades = ((60.0 * ell).min(1e3 * top.z_r).max(10.0 * top.z_r) / r_lo).log10();
     let nr = (16.0 * decades).ceil() as usize + 1;
@@ -215,7 +216,13 @@ pub fn profile(stack: &Stack) -> Result<Box<dyn RadialProfile>> {
         .map(|&r| {
             let mut s = 0.0;
             for (j, gj) in g.iter().enumerate() {
-                let w = if j == 0 || j == nk - 1 { 1.0 } else if j % 2 == 1 { 4.0 } else { 2.0 };
+                let w = if j == 0 || j == nk - 1 {
+                    1.0
+                } else if j % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
                 s += w * gj * bessel_j0(j as f64 * dk * r);
             }
             s * dk / 3.0 / (2.0 * PI)
@@ -248,8 +255,9 @@ pub fn bessel_j0(x: f64) -> f64 {
         let y = z * z;
         let xx = ax - 0.785398164;
         let p = 1.0 + y * (-0.1098628627e-2 + y * (0.2734510407e-4 + y * (-0.2073370639e-5 + y * 0.2093887211e-6)));
-        let q = -0.1562499995e-1 + y * (0.1430488765e-3 + y * (-0.6911147651e-5 + y * (0.7621095161e-6 - y * 0.934935152e-7)));
-        (0.636619772 / ax).sqrt() * (xx.cos() * p - z * xx.sin() * q)
+        let q = -0.1562499995e-1
+            + y * (0.1430488765e-3 + y * (-0.6911147651e-5 + y * (0.7621095161e-6 - y * 0.934935152e-7)));
+        (std::f64::consts::FRAC_2_PI / ax).sqrt() * (xx.cos() * p - z * xx.sin() * q)
     }
 }
 

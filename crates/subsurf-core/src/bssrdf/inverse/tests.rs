@@ -20,7 +20,9 @@ fn small_table(g: f64, eta: f64, albedos: Vec<f64>, photons: u64) -> ProfileTabl
     s.albedos = albedos;
     s.photons = photons;
     s.seed = 40;
-    let pts = (0..s.albedos.len()).map(|i| build_point(&s, i, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap()).collect();
+    let pts = (0..s.albedos.len())
+        .map(|i| build_point(&s, i, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap())
+        .collect();
     ProfileTable::assemble(s, pts).unwrap()
 }
 
@@ -43,7 +45,11 @@ fn monte_carlo_appearance_reproduces_colour() {
         let out = run(&s, &cfg, || Totals::new(1), &AtomicBool::new(false), &AtomicU64::new(0)).unwrap();
         let (rd, se) = out.tally.get(Total::Diffuse);
         assert!(4.0 * se < 0.005 * colour[i], "channel {i}: check too noisy ({se})");
-        eprintln!("appearance channel {i}: simulated {rd} ± {se} vs {} ({:+.3} %)", colour[i], 100.0 * (rd / colour[i] - 1.0));
+        eprintln!(
+            "appearance channel {i}: simulated {rd} ± {se} vs {} ({:+.3} %)",
+            colour[i],
+            100.0 * (rd / colour[i] - 1.0)
+        );
         assert!((rd / colour[i] - 1.0).abs() < 0.005, "channel {i}: simulated {rd} ± {se} vs requested {}", colour[i]);
     }
     // Diffusion models reproduce their own totals exactly.
@@ -127,7 +133,11 @@ fn slab_fit_round_trips() {
     let sig = [(2.0f64).sqrt() * rs, (2.0f64).sqrt() * ts];
     let f = fit::fit_slab_totals(rd, tt, sig, d, g, n, 1.0, 1.0, Model::MonteCarlo, Some(&table), [0.25, 1.8]).unwrap();
     let se = f.stderr();
-    assert!((f.params[0] - mua).abs() < 3.0 * se[0] && (f.params[1] - musp).abs() < 3.0 * se[1], "{:?} ± {se:?}", f.params);
+    assert!(
+        (f.params[0] - mua).abs() < 3.0 * se[0] && (f.params[1] - musp).abs() < 3.0 * se[1],
+        "{:?} ± {se:?}",
+        f.params
+    );
 }
 
 #[test]
@@ -136,7 +146,11 @@ fn mc_profile_and_table_bad_input() {
     assert!(s.validate().unwrap_err().to_string().contains("empty"));
     let s = TableSettings { albedos: vec![0.5, 1.2], ..TableSettings::new(0.0, 1.0) };
     assert!(s.validate().unwrap_err().to_string().starts_with("albedos[1]"));
-    let p = MonteCarloProfile::simulate(&Medium::new(0.1, 1.0, 0.0, 1.0).unwrap().to_stack().unwrap(), &McSettings { photons: 2000, ..Default::default() }).unwrap();
+    let p = MonteCarloProfile::simulate(
+        &Medium::new(0.1, 1.0, 0.0, 1.0).unwrap().to_stack().unwrap(),
+        &McSettings { photons: 2000, ..Default::default() },
+    )
+    .unwrap();
     let mut d = p.data().clone();
     d.weight[3] = f64::NAN;
     assert!(MonteCarloProfile::from_data(d, 0.2).is_err());
