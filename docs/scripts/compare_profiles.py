@@ -37,13 +37,14 @@ def compare(a, g, eta, photons, seed):
     for m in MODELS:
         p = bssrdf.Profile.from_model(m, 1 - a, a, g, eta)
         tot = p.total() / (d["total"] / (1 - rsp)) - 1
-        worst = 0.0
+        worst = None
         for i in range(1, len(e) - 1):
             lo, hi = e[i], e[i + 1]
             if lo < 0.1 * ell or hi > 10 * ell or w[i] <= 0 or s[i] > 0.05 * w[i]:
                 continue
             model_ring = p.total() * (p.cdf(hi) - p.cdf(lo))
-            worst = max(worst, abs(model_ring / (w[i] / (1 - rsp)) - 1), key=abs)
+            err = abs(model_ring / (w[i] / (1 - rsp)) - 1)
+            worst = err if worst is None else max(worst, err)
         out[m] = (tot, worst)
     return d["total"] / (1 - rsp), d["total_stderr"] / (1 - rsp), out
 
@@ -75,7 +76,8 @@ def main(argv=None):
                 ax = axes[gi, ei]
                 for m in MODELS:
                     y = [rows[(g, eta, a)][2][m][k] for a in ALBEDOS]
-                    ax.plot([1 - a for a in ALBEDOS], np.abs(y) if k else y, "o-", label=m, ms=3)
+                    y = [np.nan if v is None else v for v in y]
+                    ax.plot([1 - a for a in ALBEDOS], y, "o-", label=m, ms=3)
                 ax.set_xscale("log")
                 if k:
                     ax.set_yscale("log")
@@ -95,7 +97,8 @@ def main(argv=None):
         "|---|---|---|---|" + "---|" * len(MODELS),
     ]
     for (g, eta, a), (t, ts, out) in rows.items():
-        cells = " | ".join(f"{100 * out[m][0]:+.1f} %, {100 * out[m][1]:+.0f} %" for m in MODELS)
+        shape = {m: "n/a" if out[m][1] is None else f"{100 * out[m][1]:.0f} %" for m in MODELS}
+        cells = " | ".join(f"{100 * out[m][0]:+.1f} %, {shape[m]}" for m in MODELS)
         lines.append(f"| {g} | {eta} | {a} | {t:.4f} ± {ts:.4f} | {cells} |")
     with open(os.path.join(here, "profiles_tables.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
