@@ -142,3 +142,98 @@ def hk_unscattered(stack: _StackTuple, wi: _F, shape: Sequence[int] = ()) -> tup
 def hk_albedo(
     stack: _StackTuple, wi: _F, n_theta: int, n_phi: int, transmission: bool = False, shape: Sequence[int] = ()
 ) -> _F: ...
+
+# --- bssrdf (crates/subsurf-py/src/bssrdf.rs); python/subsurf/bssrdf.py wraps these -------------
+class Profile:
+    model: str
+    def rd(self, r: _F) -> _F: ...
+    def pdf(self, r: _F) -> _F: ...
+    def cdf(self, r: _F) -> _F: ...
+    def sample_r(self, u: _F) -> _F: ...
+    def radius_for_fraction(self, q: _F) -> _F: ...
+    def total(self) -> float: ...
+    def has_single(self) -> bool: ...
+    def single_total(self) -> float: ...
+    def single_rd(self, r: _F) -> _F: ...
+    def mc_data(self) -> dict | None:
+        """edges, weight, stderr, single, single_stderr (arrays), total, total_stderr, photons,
+        tail_start, tail_sigma"""
+
+class ProfileTable:
+    @staticmethod
+    def assemble(settings: dict, points: list[dict]) -> ProfileTable: ...
+    def rho_eff(self, albedo: _F) -> _F: ...
+    def albedo_for(self, rho: _F) -> _F: ...
+    def profile(self, sigma_a: float, sigma_s: float) -> Profile: ...
+    def node_totals(self) -> list[float]: ...
+    def points(self) -> list[dict]: ...
+
+class SlabTable:
+    @staticmethod
+    def build(
+        g: float,
+        n: float,
+        n_above: float,
+        n_below: float,
+        albedos: list[float],
+        taus: list[float],
+        photons: int,
+        seed: int,
+    ) -> SlabTable: ...
+    def totals(self, albedo: float, tau: float) -> tuple[float, float]: ...
+
+def bssrdf_models() -> list[str]: ...
+def bssrdf_medium_profile(model_name: str, sigma_a: float, sigma_s: float, g: float, eta: float) -> Profile: ...
+def bssrdf_stack_profile(
+    model_name: str,
+    stack_tuple: _StackTuple,
+    photons: int,
+    seed: int,
+    threads: int | None,
+    per_decade: int,
+    max_rel_err: float,
+    r_min: float | None = None,
+    r_max: float | None = None,
+) -> Profile: ...
+def bssrdf_normalized_diffusion(albedo: float, mfp: float, variant: str) -> Profile: ...
+def bssrdf_chandrasekhar_reflectance(a: float) -> float: ...
+def bssrdf_table_defaults(g: float, eta: float, n_albedos: int) -> dict: ...
+def bssrdf_table_point(settings: dict, index: int) -> dict: ...
+def bssrdf_material_from_appearance(
+    albedo: list[float], mfp: list[float], eta: float, g: float, model_name: str, table: ProfileTable | None = None
+) -> list[tuple[float, float, float, float]]:
+    """(n, mua, mus, g) per channel"""
+
+def bssrdf_fit_profile(
+    model_name: str,
+    r: list[float],
+    rd: list[float],
+    sigma: list[float],
+    g: float,
+    eta: float,
+    initial: tuple[float, float],
+    table: ProfileTable | None = None,
+) -> dict:
+    """params, cov (row-major), stderr, chi2, dof, iterations"""
+
+def bssrdf_fit_profile_layer(
+    stack_tuple: _StackTuple,
+    layer: int,
+    r: list[float],
+    rd: list[float],
+    sigma: list[float],
+    initial: tuple[float, float],
+) -> dict: ...
+def bssrdf_fit_slab_totals(
+    rd: float,
+    tt: float,
+    sigma: tuple[float, float],
+    thickness: float,
+    g: float,
+    n: float,
+    n_above: float,
+    n_below: float,
+    model_name: str,
+    initial: tuple[float, float],
+    table: SlabTable | None = None,
+) -> dict: ...
