@@ -208,8 +208,21 @@ where
     let turn = Condvar::new();
     let seed = cfg.seed;
 
+    // A worker that panics (a bug) raises `failed` as it unwinds, so that the others stop
+    // waiting for its chunk and the panic reaches the caller instead of a hang.
+    let failed = AtomicBool::new(false);
+    struct OnPanic<'a>(&'a AtomicBool);
+    impl Drop for OnPanic<'_> {
+        fn drop(&mut self) {
+            if std::thread::panicking() {
+                self.0.store(true, Ordering::Relaxed);
+            }
+        }
+    }
+    let stop = || cancel.load(Ordering::Relaxed) || failed.load(Ordering::Relaxed);
     let worker = || loop {
-        if cancel.load(Ordering::Relaxed) {
+        let _guard = OnPanic(&failed);
+        if stop() {
             return;
         }
         let c = next.fetch_add(1, Ordering::Relaxed);
@@ -218,10 +231,10 @@ where
         }
         let mut tally = {
             let mut g = commit.lock().expect("no panics while committing");
-            while c >= g.frontier + window && !g.failed && !cancel.load(Ordering::Relaxed) {
+            while c >= g.frontier + window && !g.failed && !stop() {
                 g = turn.wait_timeout(g, Duration::from_millis(20)).expect("no panics").0;
             }
-            if g.failed || cancel.load(Ordering::Relaxed) {
+            if g.failed || stop() {
                 return;
             }
             g.spare.pop()

@@ -276,7 +276,7 @@ fn exact_merge_is_partition_and_thread_independent() {
     }
     // cancelled by a hook at photon 2.5 chunks: a prefix of whole chunks, resumable to the same bits
     let cancel = AtomicBool::new(false);
-    let hook = || (make(), StopAt { at: 2 * CHUNK + CHUNK / 2, flag: &cancel });
+    let hook = || (make(), StopAt { at: 2 * CHUNK + CHUNK / 2, flag: &cancel, panic: false });
     let mut hooked_layout = Vec::new();
     hook().channels(&mut hooked_layout);
     let mut st = TallyState::new(hooked_layout, fp, 0).unwrap();
@@ -295,15 +295,37 @@ fn exact_merge_is_partition_and_thread_independent() {
 
 const CHUNK: u64 = super::config::CHUNK_PHOTONS;
 
-/// A tally that raises `flag` when photon `at` begins (a deterministic Ctrl-C).
+/// A panic in one worker (a bug in a tally) reaches the caller; the other workers, waiting for
+/// that worker's chunk, do not hang.
+#[test]
+fn a_panicking_worker_does_not_hang_the_run() {
+    let s = Stack::new(vec![Layer::new(1.0, 1.0, 9.0, 0.75, 0.2).unwrap()], 1.0, 1.0).unwrap();
+    let mut cfg = RunConfig::new(12 * CHUNK, 1);
+    cfg.threads = Some(3);
+    let flag = AtomicBool::new(false);
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        run(
+            &s,
+            &cfg,
+            || StopAt { at: CHUNK + 5, flag: &flag, panic: true },
+            &AtomicBool::new(false),
+            &AtomicU64::new(0),
+        )
+    }));
+    assert!(r.is_err());
+}
+
+/// A tally that raises `flag` when photon `at` begins (a deterministic Ctrl-C), or panics.
 struct StopAt<'a> {
     at: u64,
     flag: &'a AtomicBool,
+    panic: bool,
 }
 
 impl Tally for StopAt<'_> {
     fn begin_photon(&mut self, photon: u64) {
         if photon == self.at {
+            assert!(!self.panic, "a bug in a tally");
             self.flag.store(true, std::sync::atomic::Ordering::Relaxed);
         }
     }
