@@ -12,6 +12,7 @@ from .mc import DiffuseIllumination, PencilBeam, simulate, simulate_range
 from .medium import Component, Layer, Stack, mix
 from .result import Histogram, Result
 from .state import TallyState
+from .sweeps import SweepResult, sweep
 from .tallies import Tallies
 
 __version__ = _core.__version__
@@ -26,6 +27,7 @@ __all__ = [
     "PencilBeam",
     "Result",
     "Stack",
+    "SweepResult",
     "Tallies",
     "TallyState",
     "__version__",
@@ -37,6 +39,7 @@ __all__ = [
     "optics",
     "simulate",
     "simulate_range",
+    "sweep",
     "testing",
 ]
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -170,16 +170,17 @@ class ProfileTable:
 
 class SlabTable:
     @staticmethod
-    def build(
+    def from_totals(
         g: float,
         n: float,
         n_above: float,
         n_below: float,
         albedos: list[float],
         taus: list[float],
-        photons: int,
-        seed: int,
-    ) -> SlabTable: ...
+        totals: list[tuple[float, float, float, float]],
+    ) -> SlabTable:
+        """totals: (rd, rd_stderr, tt, tt_stderr) per (albedo, tau), row-major"""
+
     def totals(self, albedo: float, tau: float) -> tuple[float, float]: ...
 
 def bssrdf_models() -> list[str]: ...
@@ -194,11 +195,30 @@ def bssrdf_stack_profile(
     max_rel_err: float,
     r_min: float | None = None,
     r_max: float | None = None,
-) -> Profile: ...
+    progress: Callable[[int, int], object] | None = None,
+) -> Profile:
+    """Monte Carlo: interruptible (KeyboardInterrupt)"""
+
 def bssrdf_normalized_diffusion(albedo: float, mfp: float, variant: str) -> Profile: ...
 def bssrdf_chandrasekhar_reflectance(a: float) -> float: ...
 def bssrdf_table_defaults(g: float, eta: float, n_albedos: int) -> dict: ...
-def bssrdf_table_point(settings: dict, index: int) -> dict: ...
+def bssrdf_table_point(settings: dict, index: int, progress: Callable[[int, int], object] | None = None) -> dict:
+    """interruptible (KeyboardInterrupt)"""
+
+def bssrdf_slab_point(
+    g: float,
+    n: float,
+    n_above: float,
+    n_below: float,
+    a: float,
+    tau: float,
+    photons: int,
+    seed: int,
+    threads: int | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> tuple[float, float, float, float]:
+    """(rd, rd_stderr, tt, tt_stderr); interruptible (KeyboardInterrupt)"""
+
 def bssrdf_material_from_appearance(
     albedo: list[float], mfp: list[float], eta: float, g: float, model_name: str, table: ProfileTable | None = None
 ) -> list[tuple[float, float, float, float]]:

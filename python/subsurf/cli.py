@@ -1,6 +1,7 @@
 """The ``subsurf`` command line.
 
-Sub-commands: ``simulate CONFIG.toml``, ``mcml INPUT.mci``, ``profile MATERIAL``, ``fit FILE.csv``, ``materials``,
+Sub-commands: ``simulate CONFIG.toml``, ``sweep SWEEP.toml`` (both also on a Dask cluster with
+``--scheduler tcp://HOST:PORT``), ``mcml INPUT.mci``, ``profile MATERIAL``, ``fit FILE.csv``, ``materials``,
 ``plot RESULT``, ``merge A B -o C`` and ``demo``; ``subsurf COMMAND --help`` explains each.
 Bad input ends the program with exit status 2 and one line on stderr
 (``subsurf: error: FILE:LINE: KEY: problem``), never a traceback (set ``SUBSURF_DEBUG=1`` to see one).
@@ -10,6 +11,7 @@ Ctrl-C during a simulation still writes the photons traced so far, marked partia
 from __future__ import annotations
 
 import argparse
+import contextlib
 import inspect
 import os
 import sys
@@ -79,6 +81,38 @@ def _summary(result) -> str:
 # --- simulate ---------------------------------------------------------------------------------
 
 
+def add_scheduler_options(p) -> None:
+    """``--scheduler`` and ``--connect-timeout`` of the commands that can run on a Dask cluster."""
+    p.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:PORT",
+        help="run on the Dask cluster of this scheduler (pip install 'subsurf[cluster]'; docs/cluster.md)",
+    )
+    p.add_argument(
+        "--connect-timeout", type=float, default=10.0, metavar="SECONDS", help="wait this long for the scheduler"
+    )
+
+
+@contextlib.contextmanager
+def scheduler_client(a):
+    """A Dask client for ``--scheduler`` (closed at the end), or None."""
+    if not getattr(a, "scheduler", None):
+        yield None
+        return
+    from .cluster import connect
+
+    if not (a.connect_timeout > 0):
+        raise UserError(f"--connect-timeout = {a.connect_timeout:g} is out of range: must be > 0 (seconds)")
+    try:
+        client = connect(a.scheduler, timeout=a.connect_timeout)
+    except ImportError as e:  # no dask.distributed: say how to get it, in one line
+        raise UserError(str(e)) from None
+    try:
+        yield client
+    finally:
+        client.close()
+
+
 def cmd_simulate(a) -> int:
     from . import io
     from .config import load_config
@@ -95,13 +129,16 @@ def cmd_simulate(a) -> int:
     if cfg.output and not a.output and not os.path.isabs(out):
         out = os.path.join(os.path.dirname(a.config), out)
     bar = _bar("simulate", a.quiet)
-    try:
-        result = _simulate(cfg.stack, progress=bar, **kw)
-    except KeyboardInterrupt:
-        bar.close()
-        raise UserError("interrupted before any photons were traced; nothing written") from None
-    finally:
-        bar.close()
+    with scheduler_client(a) as client:
+        if client is not None:
+            kw["client"] = client
+        try:
+            result = _simulate(cfg.stack, progress=bar, **kw)
+        except KeyboardInterrupt:
+            bar.close()
+            raise UserError("interrupted before any photons were traced; nothing written") from None
+        finally:
+            bar.close()
     if isinstance(result.config, dict):
         result.config.setdefault("config_file", os.path.abspath(a.config))
     io.save(result, out)
@@ -207,6 +244,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--threads", type=int, help="worker threads (default: all cores)")
     s.add_argument("-o", "--output", metavar="RESULT.h5", help="results file (default: CONFIG.h5)")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar or table")
+    add_scheduler_options(s)
     s.set_defaults(func=cmd_simulate)
 
     m = sub.add_parser("mcml", help="MCML drop-in: simulate every run of an .mci file, write .mco files")
@@ -218,10 +256,10 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("-q", "--quiet", action="store_true")
     m.set_defaults(func=cmd_mcml)
 
-    from .commands import fit, profile
+    from .commands import fit, profile, sweep
 
-    profile.add_parser(sub)
-    fit.add_parser(sub)
+    for command in (profile, fit, sweep):
+        command.add_parser(sub)
 
     ma = sub.add_parser("materials", help="list the material library")
     ma.set_defaults(func=cmd_materials)
@@ -252,6 +290,7 @@ def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     from . import _core
+    from .cluster import ClusterError
 
     if getattr(args, "photons", None) is not None and args.photons < 1:
         parser.exit(EXIT_BAD_INPUT, f"subsurf: error: --photons = {args.photons} is out of range: must be >= 1\n")
@@ -263,6 +302,7 @@ def main(argv=None) -> int:
         return int(args.func(args) or 0)
     except (
         UserError,
+        ClusterError,
         _core.ParameterError,
         FileExistsError,
         FileNotFoundError,

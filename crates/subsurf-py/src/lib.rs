@@ -12,6 +12,7 @@ mod hk;
 mod mc;
 mod medium;
 mod optics;
+mod wait;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
