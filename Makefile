@@ -42,6 +42,7 @@ demo: build
 bench: build
 	$(PY) benches/bench.py
 	$(PY) benches/bench_profiles.py
+	$(PY) benches/bench_cluster.py
 
 clean:
 	rm -rf target $(VENV)

@@ -320,6 +320,31 @@ def test_worker_threads_inside_tasks(client):
     assert client.submit(cluster.task_threads, 3, pure=False).result() == 3
 
 
+def test_states_travel_as_arrays(local):
+    """What a task sends back pickles (protocol 5, as Dask sends it) into a few out-of-band array
+    buffers, 72 bytes per bin, and a small in-band header — not an object per bin."""
+    import pickle
+
+    buffers = []
+    head = pickle.dumps(local.state, protocol=5, buffer_callback=buffers.append)
+    bins = sum(n for _, n in local.state.layout)
+    assert len(head) < 4096 and len(buffers) == 4
+    extremes = len(local.state.to_dict()["min"])  # per-photon min/max of the totals
+    assert sum(b.raw().nbytes for b in buffers) == 72 * bins + 16 * extremes
+    assert pickle.loads(head, buffers=buffers) == local.state
+
+
+def test_client_must_be_a_client():
+    with pytest.raises(subsurf.ParameterError, match="is not a dask.distributed.Client"):
+        subsurf.simulate(STACK, 4096, client="tcp://127.0.0.1:8786")
+    with pytest.raises(subsurf.ParameterError, match="is not a dask.distributed.Client"):
+        subsurf.sweep(sweeps_point, {"a": [1]}, client="tcp://127.0.0.1:8786")
+
+
+def sweeps_point(a):
+    return {"a": a}
+
+
 def test_run_ranges_checks_task_options(client):
     with pytest.raises(subsurf.ParameterError, match="task_photons"):
         _ranges(client, task_photons=1000)

@@ -241,7 +241,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("config", metavar="CONFIG.toml")
     s.add_argument("--photons", type=int, help="override the number of photons")
     s.add_argument("--seed", type=int, help="override the seed")
-    s.add_argument("--threads", type=int, help="worker threads (default: all cores)")
+    s.add_argument("--threads", type=int, help="worker threads (default: all cores; with --scheduler: per task, 1)")
     s.add_argument("-o", "--output", metavar="RESULT.h5", help="results file (default: CONFIG.h5)")
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar or table")
     add_scheduler_options(s)

@@ -34,7 +34,15 @@ import uuid
 from . import _core
 from .state import CHUNK_PHOTONS, TallyState
 
-__all__ = ["ClusterError", "connect", "task_photons", "task_threads", "DEFAULT_TASK_SECONDS", "CONNECT_TIMEOUT"]
+__all__ = [
+    "ClusterError",
+    "check_client",
+    "connect",
+    "task_photons",
+    "task_threads",
+    "DEFAULT_TASK_SECONDS",
+    "CONNECT_TIMEOUT",
+]
 
 #: Target duration of one photon-range task, seconds.
 DEFAULT_TASK_SECONDS = 5.0
@@ -105,6 +113,14 @@ def connect(address: str, timeout: float = CONNECT_TIMEOUT):
         return distributed.Client(address, timeout=timeout, set_as_default=False)
     except (OSError, asyncio.TimeoutError) as e:
         raise ClusterError(f"could not connect to the Dask scheduler at {address}: {e}") from None
+
+
+def check_client(client) -> None:
+    """Refuse what is not a ``dask.distributed.Client`` (e.g. an address string) with a clear error."""
+    if not all(hasattr(client, a) for a in ("submit", "cancel", "nthreads")):
+        raise _core.ParameterError(
+            f"client = {client!r} is not a dask.distributed.Client (for an address, use subsurf.cluster.connect)"
+        )
 
 
 def task_threads(threads):
@@ -316,6 +332,7 @@ def run_ranges(
     duration aimed at, ``task_photons`` a fixed task size instead. Arguments are checked by
     :func:`subsurf.simulate`."""
     _distributed()
+    check_client(client)
     if task_seconds is None:
         task_seconds = DEFAULT_TASK_SECONDS
     if not (task_seconds > 0 and math.isfinite(task_seconds)):

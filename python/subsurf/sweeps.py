@@ -433,9 +433,10 @@ def sweep(point, axes, path=None, *, client=None, progress=None, units=None) -> 
 
 def _on_cluster(client, point, grid, todo, record) -> None:
     """One Dask task per point; results are recorded as they come back."""
-    from .cluster import _distributed
+    from .cluster import _distributed, check_client
 
     distributed = _distributed()
+    check_client(client)
     futures, tag = {}, uuid.uuid4().hex[:10]
     for idx in todo:
         key = f"subsurf-point-{tag}-{'-'.join(map(str, idx))}"
