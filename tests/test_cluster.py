@@ -290,17 +290,21 @@ def closed_port():
 
 
 @pytest.mark.parametrize("port_fixture", ["silent_port", "closed_port"])
-def test_scheduler_that_does_not_answer(port_fixture, request, tmp_path):
+def test_scheduler_that_does_not_answer(port_fixture, request):
     port = request.getfixturevalue(port_fixture)
     t0 = time.monotonic()
     with pytest.raises(cluster.ClusterError, match=f"no Dask scheduler answered at tcp://127.0.0.1:{port} within 1 s"):
         cluster.connect(f"tcp://127.0.0.1:{port}", timeout=1.0)
     assert time.monotonic() - t0 < 5
+
+
+def test_cli_scheduler_that_does_not_answer(silent_port, tmp_path):
+    """The hard case (a server that accepts and never speaks): one line, bounded time, no file."""
     (tmp_path / "c.toml").write_text(CONFIG)
     (tmp_path / "s.toml").write_text(SWEEP_TOML)
     for cmd, cfg in (("simulate", "c.toml"), ("sweep", "s.toml")):
         t0 = time.monotonic()
-        p = run_cli(cmd, tmp_path / cfg, "-o", tmp_path / "o.h5", "--scheduler", f"tcp://127.0.0.1:{port}",
+        p = run_cli(cmd, tmp_path / cfg, "-o", tmp_path / "o.h5", "--scheduler", f"tcp://127.0.0.1:{silent_port}",
                     "--connect-timeout", "1", timeout=60)  # fmt: skip
         assert time.monotonic() - t0 < 30
         assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr

@@ -91,6 +91,8 @@ def test_sweep_file_is_checked(tmp_path):
     (tmp_path / "junk.h5").write_bytes(b"not hdf5")
     with pytest.raises(subsurf.ParameterError, match="damaged"):
         sweeps.load(tmp_path / "junk.h5")
+    with pytest.raises(subsurf.ParameterError, match="no such file"):
+        sweeps.load(tmp_path / "missing.h5")
 
 
 @pytest.mark.parametrize(

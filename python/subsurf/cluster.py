@@ -84,7 +84,7 @@ def _probe(address: str, timeout: float) -> dict:
     server that accepts the connection but never answers the handshake; this does not.)"""
 
     async def bounded():
-        return await asyncio.wait_for(_identity(address, timeout), timeout + 1.0)
+        return await asyncio.wait_for(_identity(address, timeout), timeout)
 
     with concurrent.futures.ThreadPoolExecutor(1) as ex:  # its own event loop, whatever the caller runs
         return ex.submit(asyncio.run, bounded()).result()

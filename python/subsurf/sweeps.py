@@ -285,6 +285,8 @@ def load(path) -> SweepResult:
     import h5py
 
     path = os.fspath(path)
+    if not os.path.exists(path):
+        raise _error(f"{path}: no such file")
     try:
         with h5py.File(path, "r") as f:
             if _str(f.attrs.get("format", "")) != FORMAT:
