@@ -1,11 +1,22 @@
 //! Run configuration of the Monte Carlo engine: photons, seed, threads, source.
 
+use super::lanes::Isa;
 use super::source::Source;
 use crate::error::{Error, Result};
 
 /// Photons per chunk: the unit of parallel work and of merging. Fixed (independent of the
 /// thread count), so that results are bit-identical for any number of threads.
 pub const CHUNK_PHOTONS: u64 = 4096;
+
+/// Photons per batch of the batch-means standard errors of histograms (see
+/// `mc::tally::accum`): the largest power of two ≤ N/64, between 1 and 1024, so that a run has
+/// at least 64 batches (a good variance estimate) and long runs trace 1024 photons between
+/// batch ends (where the lanes drain). Batches start at multiples of their size, which
+/// divides [`CHUNK_PHOTONS`], so they are the same for any thread count.
+pub fn batch_photons(photons: u64) -> u64 {
+    let target = (photons / 64).clamp(1, 1024);
+    1 << (63 - target.leading_zeros())
+}
 
 /// Russian roulette: packets lighter than this weight play roulette (MCML's `WEIGHT`).
 pub const ROULETTE_THRESHOLD: f64 = 1e-4;
@@ -25,12 +36,15 @@ pub struct RunConfig {
     pub threads: Option<usize>,
     /// The light source.
     pub source: Source,
+    /// Instruction set of the lane kernel; `None` = the best this machine has
+    /// ([`Isa::detect`]). Every choice gives the same bits (see `mc::lanes`).
+    pub isa: Option<Isa>,
 }
 
 impl RunConfig {
     /// A run of `photons` packets with `seed`, all cores, a normal-incidence pencil beam.
     pub fn new(photons: u64, seed: u64) -> Self {
-        RunConfig { photons, seed, threads: None, source: Source::default() }
+        RunConfig { photons, seed, threads: None, source: Source::default(), isa: None }
     }
 
     /// Check every field.
@@ -41,6 +55,11 @@ impl RunConfig {
         if let Some(t) = self.threads {
             if t == 0 {
                 return Err(Error::param("threads", 0.0, "an integer >= 1 (or None for all cores)"));
+            }
+        }
+        if let Some(isa) = self.isa {
+            if !Isa::available().contains(&isa) {
+                return Err(Error::Invalid(format!("isa: {} is not available on this machine", isa.name())));
             }
         }
         self.source.validate()

@@ -58,34 +58,34 @@ const MAX_CLEAR_HITS: u32 = 1_000_000;
 /// One layer as the kernel sees it (plain data, precomputed once per run).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct KLayer {
-    z0: f64,
-    z1: f64,
-    n: f64,
-    sigma_t: f64,
-    inv_sigma_t: f64,
+    pub(crate) z0: f64,
+    pub(crate) z1: f64,
+    pub(crate) n: f64,
+    pub(crate) sigma_t: f64,
+    pub(crate) inv_sigma_t: f64,
     /// σa/σt, the fraction of weight deposited per interaction.
-    absorb_frac: f64,
+    pub(crate) absorb_frac: f64,
     /// HG sampling constants (see [`hg_cos`]): 1 + g², 1/(2g), 1 − g², 1 − g, 2g; `iso` when
     /// |g| < 10⁻⁶ (isotropic formula, as [`crate::optics::sample_hg`]).
-    hg: [f64; 5],
-    iso: bool,
-    phase: Phase,
+    pub(crate) hg: [f64; 5],
+    pub(crate) iso: bool,
+    pub(crate) phase: Phase,
     /// Index above / below the layer (the neighbour's or the ambient's).
-    n_up: f64,
-    n_down: f64,
+    pub(crate) n_up: f64,
+    pub(crate) n_down: f64,
     /// n / n_up and n / n_down (Snell's η).
-    eta_up: f64,
-    eta_down: f64,
+    pub(crate) eta_up: f64,
+    pub(crate) eta_down: f64,
     /// cos of the critical angle towards up / down (0 when n ≤ neighbour: no TIR).
-    cos_crit_up: f64,
-    cos_crit_down: f64,
+    pub(crate) cos_crit_up: f64,
+    pub(crate) cos_crit_down: f64,
 }
 
 /// The stack and source prepared for tracing.
 #[derive(Clone, Debug)]
 pub(crate) struct Kernel {
-    layers: Vec<KLayer>,
-    launcher: Launcher,
+    pub(crate) layers: Vec<KLayer>,
+    pub(crate) launcher: Launcher,
     /// Some layer has σt = 0 (a clear layer): selects the kernel variant that handles it.
     pub(crate) any_clear: bool,
     /// Some layer has a phase-function mixture: selects the general phase sampler.
@@ -136,8 +136,9 @@ impl Kernel {
         Kernel { layers, launcher: Launcher::new(source, stack.n_above, stack.layers[0].n), any_clear, any_mixture }
     }
 
-    /// Trace photon `photon` of the run with `seed` into `tally`; returns its number of
-    /// scattering events. `CLEAR`: handle σt = 0 layers; `MIXTURE`: general phase sampler.
+    /// Trace photon `photon` of the run with `seed` into `tally` (as lane 0); returns its
+    /// number of scattering events. `CLEAR`: handle σt = 0 layers; `MIXTURE`: general phase
+    /// sampler. The reference the lane kernel (`mc::lanes`) is tested against.
     #[inline]
     pub(crate) fn trace<T: Tally, const CLEAR: bool, const MIXTURE: bool>(
         &self,
@@ -146,9 +147,9 @@ impl Kernel {
         tally: &mut T,
     ) -> u64 {
         let mut rng = PhotonRng::new(seed, photon);
-        tally.begin_photon(photon);
+        tally.begin_photon(0, photon);
         let (dir, rsp) = self.launcher.launch(&mut rng);
-        tally.specular(rsp);
+        tally.specular(0, rsp);
         let mut p = Packet { pos: [0.0; 3], dir, w: 1.0 - rsp, layer: 0, order: 0, reflections: 0, path: 0.0 };
         let last = self.layers.len() - 1;
         let mut s_left = 0.0f64; // unused optical depth
@@ -173,15 +174,15 @@ impl Kernel {
                     // Down a semi-infinite clear layer (transmitted, no interface to refract
                     // at) or exactly parallel to the interfaces (deposit: cannot leave).
                     if dz > 0.0 {
-                        tally.escape(&p, Side::Bottom, p.dir, p.w);
+                        tally.escape(0, &p, Side::Bottom, p.dir, p.w);
                     } else {
-                        tally.absorb(&p, p.w);
+                        tally.absorb(0, &p, p.w);
                     }
                     break;
                 }
                 clear_hits += 1;
                 if clear_hits > MAX_CLEAR_HITS {
-                    tally.absorb(&p, p.w);
+                    tally.absorb(0, &p, p.w);
                     break;
                 }
                 hop(&mut p, db, lay.n);
@@ -234,11 +235,11 @@ impl Kernel {
                 if transmit {
                     let nd = [p.dir[0] * eta, p.dir[1] * eta, if up { -cos_t } else { cos_t }];
                     if up && p.layer == 0 {
-                        tally.escape(&p, Side::Top, nd, p.w);
+                        tally.escape(0, &p, Side::Top, nd, p.w);
                         break;
                     }
                     if !up && p.layer == last {
-                        tally.escape(&p, Side::Bottom, nd, p.w);
+                        tally.escape(0, &p, Side::Bottom, nd, p.w);
                         break;
                     }
                     p.dir = nd;
@@ -258,7 +259,7 @@ impl Kernel {
             let dw = p.w * lay.absorb_frac;
             if dw != 0.0 {
                 p.w -= dw;
-                tally.absorb(&p, dw);
+                tally.absorb(0, &p, dw);
                 if p.w <= 0.0 {
                     break;
                 }
@@ -277,15 +278,15 @@ impl Kernel {
 
             if p.w < ROULETTE_THRESHOLD {
                 if rng.uniform() * ROULETTE_M <= 1.0 {
-                    tally.absorb(&p, -(ROULETTE_M - 1.0) * p.w);
+                    tally.absorb(0, &p, -(ROULETTE_M - 1.0) * p.w);
                     p.w *= ROULETTE_M;
                 } else {
-                    tally.absorb(&p, p.w);
+                    tally.absorb(0, &p, p.w);
                     break;
                 }
             }
         }
-        tally.end_photon();
+        tally.end_photon(0);
         p.order as u64
     }
 }

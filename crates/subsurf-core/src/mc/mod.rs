@@ -12,6 +12,7 @@
 
 pub mod config;
 mod kernel;
+pub mod lanes;
 pub mod packet;
 pub mod run;
 pub mod source;

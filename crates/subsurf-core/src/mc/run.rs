@@ -1,19 +1,23 @@
 //! Running many photons: fixed chunks traced in parallel (rayon), merged in chunk order.
 //!
-//! Photons 0 … N−1 are split into chunks of [`CHUNK_PHOTONS`]; each chunk is traced into its
-//! own tally (made by the caller's factory) and the chunk tallies are merged into the result
-//! strictly in chunk order. Since each photon has its own random stream (see [`crate::rng`])
-//! and floating-point sums are formed in the same order whatever the scheduling, results are
-//! bit-identical for any number of threads. Chunks are scheduled in waves (a bounded number in
-//! flight) so memory stays O(threads × tally size) for any N.
+//! Photons 0 … N−1 are split into chunks of [`CHUNK_PHOTONS`]; each chunk is traced by the
+//! lane kernel (`mc::lanes`) into its own tally (made by the caller's factory) and the chunk
+//! tallies are merged into the result strictly in chunk order. Since each photon has its own
+//! random stream (see [`crate::rng`]), a photon's history does not depend on its lane or the
+//! instruction set, and floating-point sums are formed in the same order whatever the
+//! scheduling, results are bit-identical for any number of threads. A tally with batch-means
+//! errors ([`Tally::batched`]) gets its batches ([`batch_photons`]) traced one after the
+//! other, each closed by [`Tally::end_batch`]. Chunks are scheduled in waves (a bounded number
+//! in flight) so memory stays O(threads × tally size) for any N.
 //!
-//! Cancellation: `cancel` is polled before each chunk and every 256 photons inside one; a
-//! chunk interrupted midway is discarded, so a cancelled run returns the completed chunks
-//! (`photons` says how many photons they hold). `progress` is increased by each completed
-//! chunk's photon count.
+//! Cancellation: `cancel` is polled before each chunk and every few thousand lane steps inside
+//! one; a chunk interrupted midway is discarded, so a cancelled run returns the completed
+//! chunks (`photons` says how many photons they hold). `progress` is increased by each
+//! completed chunk's photon count.
 
-use super::config::{RunConfig, CHUNK_PHOTONS};
+use super::config::{batch_photons, RunConfig, CHUNK_PHOTONS};
 use super::kernel::Kernel;
+use super::lanes::{trace_range, Isa};
 use super::tally::Tally;
 use crate::error::{Error, Result};
 use crate::medium::Stack;
@@ -33,22 +37,26 @@ pub struct RunOutput<T> {
     pub cancelled: bool,
 }
 
-/// How often (photons) a chunk polls the cancel flag.
-const CANCEL_POLL: u64 = 256;
-
-fn trace_chunk<T: Tally, const CLEAR: bool, const MIXTURE: bool>(
+/// Trace photons `range` into `t`, batch by batch if the tally keeps batch means.
+fn trace_chunk<T: Tally>(
+    isa: Isa,
     k: &Kernel,
     seed: u64,
+    batch: u64,
     range: std::ops::Range<u64>,
-    tally: &mut T,
+    t: &mut T,
     cancel: &AtomicBool,
 ) -> Option<u64> {
+    if !t.batched() {
+        return trace_range(isa, k, seed, range, t, cancel);
+    }
     let mut events = 0;
-    for i in range.clone() {
-        if (i - range.start).is_multiple_of(CANCEL_POLL) && cancel.load(Ordering::Relaxed) {
-            return None;
-        }
-        events += k.trace::<T, CLEAR, MIXTURE>(seed, i, tally);
+    let mut a = range.start;
+    while a < range.end {
+        let b = (a + batch).min(range.end);
+        events += trace_range(isa, k, seed, a..b, t, cancel)?;
+        t.end_batch(b - a);
+        a = b;
     }
     Some(events)
 }
@@ -71,7 +79,9 @@ where
     cfg.validate()?;
     stack.layers.first().ok_or_else(|| Error::Invalid("layers: the stack is empty; give at least one layer".into()))?;
     let kernel = Kernel::new(stack, cfg.source);
+    let isa = cfg.isa.unwrap_or_else(Isa::detect);
     let n = cfg.photons;
+    let batch = batch_photons(n);
     let nchunks = n.div_ceil(CHUNK_PHOTONS);
     let seed = cfg.seed;
 
@@ -81,12 +91,7 @@ where
         }
         let range = c * CHUNK_PHOTONS..((c + 1) * CHUNK_PHOTONS).min(n);
         let mut t = make_tally();
-        let ev = match (kernel.any_clear, kernel.any_mixture) {
-            (false, false) => trace_chunk::<T, false, false>(&kernel, seed, range.clone(), &mut t, cancel),
-            (false, true) => trace_chunk::<T, false, true>(&kernel, seed, range.clone(), &mut t, cancel),
-            (true, false) => trace_chunk::<T, true, false>(&kernel, seed, range.clone(), &mut t, cancel),
-            (true, true) => trace_chunk::<T, true, true>(&kernel, seed, range.clone(), &mut t, cancel),
-        }?;
+        let ev = trace_chunk(isa, &kernel, seed, batch, range.clone(), &mut t, cancel)?;
         let done = range.end - range.start;
         progress.fetch_add(done, Ordering::Relaxed);
         Some((t, done, ev))

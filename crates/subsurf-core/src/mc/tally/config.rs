@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result};
 
-/// Largest number of bins allowed in one histogram (each bin costs 32 bytes per chunk tally).
+/// Largest number of bins allowed in one histogram (each bin costs 24 bytes per chunk tally).
 pub const MAX_BINS: usize = 10_000_000;
 /// Largest scattering order `K` of the per-order split.
 pub const MAX_ORDER: u32 = 10_000;
@@ -37,6 +37,9 @@ pub struct TallyConfig {
     pub spatial: bool,
     /// R(θ), T(θ) (and R(r,θ), T(r,θ) with `spatial`).
     pub angular: bool,
+    /// Keep standard errors of the histograms (batch means, see [`super::accum`]); `false`
+    /// skips them entirely (stderr NaN) and makes every deposit a single add.
+    pub errors: bool,
 }
 
 impl Default for TallyConfig {
@@ -54,6 +57,7 @@ impl Default for TallyConfig {
             max_order: None,
             spatial: true,
             angular: true,
+            errors: true,
         }
     }
 }

@@ -13,7 +13,7 @@ pub struct HistogramOut {
     pub name: String,
     /// Normalised bin values.
     pub values: Vec<f64>,
-    /// Standard errors of `values` from per-photon second moments.
+    /// Standard errors of `values` (batch means; NaN when the run kept no errors).
     pub stderr: Vec<f64>,
     /// Number of bins per axis.
     pub shape: Vec<usize>,
@@ -98,12 +98,13 @@ pub fn cos_bin_projected_solid_angle(mu0: f64, mu1: f64, dphi: f64) -> f64 {
     0.5 * dphi * (mu1 - mu0) * (mu1 + mu0)
 }
 
-/// Build a histogram from an accumulator: bin `i` (row-major over `axes`) gets
-/// value = S₁/N · `scale(i)` and stderr = se · `scale(i)` (see [`Accum::mean_stderr`]).
+/// Build a histogram from an accumulator over `(photons, batches)`: bin `i` (row-major over
+/// `axes`) gets value = S₁/N · `scale(i)` and stderr = se · `scale(i)` (see
+/// [`Accum::mean_stderr`]; NaN when the run kept no errors).
 pub(crate) fn histogram(
     name: &str,
     acc: &Accum,
-    photons: u64,
+    (photons, batches): (u64, u64),
     axes: &[Axis],
     units: &str,
     description: &str,
@@ -113,7 +114,7 @@ pub(crate) fn histogram(
     debug_assert_eq!(shape.iter().product::<usize>(), acc.len());
     let (mut values, mut stderr) = (Vec::with_capacity(acc.len()), Vec::with_capacity(acc.len()));
     for i in 0..acc.len() {
-        let (m, se) = acc.mean_stderr(i, photons);
+        let (m, se) = acc.mean_stderr(i, photons, batches);
         let s = scale(i);
         values.push(m * s);
         stderr.push(se * s);

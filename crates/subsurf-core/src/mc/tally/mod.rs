@@ -1,8 +1,12 @@
 //! Tallies: what the kernel scores. The kernel is generic over [`Tally`] (static dispatch,
 //! monomorphised per tally set, so a run that asks only for totals pays nothing for grids).
 //!
-//! Standard errors come from per-photon second moments: every tally sees
-//! [`Tally::begin_photon`] / [`Tally::end_photon`] around each photon's history.
+//! The lane kernel (`mc::lanes`) follows up to [`crate::mc::lanes::LANES`] photon histories at
+//! once, so every event names its lane: between `begin_photon(lane, …)` and
+//! `end_photon(lane)` the events of that lane belong to one photon, while events of
+//! different lanes interleave. Standard errors: the totals keep per-photon second moments
+//! (a per-lane partial score); histograms keep batch means over fixed photon batches
+//! ([`accum`]), closed by [`Tally::end_batch`] when every photon of the batch has ended.
 
 pub mod totals;
 
@@ -10,20 +14,27 @@ use super::packet::{Packet, Side};
 
 /// Receiver of the kernel's events. All weights are in units of the launched packet weight (1).
 pub trait Tally: Send {
-    /// A new photon history starts; `photon` is its global index (0 … N−1).
-    fn begin_photon(&mut self, photon: u64);
+    /// Whether the tally needs [`Tally::end_batch`] calls (batch-means standard errors); a run
+    /// then traces each batch to its end before starting the next.
+    fn batched(&self) -> bool {
+        false
+    }
+    /// Lane `lane` starts a new photon history; `photon` is its global index (0 … N−1).
+    fn begin_photon(&mut self, lane: usize, photon: u64);
     /// Weight reflected specularly at the top surface on launch.
-    fn specular(&mut self, w: f64);
+    fn specular(&mut self, lane: usize, w: f64);
     /// Weight `dw` deposited (absorbed) at the packet's position `p.pos` in layer `p.layer`.
     /// `dw` can be negative: Russian roulette deposits its zero-mean control term here, so that
     /// energy balance holds exactly in every run (see `mc::kernel`).
-    fn absorb(&mut self, p: &Packet, dw: f64);
+    fn absorb(&mut self, lane: usize, p: &Packet, dw: f64);
     /// The packet leaves through `side` with weight `w`. `p` is its state at the exit point
     /// (inside, before refraction); `dir_out` is its unit direction in the ambient medium after
     /// refraction (`dir_out[2] < 0` for `Side::Top`, `> 0` for `Side::Bottom`).
-    fn escape(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64);
-    /// The current photon history has ended.
-    fn end_photon(&mut self);
+    fn escape(&mut self, lane: usize, p: &Packet, side: Side, dir_out: [f64; 3], w: f64);
+    /// The history on lane `lane` has ended.
+    fn end_photon(&mut self, lane: usize);
+    /// The photons of one batch (`photons` of them, all ended) are done (see [`accum`]).
+    fn end_batch(&mut self, _photons: u64) {}
     /// Add another tally of the same configuration into this one (deterministic: the run
     /// merges chunk tallies in chunk order).
     fn merge(&mut self, other: &Self);
@@ -32,45 +43,53 @@ pub trait Tally: Send {
 /// The empty tally: scores nothing (for runs that need only the engine's own counters).
 impl Tally for () {
     #[inline]
-    fn begin_photon(&mut self, _photon: u64) {}
+    fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
     #[inline]
-    fn specular(&mut self, _w: f64) {}
+    fn specular(&mut self, _lane: usize, _w: f64) {}
     #[inline]
-    fn absorb(&mut self, _p: &Packet, _dw: f64) {}
+    fn absorb(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
     #[inline]
-    fn escape(&mut self, _p: &Packet, _side: Side, _dir_out: [f64; 3], _w: f64) {}
+    fn escape(&mut self, _lane: usize, _p: &Packet, _side: Side, _dir_out: [f64; 3], _w: f64) {}
     #[inline]
-    fn end_photon(&mut self) {}
+    fn end_photon(&mut self, _lane: usize) {}
     #[inline]
     fn merge(&mut self, _other: &Self) {}
 }
 
 /// Two tallies side by side, e.g. `(Totals, TallySet)`: each sees every event.
 impl<A: Tally, B: Tally> Tally for (A, B) {
-    #[inline]
-    fn begin_photon(&mut self, photon: u64) {
-        self.0.begin_photon(photon);
-        self.1.begin_photon(photon);
+    fn batched(&self) -> bool {
+        self.0.batched() || self.1.batched()
     }
     #[inline]
-    fn specular(&mut self, w: f64) {
-        self.0.specular(w);
-        self.1.specular(w);
+    fn begin_photon(&mut self, lane: usize, photon: u64) {
+        self.0.begin_photon(lane, photon);
+        self.1.begin_photon(lane, photon);
     }
     #[inline]
-    fn absorb(&mut self, p: &Packet, dw: f64) {
-        self.0.absorb(p, dw);
-        self.1.absorb(p, dw);
+    fn specular(&mut self, lane: usize, w: f64) {
+        self.0.specular(lane, w);
+        self.1.specular(lane, w);
     }
     #[inline]
-    fn escape(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
-        self.0.escape(p, side, dir_out, w);
-        self.1.escape(p, side, dir_out, w);
+    fn absorb(&mut self, lane: usize, p: &Packet, dw: f64) {
+        self.0.absorb(lane, p, dw);
+        self.1.absorb(lane, p, dw);
     }
     #[inline]
-    fn end_photon(&mut self) {
-        self.0.end_photon();
-        self.1.end_photon();
+    fn escape(&mut self, lane: usize, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
+        self.0.escape(lane, p, side, dir_out, w);
+        self.1.escape(lane, p, side, dir_out, w);
+    }
+    #[inline]
+    fn end_photon(&mut self, lane: usize) {
+        self.0.end_photon(lane);
+        self.1.end_photon(lane);
+    }
+    #[inline]
+    fn end_batch(&mut self, photons: u64) {
+        self.0.end_batch(photons);
+        self.1.end_batch(photons);
     }
     #[inline]
     fn merge(&mut self, other: &Self) {

@@ -71,7 +71,8 @@ struct SideTallies {
 
 impl SideTallies {
     fn new(c: &TallyConfig, time: bool) -> Self {
-        let on = |b: bool, n: usize| Accum::new(if b { n } else { 0 });
+        let e = c.errors;
+        let on = |b: bool, n: usize| Accum::new(if b { n } else { 0 }, e);
         let nb = c.brdf.map_or(0, |(a, b)| a * b);
         let no = c.max_order.map_or(0, |k| k as usize + 2);
         SideTallies {
@@ -80,9 +81,9 @@ impl SideTallies {
             ra: on(c.spatial && c.angular, c.nr * c.na),
             t: on(time && c.nt > 0, c.nt),
             rt: on(time && c.nt > 0 && c.spatial, c.nr * c.nt),
-            brdf: Accum::new(nb),
-            order: Accum::new(no),
-            brdf_order: Accum::new(no * nb),
+            brdf: Accum::new(nb, e),
+            order: Accum::new(no, e),
+            brdf_order: Accum::new(no * nb, e),
             single: on(no > 0, 1),
             brdf_single: on(no > 0, nb),
         }
@@ -124,7 +125,9 @@ impl SideTallies {
 #[derive(Clone, Debug, PartialEq)]
 pub struct TallySet {
     cfg: TallyConfig,
-    photon: u64,
+    /// Photons and batches closed so far (see [`Accum`]).
+    photons: u64,
+    batches: u64,
     inv_dr: f64,
     inv_dz: f64,
     inv_da: f64,
@@ -152,10 +155,11 @@ impl TallySet {
     pub fn new(cfg: &TallyConfig, stack: &Stack) -> Result<Self> {
         cfg.validate()?;
         let (n_cos, n_phi) = cfg.brdf.unwrap_or((0, 0));
-        let sp = |n: usize| Accum::new(if cfg.spatial { n } else { 0 });
+        let sp = |n: usize| Accum::new(if cfg.spatial { n } else { 0 }, cfg.errors);
         let mut t = TallySet {
             cfg: *cfg,
-            photon: u64::MAX - 1,
+            photons: 0,
+            batches: 0,
             inv_dr: 1.0 / cfg.dr,
             inv_dz: 1.0 / cfg.dz,
             inv_da: 1.0 / cfg.da(),
@@ -208,7 +212,7 @@ impl TallySet {
     /// for each normalisation). Only the enabled tallies are returned.
     pub fn finalize(&self, photons: u64) -> Vec<HistogramOut> {
         let c = &self.cfg;
-        let n = photons;
+        let n = (photons, self.batches);
         let (r_ax, z_ax) = (Axis::uniform("r", "mm", c.nr, c.dr), Axis::uniform("z", "mm", c.nz, c.dz));
         let a_ax = Axis::span("theta", "rad", c.na, 0.0, PI / 2.0);
         let t_ax = Axis::uniform("t", "ps", c.nt, c.dt);
@@ -378,65 +382,74 @@ impl TallySet {
     }
 }
 
+/// r = √(x² + y²) of the packet (no `hypot`: coordinates are far from overflow, and `hypot`
+/// is several times slower).
+#[inline(always)]
+fn radius(p: &Packet) -> f64 {
+    (p.pos[0] * p.pos[0] + p.pos[1] * p.pos[1]).sqrt()
+}
+
 impl Tally for TallySet {
-    #[inline]
-    fn begin_photon(&mut self, photon: u64) {
-        self.photon = photon;
+    fn batched(&self) -> bool {
+        self.cfg.errors
     }
 
     #[inline]
-    fn specular(&mut self, _w: f64) {}
+    fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
 
     #[inline]
-    fn absorb(&mut self, p: &Packet, dw: f64) {
+    fn specular(&mut self, _lane: usize, _w: f64) {}
+
+    #[inline]
+    fn absorb(&mut self, _lane: usize, p: &Packet, dw: f64) {
         if self.a_z.is_empty() {
             return;
         }
-        let (c, ph) = (&self.cfg, self.photon);
+        let c = &self.cfg;
         let iz = bin_clamped(p.pos[2], self.inv_dz, c.nz);
-        let ir = bin_clamped(p.pos[0].hypot(p.pos[1]), self.inv_dr, c.nr);
+        let ir = bin_clamped(radius(p), self.inv_dr, c.nr);
         let irz = ir * c.nz + iz;
-        self.a_z.add(iz, dw, ph);
-        self.a_rz.add(irz, dw, ph);
+        self.a_z.add(iz, dw);
+        self.a_rz.add(irz, dw);
         let im = self.inv_mua.get(p.layer).copied().unwrap_or(0.0);
         if im > 0.0 && self.bin_mua[iz] < 0.0 {
-            self.phi_z.add(iz, dw * im, ph);
-            self.phi_rz.add(irz, dw * im, ph);
+            self.phi_z.add(iz, dw * im);
+            self.phi_rz.add(irz, dw * im);
         }
     }
 
     #[inline]
-    fn escape(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
-        let (c, ph) = (&self.cfg, self.photon);
+    fn escape(&mut self, _lane: usize, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
+        let c = &self.cfg;
         let s = match side {
             Side::Top => &mut self.rd,
             Side::Bottom => &mut self.tt,
         };
-        let ir = bin_clamped(p.pos[0].hypot(p.pos[1]), self.inv_dr, c.nr);
+        let ir = bin_clamped(radius(p), self.inv_dr, c.nr);
         let mu = dir_out[2].abs().min(1.0);
         if !s.r.is_empty() {
-            s.r.add(ir, w, ph);
+            s.r.add(ir, w);
         }
         if !s.a.is_empty() {
             let ia = bin_clamped(mu.acos(), self.inv_da, c.na);
-            s.a.add(ia, w, ph);
+            s.a.add(ia, w);
             if !s.ra.is_empty() {
-                s.ra.add(ir * c.na + ia, w, ph);
+                s.ra.add(ir * c.na + ia, w);
             }
         }
         if !s.t.is_empty() {
             let it = bin_clamped(p.path / C_MM_PER_PS, self.inv_dt, c.nt);
-            s.t.add(it, w, ph);
+            s.t.add(it, w);
             if !s.rt.is_empty() {
-                s.rt.add(ir * c.nt + it, w, ph);
+                s.rt.add(ir * c.nt + it, w);
             }
         }
         let ko = p.order.min(self.max_order + 1) as usize;
         let direct1 = p.order == 1 && p.reflections == 0;
         if !s.order.is_empty() {
-            s.order.add(ko, w, ph);
+            s.order.add(ko, w);
             if direct1 {
-                s.single.add(0, w, ph);
+                s.single.add(0, w);
             }
         }
         if !s.brdf.is_empty() {
@@ -447,20 +460,33 @@ impl Tally for TallySet {
             }
             let ip = bin_clamped(phi, self.n_phi as f64 / (2.0 * PI), self.n_phi);
             let b = ic * self.n_phi + ip;
-            s.brdf.add(b, w, ph);
+            s.brdf.add(b, w);
             if !s.order.is_empty() {
-                s.brdf_order.add(ko * s.brdf.len() + b, w, ph);
+                s.brdf_order.add(ko * s.brdf.len() + b, w);
                 if direct1 {
-                    s.brdf_single.add(b, w, ph);
+                    s.brdf_single.add(b, w);
                 }
             }
         }
     }
 
     #[inline]
-    fn end_photon(&mut self) {}
+    fn end_photon(&mut self, _lane: usize) {}
+
+    fn end_batch(&mut self, photons: u64) {
+        self.photons += photons;
+        self.batches += 1;
+        for a in self.rd.each_mut().into_iter().chain(self.tt.each_mut()) {
+            a.end_batch(photons);
+        }
+        for a in [&mut self.a_z, &mut self.a_rz, &mut self.phi_z, &mut self.phi_rz] {
+            a.end_batch(photons);
+        }
+    }
 
     fn merge(&mut self, other: &Self) {
+        self.photons += other.photons;
+        self.batches += other.batches;
         for (a, b) in self.rd.each_mut().into_iter().zip(other.rd.each()) {
             a.merge(b);
         }

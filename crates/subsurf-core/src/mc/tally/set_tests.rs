@@ -30,6 +30,7 @@ fn config() -> TallyConfig {
         max_order: Some(3),
         spatial: true,
         angular: true,
+        errors: true,
     }
 }
 
@@ -63,7 +64,7 @@ fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut T
     let s = stack();
     let mut st = seed;
     for ph in photons {
-        t.begin_photon(ph);
+        t.begin_photon(0, ph);
         for _ in 0..(splitmix(&mut st) * 5.0) as usize {
             let z = splitmix(&mut st) * 0.2; // beyond the 0.12 mm grid sometimes
             let layer = if z < 0.0625 {
@@ -75,7 +76,7 @@ fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut T
             };
             let r = splitmix(&mut st) * 0.25;
             let dw = splitmix(&mut st) * 0.3 - 0.05;
-            t.absorb(&packet([r * 0.6, r * 0.8, z], layer, 1, 0, 0.0), dw);
+            t.absorb(0, &packet([r * 0.6, r * 0.8, z], layer, 1, 0, 0.0), dw);
             truth.absorbed += dw;
             if s.layers[layer].mua > 0.0 {
                 truth.fluence_plane += dw / s.layers[layer].mua;
@@ -92,8 +93,9 @@ fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut T
         let path = splitmix(&mut st) * 1.5; // up to 5 ps, beyond the 4 ps grid
         let dz = if top { -mu } else { mu };
         let p = packet([r, 0.0, if top { 0.0 } else { 1.0 }], 0, order, refl, path);
-        t.escape(&p, if top { Side::Top } else { Side::Bottom }, [sin * phi.cos(), sin * phi.sin(), dz], w);
-        t.end_photon();
+        t.escape(0, &p, if top { Side::Top } else { Side::Bottom }, [sin * phi.cos(), sin * phi.sin(), dz], w);
+        t.end_photon(0);
+        t.end_batch(1);
         if top {
             truth.top += w;
             truth.top_order[order.min(4) as usize] += w;
@@ -212,13 +214,14 @@ fn normalisations_integrate_to_totals() {
 fn bin_placement_by_hand() {
     let cfg = config();
     let mut t = TallySet::new(&cfg, &stack()).unwrap();
-    t.begin_photon(0);
+    t.begin_photon(0, 0);
     // r = 0.05 mm → bin 2 (edges 0.04, 0.06); exit θ = 40° → bin 2 of 15° bins; t = 0.6/c ≈ 2.0 ps → bin 4
     let th = 40f64.to_radians();
     let dir = [th.sin() * (-0.5f64).cos(), th.sin() * (-0.5f64).sin(), -th.cos()]; // φ = 2π − 0.5
-    t.escape(&packet([0.03, 0.04, 0.0], 0, 1, 0, 0.6), Side::Top, dir, 0.5);
-    t.absorb(&packet([0.0, 0.5, 0.3], 2, 1, 0, 0.0), 0.25); // r, z overflow → last bins
-    t.end_photon();
+    t.escape(0, &packet([0.03, 0.04, 0.0], 0, 1, 0, 0.6), Side::Top, dir, 0.5);
+    t.absorb(0, &packet([0.0, 0.5, 0.3], 2, 1, 0, 0.0), 0.25); // r, z overflow → last bins
+    t.end_photon(0);
+    t.end_batch(1);
     let h = t.finalize(4);
     let area2 = PI * 0.02 * 0.02 * 5.0;
     let rd_r = get(&h, "rd_r");
@@ -250,7 +253,8 @@ fn bin_placement_by_hand() {
 #[test]
 fn stderr_matches_brute_force() {
     // Two deposits per photon in the same r bin for some photons: the per-photon score is the
-    // sum, and the stderr must use Σ(per-photon score)², not Σ(deposit)².
+    // sum, and the stderr (batches of one photon here) must use Σ(per-photon score)², not
+    // Σ(deposit)².
     let cfg = config();
     let s = stack();
     let mut t = TallySet::new(&cfg, &s).unwrap();
@@ -258,14 +262,15 @@ fn stderr_matches_brute_force() {
     let mut st = 5;
     let mut scores = vec![[0.0f64; 12]; n as usize];
     for ph in 0..n {
-        t.begin_photon(ph);
+        t.begin_photon(0, ph);
         for _ in 0..3 {
             let z = splitmix(&mut st) * 0.045; // depth bins 0..2, layer 0
             let dw = splitmix(&mut st);
-            t.absorb(&packet([0.0, 0.0, z], 0, 0, 0, 0.0), dw);
+            t.absorb(0, &packet([0.0, 0.0, z], 0, 0, 0, 0.0), dw);
             scores[ph as usize][(z / cfg.dz) as usize] += dw;
         }
-        t.end_photon();
+        t.end_photon(0);
+        t.end_batch(1);
     }
     let h = t.finalize(n);
     let az = get(&h, "a_z");
@@ -354,9 +359,9 @@ fn switches_select_histograms() {
     // a disabled TallySet ignores events without touching memory
     cfg = TallyConfig { spatial: false, angular: false, ..TallyConfig::default() };
     let mut t = TallySet::new(&cfg, &stack()).unwrap();
-    t.begin_photon(0);
-    t.absorb(&packet([0.0, 0.0, 0.1], 0, 0, 0, 0.0), 1.0);
-    t.escape(&packet([0.0, 0.0, 0.0], 0, 0, 0, 0.0), Side::Top, [0.0, 0.0, -1.0], 1.0);
+    t.begin_photon(0, 0);
+    t.absorb(0, &packet([0.0, 0.0, 0.1], 0, 0, 0, 0.0), 1.0);
+    t.escape(0, &packet([0.0, 0.0, 0.0], 0, 0, 0, 0.0), Side::Top, [0.0, 0.0, -1.0], 1.0);
     assert!(t.finalize(1).is_empty());
     let bad = TallyConfig { nr: 0, ..TallyConfig::default() };
     assert!(TallySet::new(&bad, &stack()).unwrap_err().to_string().starts_with("tallies.nr"));
@@ -372,15 +377,17 @@ fn fluence_in_a_bin_straddling_two_absorbing_layers() {
     .unwrap();
     let cfg = TallyConfig { nr: 2, dr: 0.1, nz: 3, dz: 0.01, ..TallyConfig::default() };
     let mut t = TallySet::new(&cfg, &s).unwrap();
-    t.begin_photon(0);
-    t.absorb(&packet([0.0, 0.0, 0.005], 0, 1, 0, 0.0), 0.2); // bin 0, layer 0
-    t.absorb(&packet([0.0, 0.0, 0.012], 0, 1, 0, 0.0), 0.3); // bin 1, layer 0
-    t.absorb(&packet([0.0, 0.0, 0.018], 1, 1, 0, 0.0), 0.4); // bin 1, layer 1
-    t.absorb(&packet([0.0, 0.0, 0.5], 1, 1, 0, 0.0), 0.8); // bin 2 (overflow), layer 1
-    t.end_photon();
-    t.begin_photon(1);
-    t.absorb(&packet([0.0, 0.0, 0.019], 1, 1, 0, 0.0), 0.4); // bin 1, layer 1
-    t.end_photon();
+    t.begin_photon(0, 0);
+    t.absorb(0, &packet([0.0, 0.0, 0.005], 0, 1, 0, 0.0), 0.2); // bin 0, layer 0
+    t.absorb(0, &packet([0.0, 0.0, 0.012], 0, 1, 0, 0.0), 0.3); // bin 1, layer 0
+    t.absorb(0, &packet([0.0, 0.0, 0.018], 1, 1, 0, 0.0), 0.4); // bin 1, layer 1
+    t.absorb(0, &packet([0.0, 0.0, 0.5], 1, 1, 0, 0.0), 0.8); // bin 2 (overflow), layer 1
+    t.end_photon(0);
+    t.end_batch(1);
+    t.begin_photon(0, 1);
+    t.absorb(0, &packet([0.0, 0.0, 0.019], 1, 1, 0, 0.0), 0.4); // bin 1, layer 1
+    t.end_photon(0);
+    t.end_batch(1);
     let h = t.finalize(2);
     let (fz, frz) = (get(&h, "fluence_z"), get(&h, "fluence_rz"));
     let want = [0.2 / 1.0, 0.3 / 1.0 + 0.4 / 4.0 + 0.4 / 4.0, 0.8 / 4.0].map(|x| x / 2.0 / 0.01);

@@ -8,6 +8,7 @@
 //! Kalos & Whitlock, *Monte Carlo Methods*, 2nd ed., §2.6). This accounts for the correlation
 //! of all the weight a photon leaves in one quantity, which MCML's per-bin formula does not.
 
+use crate::mc::lanes::LANES;
 use crate::mc::packet::{Packet, Side};
 use crate::mc::tally::Tally;
 
@@ -28,13 +29,15 @@ pub enum Total {
 
 const NQ: usize = 5;
 
-/// Totals with per-photon second moments.
+/// Totals with per-photon second moments (a partial score per lane, see [`Tally`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Totals {
     photons: u64,
-    cur: [f64; NQ],
+    layers: usize,
+    cur: [[f64; NQ]; LANES],
     sum: [f64; NQ],
     sum2: [f64; NQ],
+    /// Lane-major: `cur_layer[lane * layers + layer]`.
     cur_layer: Vec<f64>,
     sum_layer: Vec<f64>,
     sum2_layer: Vec<f64>,
@@ -61,10 +64,11 @@ impl Totals {
     pub fn new(layers: usize) -> Self {
         Totals {
             photons: 0,
-            cur: [0.0; NQ],
+            layers,
+            cur: [[0.0; NQ]; LANES],
             sum: [0.0; NQ],
             sum2: [0.0; NQ],
-            cur_layer: vec![0.0; layers],
+            cur_layer: vec![0.0; layers * LANES],
             sum_layer: vec![0.0; layers],
             sum2_layer: vec![0.0; layers],
         }
@@ -94,44 +98,50 @@ impl Totals {
 
 impl Tally for Totals {
     #[inline]
-    fn begin_photon(&mut self, _photon: u64) {
-        self.cur = [0.0; NQ];
-        for x in &mut self.cur_layer {
+    fn begin_photon(&mut self, lane: usize, _photon: u64) {
+        self.cur[lane] = [0.0; NQ];
+        let nl = self.layers;
+        for x in &mut self.cur_layer[lane * nl..(lane + 1) * nl] {
             *x = 0.0;
         }
     }
     #[inline]
-    fn specular(&mut self, w: f64) {
-        self.cur[Total::Specular as usize] += w;
+    fn specular(&mut self, lane: usize, w: f64) {
+        self.cur[lane][Total::Specular as usize] += w;
     }
     #[inline]
-    fn absorb(&mut self, p: &Packet, dw: f64) {
-        self.cur_layer[p.layer] += dw;
+    fn absorb(&mut self, lane: usize, p: &Packet, dw: f64) {
+        self.cur_layer[lane * self.layers + p.layer] += dw;
     }
     #[inline]
-    fn escape(&mut self, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
+    fn escape(&mut self, lane: usize, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
+        let cur = &mut self.cur[lane];
         match side {
-            Side::Top => self.cur[Total::Diffuse as usize] += w,
+            Side::Top => cur[Total::Diffuse as usize] += w,
             Side::Bottom => {
-                self.cur[Total::Transmittance as usize] += w;
+                cur[Total::Transmittance as usize] += w;
                 if p.order == 0 {
-                    self.cur[Total::Unscattered as usize] += w;
+                    cur[Total::Unscattered as usize] += w;
                 }
             }
         }
     }
     #[inline]
-    fn end_photon(&mut self) {
+    fn end_photon(&mut self, lane: usize) {
         self.photons += 1;
+        let nl = self.layers;
         let mut a = 0.0;
-        for ((c, s), s2) in self.cur_layer.iter().zip(&mut self.sum_layer).zip(&mut self.sum2_layer) {
+        for ((c, s), s2) in
+            self.cur_layer[lane * nl..(lane + 1) * nl].iter().zip(&mut self.sum_layer).zip(&mut self.sum2_layer)
+        {
             a += *c;
             *s += *c;
             *s2 += *c * *c;
         }
-        self.cur[Total::Absorbed as usize] = a;
+        let cur = &mut self.cur[lane];
+        cur[Total::Absorbed as usize] = a;
         for i in 0..NQ {
-            let x = self.cur[i];
+            let x = cur[i];
             self.sum[i] += x;
             self.sum2[i] += x * x;
         }
@@ -160,11 +170,16 @@ mod tests {
         // Scores 1, 0, 0, 1 on Diffuse: mean 1/2, sample variance 1/3, SE = √(1/12).
         let mut t = Totals::new(1);
         let p = Packet { pos: [0.0; 3], dir: [0.0, 0.0, -1.0], w: 1.0, layer: 0, order: 1, reflections: 0, path: 0.0 };
-        for x in [1.0, 0.0, 0.0, 1.0] {
-            t.begin_photon(0);
-            t.escape(&p, Side::Top, p.dir, x);
-            t.absorb(&p, 1.0 - x);
-            t.end_photon();
+        // Two lanes interleaved: lane 1's events do not leak into lane 0's photon.
+        for x in [1.0, 0.0] {
+            t.begin_photon(0, 0);
+            t.begin_photon(1, 1);
+            t.escape(0, &p, Side::Top, p.dir, x);
+            t.escape(1, &p, Side::Top, p.dir, 1.0 - x);
+            t.absorb(0, &p, 1.0 - x);
+            t.absorb(1, &p, x);
+            t.end_photon(1);
+            t.end_photon(0);
         }
         let (m, se) = t.get(Total::Diffuse);
         assert_eq!(m, 0.5);

@@ -1,0 +1,567 @@
+//! The lane loop: MCML's hop–drop–spin–roulette (see `mc::kernel` for the physics and its
+//! references) on [`LANES`] photons at once.
+//!
+//! Each step of the loop advances every live lane by one event, in phases that are loops over
+//! the lanes with branch-free bodies (vectorised):
+//! 1. **step**: draw an optical depth where the last one is used up, move to the interaction
+//!    point or to the interface ahead (keeping the unused optical depth);
+//! 2. **interface** (skipped when no lane hit one): Fresnel reflection or refraction, layer
+//!    change, escape;
+//! 3. **interaction**: absorption by weight, Henyey–Greenstein cos θ, azimuth, MCML's
+//!    direction update, Russian roulette (its zero-mean control term deposited with the
+//!    absorption, as in the scalar kernel).
+//!
+//! Then, lane by lane (scalar, rare events): tally calls, ends of histories, and refills with
+//! the next photon index. The arithmetic of each lane is exactly that of the scalar loop over
+//! its own photon (same operations in the same order), so a photon's history does not depend
+//! on its lane, its neighbours or the instruction set.
+
+use super::math::{cos_sin_2pi, neg_ln, sel};
+use super::{Isa, LANES};
+use crate::mc::config::{ROULETTE_M, ROULETTE_THRESHOLD};
+use crate::mc::kernel::{KLayer, Kernel};
+use crate::mc::packet::{Packet, Side};
+use crate::mc::tally::Tally;
+use crate::optics::Phase;
+use crate::rng::{u32_to_open01, PhotonRng};
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+const L: usize = LANES;
+type F = [f64; L];
+type U = [u32; L];
+type B = [bool; L];
+
+/// Lane steps between polls of the cancel flag.
+const CANCEL_POLL: u32 = 4096;
+/// Safety net of the scalar kernel (see `mc::kernel::MAX_CLEAR_HITS`).
+const MAX_CLEAR_HITS: u32 = 1_000_000;
+/// |uz| above which MCML's update uses its normal-incidence form.
+const UZ_NORMAL: f64 = 1.0 - 1e-12;
+
+/// One layer as the lanes copy it into their state: f64 fields only (`iso` is 1.0 for an
+/// isotropic layer), in the order of [`LaneLayer`]'s arrays.
+#[derive(Clone, Copy, Debug, Default)]
+struct LLayer {
+    z0: f64,
+    z1: f64,
+    n: f64,
+    sigma_t: f64,
+    inv_sigma_t: f64,
+    absorb_frac: f64,
+    /// HG constants 1 + g², 1/(2g), 1 − g², 1 − g, 2g (as `mc::kernel::hg_cos`).
+    hg: [f64; 5],
+    iso: f64,
+    n_up: f64,
+    n_down: f64,
+    eta_up: f64,
+    eta_down: f64,
+    cc_up: f64,
+    cc_down: f64,
+}
+
+impl From<&KLayer> for LLayer {
+    fn from(k: &KLayer) -> Self {
+        LLayer {
+            z0: k.z0,
+            z1: k.z1,
+            n: k.n,
+            sigma_t: k.sigma_t,
+            inv_sigma_t: k.inv_sigma_t,
+            absorb_frac: k.absorb_frac,
+            hg: k.hg,
+            iso: if k.iso { 1.0 } else { 0.0 },
+            n_up: k.n_up,
+            n_down: k.n_down,
+            eta_up: k.eta_up,
+            eta_down: k.eta_down,
+            cc_up: k.cos_crit_up,
+            cc_down: k.cos_crit_down,
+        }
+    }
+}
+
+/// The parameters of each lane's current layer, copied in when the lane enters the layer (at
+/// launch and at each crossing, both rare next to interactions), so the vector loops read
+/// plain arrays instead of gathering from the layer table at every step.
+#[derive(Clone, Debug, Default)]
+struct LaneLayer {
+    z0: F,
+    z1: F,
+    n: F,
+    sigma_t: F,
+    inv_sigma_t: F,
+    absorb_frac: F,
+    hg: [F; 5],
+    iso: F,
+    n_up: F,
+    n_down: F,
+    eta_up: F,
+    eta_down: F,
+    cc_up: F,
+    cc_down: F,
+}
+
+impl LaneLayer {
+    #[inline(always)]
+    fn set(&mut self, i: usize, l: &LLayer) {
+        self.z0[i] = l.z0;
+        self.z1[i] = l.z1;
+        self.n[i] = l.n;
+        self.sigma_t[i] = l.sigma_t;
+        self.inv_sigma_t[i] = l.inv_sigma_t;
+        self.absorb_frac[i] = l.absorb_frac;
+        for k in 0..5 {
+            self.hg[k][i] = l.hg[k];
+        }
+        self.iso[i] = l.iso;
+        self.n_up[i] = l.n_up;
+        self.n_down[i] = l.n_down;
+        self.eta_up[i] = l.eta_up;
+        self.eta_down[i] = l.eta_down;
+        self.cc_up[i] = l.cc_up;
+        self.cc_down[i] = l.cc_down;
+    }
+}
+
+/// The lanes' state, structure of arrays.
+#[derive(Clone, Debug, Default)]
+struct Lanes {
+    x: F,
+    y: F,
+    z: F,
+    ux: F,
+    uy: F,
+    uz: F,
+    w: F,
+    /// Unused optical depth.
+    s_left: F,
+    path: F,
+    layer: U,
+    order: U,
+    refl: U,
+    clear_hits: U,
+    /// xoshiro128++ state words s0…s3 of each lane.
+    s: [U; 4],
+    photon: [u64; L],
+    live: B,
+    /// The current layer's parameters.
+    l: LaneLayer,
+}
+
+/// One xoshiro128++ step on lane `i` where `need` (the state advances only there; see
+/// [`crate::rng`]); returns the output word (meaningless where `!need`).
+#[inline(always)]
+fn draw(s: &mut [U; 4], i: usize, need: bool) -> u32 {
+    let mut t = [s[0][i], s[1][i], s[2][i], s[3][i]];
+    let r = crate::rng::xoshiro128pp_next(&mut t);
+    for k in 0..4 {
+        s[k][i] = selu(need, t[k], s[k][i]);
+    }
+    r
+}
+
+// Branch-free selects on bit patterns (see [`sel`]).
+#[inline(always)]
+fn selu(c: bool, a: u32, b: u32) -> u32 {
+    let m = 0u32.wrapping_sub(c as u32);
+    (a & m) | (b & !m)
+}
+
+#[inline(always)]
+fn sel8(c: bool, a: u8, b: u8) -> u8 {
+    let m = 0u8.wrapping_sub(c as u8);
+    (a & m) | (b & !m)
+}
+
+/// What happened to a lane in one step, for the scalar pass (a `u8` per lane).
+mod fate {
+    /// Still moving.
+    pub const MOVING: u8 = 0;
+    /// Left through the top / bottom with direction (ox, oy, oz).
+    pub const ESCAPE_TOP: u8 = 1;
+    pub const ESCAPE_BOTTOM: u8 = 2;
+    /// Died after depositing (roulette or complete absorption); the deposit is in `dep`.
+    pub const DIED: u8 = 3;
+    /// In a clear layer with no interface ahead (see `mc::kernel`): leaves through the bottom
+    /// if it moves down (a semi-infinite clear layer), else deposits its weight.
+    pub const CLEAR_END: u8 = 4;
+    /// Past `MAX_CLEAR_HITS` interface hits in clear layers: deposits its weight.
+    pub const STUCK: u8 = 5;
+    /// Crossed into another layer: its parameters are copied in.
+    pub const CROSSED: u8 = 6;
+}
+
+/// Tables prepared once per run for the lanes.
+struct LaneKernel<'a> {
+    k: &'a Kernel,
+    lay: Vec<LLayer>,
+    last: u32,
+    mixture: Vec<Phase>,
+}
+
+impl<'a> LaneKernel<'a> {
+    fn new(k: &'a Kernel) -> Self {
+        let lay: Vec<LLayer> = k.layers.iter().map(LLayer::from).collect();
+        let last = (lay.len() - 1) as u32;
+        let mixture = if k.any_mixture { k.layers.iter().map(|l| l.phase).collect() } else { Vec::new() };
+        LaneKernel { k, lay, last, mixture }
+    }
+}
+
+/// Trace photons `range` of the run with `seed` into `tally` on the instruction set `isa`;
+/// returns the number of scattering events, or `None` if `cancel` was raised (the tally then
+/// holds a part of the range and must be discarded).
+pub(crate) fn trace_range<T: Tally>(
+    isa: Isa,
+    k: &Kernel,
+    seed: u64,
+    range: Range<u64>,
+    tally: &mut T,
+    cancel: &AtomicBool,
+) -> Option<u64> {
+    let lk = LaneKernel::new(k);
+    match isa {
+        // Safety: an `Isa` other than `Scalar` comes from `Isa::available()`, i.e. its
+        // features were detected on this machine (`RunConfig::validate` checks a forced one).
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { avx512(&lk, seed, range, tally, cancel) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => unsafe { avx2(&lk, seed, range, tally, cancel) },
+        #[cfg(target_arch = "aarch64")]
+        Isa::Neon => unsafe { neon(&lk, seed, range, tally, cancel) },
+        _ => run_lanes(&lk, seed, range, tally, cancel),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+unsafe fn avx512<T: Tally>(
+    lk: &LaneKernel,
+    seed: u64,
+    range: Range<u64>,
+    tally: &mut T,
+    cancel: &AtomicBool,
+) -> Option<u64> {
+    run_lanes(lk, seed, range, tally, cancel)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn avx2<T: Tally>(
+    lk: &LaneKernel,
+    seed: u64,
+    range: Range<u64>,
+    tally: &mut T,
+    cancel: &AtomicBool,
+) -> Option<u64> {
+    run_lanes(lk, seed, range, tally, cancel)
+}
+
+#[cfg(target_arch = "aarch64")]
+#[target_feature(enable = "neon")]
+unsafe fn neon<T: Tally>(
+    lk: &LaneKernel,
+    seed: u64,
+    range: Range<u64>,
+    tally: &mut T,
+    cancel: &AtomicBool,
+) -> Option<u64> {
+    run_lanes(lk, seed, range, tally, cancel)
+}
+
+/// The packet of lane `i`, as the tallies see it.
+#[inline(always)]
+fn packet(st: &Lanes, i: usize) -> Packet {
+    Packet {
+        pos: [st.x[i], st.y[i], st.z[i]],
+        dir: [st.ux[i], st.uy[i], st.uz[i]],
+        w: st.w[i],
+        layer: st.layer[i] as usize,
+        order: st.order[i],
+        reflections: st.refl[i],
+        path: st.path[i],
+    }
+}
+
+/// Start photon `photon` on lane `i`.
+#[inline(always)]
+fn launch<T: Tally>(lk: &LaneKernel, seed: u64, photon: u64, st: &mut Lanes, i: usize, tally: &mut T) {
+    let mut rng = PhotonRng::new(seed, photon);
+    tally.begin_photon(i, photon);
+    let (dir, rsp) = lk.k.launcher.launch(&mut rng);
+    tally.specular(i, rsp);
+    let s = rng.state();
+    for k in 0..4 {
+        st.s[k][i] = s[k];
+    }
+    (st.x[i], st.y[i], st.z[i]) = (0.0, 0.0, 0.0);
+    (st.ux[i], st.uy[i], st.uz[i]) = (dir[0], dir[1], dir[2]);
+    st.w[i] = 1.0 - rsp;
+    st.s_left[i] = 0.0;
+    st.path[i] = 0.0;
+    st.layer[i] = 0;
+    st.order[i] = 0;
+    st.refl[i] = 0;
+    st.clear_hits[i] = 0;
+    st.photon[i] = photon;
+    st.live[i] = true;
+    st.l.set(i, &lk.lay[0]);
+}
+
+/// Per-step scratch arrays of the lane loop.
+#[derive(Default)]
+struct Scratch {
+    hit: B,
+    fate: [u8; L],
+    dep: F,
+    interact: B,
+    u_phase: F,
+    cos_theta: F,
+    ox: F,
+    oy: F,
+    oz: F,
+}
+
+/// Phase 1: step every live lane to its interaction point or to the interface ahead.
+#[inline(always)]
+fn step(st: &mut Lanes, sc: &mut Scratch) {
+    for i in 0..L {
+        let live = st.live[i];
+        let (sigma_t, inv_sigma_t, z0, z1) = (st.l.sigma_t[i], st.l.inv_sigma_t[i], st.l.z0[i], st.l.z1[i]);
+        let clear = sigma_t == 0.0;
+        let need = live & (st.s_left[i] <= 0.0) & !clear;
+        let r = draw(&mut st.s, i, need);
+        let fresh = neg_ln(u32_to_open01(r));
+        let sl = sel(need, fresh, st.s_left[i]);
+        let s = sl * inv_sigma_t;
+        let (z, dz) = (st.z[i], st.uz[i]);
+        let zb = sel(dz > 0.0, z1, z0);
+        let db = (zb - z) / dz;
+        let zn = z + s * dz;
+        let crossed = clear | (zn > z1) | (zn < z0);
+        // A clear layer with no interface ahead (parallel to it, or down a semi-infinite clear
+        // layer) cannot be stepped: the scalar pass ends it.
+        let clear_end = live & clear & !(db.abs() < f64::INFINITY);
+        let ch1 = st.clear_hits[i].wrapping_add(1);
+        let ch = selu(clear, ch1, 0);
+        let stuck = live & clear & (ch > MAX_CLEAR_HITS);
+        let moving = live & !clear_end & !stuck;
+        let h = moving & crossed;
+        let stp = sel(h, db, s);
+        let stp = sel(moving, stp, 0.0);
+        st.x[i] += stp * st.ux[i];
+        st.y[i] += stp * st.uy[i];
+        let zs = z + stp * dz;
+        st.z[i] = sel(h, zb, zs);
+        st.path[i] += st.l.n[i] * stp;
+        let rest = sl - db * sigma_t;
+        let left = sel(h, rest, 0.0);
+        st.s_left[i] = sel(moving, left, sl);
+        st.clear_hits[i] = selu(moving, ch, st.clear_hits[i]);
+        sc.hit[i] = h;
+        let f = sel8(clear_end, fate::CLEAR_END, fate::MOVING);
+        sc.fate[i] = sel8(stuck, fate::STUCK, f);
+    }
+}
+
+/// Phase 2: Fresnel reflection or refraction of the lanes that hit an interface.
+#[inline(always)]
+fn interfaces(st: &mut Lanes, sc: &mut Scratch, last: u32) {
+    for i in 0..L {
+        let l = &st.l;
+        let h = sc.hit[i];
+        let uz = st.uz[i];
+        let up = uz < 0.0;
+        let n_t = sel(up, l.n_up[i], l.n_down[i]);
+        let eta = sel(up, l.eta_up[i], l.eta_down[i]);
+        let cc = sel(up, l.cc_up[i], l.cc_down[i]);
+        let ni = l.n[i];
+        let ci = uz.abs().min(1.0);
+        // Fresnel (as optics::fr_dielectric_cos_t): sin²θt = η²(1 − cos²θi).
+        let st2 = eta * eta * (1.0 - ci * ci).max(0.0);
+        let ct = (1.0 - st2).max(0.0).sqrt();
+        let rs = (ni * ci - n_t * ct) / (ni * ci + n_t * ct);
+        let rp = (n_t * ci - ni * ct) / (n_t * ci + ni * ct);
+        let tir = (ci <= cc) | (st2 >= 1.0);
+        let matched = ni == n_t;
+        let rf = 0.5 * (rs * rs + rp * rp);
+        let r = sel(matched, 0.0, rf);
+        let r = sel(tir, 1.0, r);
+        let cos_t = sel(matched, ci, ct);
+        let cos_t = sel(tir, 0.0, cos_t);
+        let need = h & (r > 0.0) & (r < 1.0);
+        let u = u32_to_open01(draw(&mut st.s, i, need));
+        let transmit = (r <= 0.0) | (need & (u > r));
+        let layer = st.layer[i];
+        let out = transmit & ((up & (layer == 0)) | (!up & (layer == last)));
+        let cross = h & transmit & !out;
+        let refl = h & !transmit;
+        let nz = sel(up, -cos_t, cos_t);
+        let (ox, oy) = (st.ux[i] * eta, st.uy[i] * eta);
+        sc.ox[i] = ox;
+        sc.oy[i] = oy;
+        sc.oz[i] = nz;
+        st.ux[i] = sel(cross, ox, st.ux[i]);
+        st.uy[i] = sel(cross, oy, st.uy[i]);
+        let uz_new = sel(refl, -uz, uz);
+        st.uz[i] = sel(cross, nz, uz_new);
+        let (dn, upl) = (layer.wrapping_add(1), layer.wrapping_sub(1));
+        let next = selu(up, upl, dn);
+        st.layer[i] = selu(cross, next, layer);
+        st.refl[i] = st.refl[i].wrapping_add(refl as u32);
+        let esc = sel8(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
+        let f = sel8(cross, fate::CROSSED, sc.fate[i]);
+        sc.fate[i] = sel8(h & out, esc, f);
+    }
+}
+
+/// Phase 3a: which lanes interact, and their phase-function draw.
+#[inline(always)]
+fn interacting(st: &mut Lanes, sc: &mut Scratch) {
+    for i in 0..L {
+        let it = st.live[i] & !sc.hit[i] & (sc.fate[i] == fate::MOVING);
+        sc.interact[i] = it;
+        sc.u_phase[i] = u32_to_open01(draw(&mut st.s, i, it));
+    }
+}
+
+/// Phase 3b: cos θ from each lane's Henyey–Greenstein lobe (MCML eq. 3.28, as
+/// `mc::kernel::hg_cos`).
+#[inline(always)]
+fn hg_cos_lanes(st: &Lanes, sc: &mut Scratch) {
+    for i in 0..L {
+        let hg = &st.l.hg;
+        let (a, b, c, d, e) = (hg[0][i], hg[1][i], hg[2][i], hg[3][i], hg[4][i]);
+        let u = sc.u_phase[i];
+        let s = c / (d + e * u);
+        let ct = ((a - s * s) * b).max(-1.0).min(1.0);
+        let iso = 2.0 * u - 1.0;
+        sc.cos_theta[i] = sel(st.l.iso[i] != 0.0, iso, ct);
+    }
+}
+
+/// Phase 3c: absorption by weight, scattering (azimuth drawn here) and roulette of the
+/// interacting lanes; returns the number of scattering events.
+#[inline(always)]
+fn interactions(st: &mut Lanes, sc: &mut Scratch) -> u32 {
+    let mut n_int = [0u32; L];
+    for i in 0..L {
+        let it = sc.interact[i];
+        let w0 = st.w[i];
+        let dw = w0 * st.l.absorb_frac[i];
+        let w1 = w0 - dw;
+        let absorbed_all = w1 <= 0.0;
+        let scatter = it & !absorbed_all;
+        // Azimuth and MCML's direction update (mc::kernel::spin_disc with cos φ, sin φ given).
+        let (cp, sp) = cos_sin_2pi(draw(&mut st.s, i, scatter));
+        let cth = sc.cos_theta[i];
+        let (ux, uy, uz) = (st.ux[i], st.uy[i], st.uz[i]);
+        let t2 = 1.0 - uz * uz;
+        let normal = uz.abs() > UZ_NORMAL;
+        // q = sin θ / √(1 − uz²) (= sin θ for the normal-incidence form): one √, one ÷.
+        let den = sel(normal, 1.0, t2);
+        let q = ((1.0 - cth * cth).max(0.0) / den).sqrt();
+        let (a, b) = (q * cp, q * sp);
+        let gx = a * ux * uz - b * uy + ux * cth;
+        let gy = a * uy * uz + b * ux + uy * cth;
+        let gz = -a * t2 + uz * cth;
+        let nx = sel(normal, a, gx);
+        let ny = sel(normal, b, gy);
+        let nz_normal = sel(uz > 0.0, cth, -cth);
+        let nz = sel(normal, nz_normal, gz);
+        st.ux[i] = sel(scatter, nx, ux);
+        st.uy[i] = sel(scatter, ny, uy);
+        st.uz[i] = sel(scatter, nz, uz);
+        st.order[i] = st.order[i].wrapping_add(scatter as u32);
+        n_int[i] = scatter as u32;
+        // Russian roulette.
+        let low = scatter & (w1 < ROULETTE_THRESHOLD);
+        let ur = u32_to_open01(draw(&mut st.s, i, low));
+        let survive = ur * ROULETTE_M <= 1.0;
+        let (kept, boosted) = (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M);
+        let control = sel(survive, kept, w1);
+        let extra = sel(low, control, 0.0);
+        let total = dw + extra;
+        sc.dep[i] = sel(it, total, 0.0);
+        let w_low = sel(survive, boosted, 0.0);
+        let w2 = sel(low, w_low, w1);
+        st.w[i] = sel(it, w2, w0);
+        let died = it & (absorbed_all | (low & !survive));
+        sc.fate[i] = sel8(died, fate::DIED, sc.fate[i]);
+    }
+    n_int.iter().sum()
+}
+
+/// The lane loop over `range` (see the module docs).
+#[inline(always)]
+fn run_lanes<T: Tally>(
+    lk: &LaneKernel,
+    seed: u64,
+    range: Range<u64>,
+    tally: &mut T,
+    cancel: &AtomicBool,
+) -> Option<u64> {
+    let last = lk.last;
+    let mut st = Lanes::default();
+    let mut next = range.start;
+    for i in 0..L {
+        if next < range.end {
+            launch(lk, seed, next, &mut st, i, tally);
+            next += 1;
+        }
+    }
+    let mut events = 0u64;
+    let mut steps = 0u32;
+    let mut sc = Scratch::default();
+    loop {
+        steps = steps.wrapping_add(1);
+        if steps % CANCEL_POLL == 0 && cancel.load(Ordering::Relaxed) {
+            return None;
+        }
+        step(&mut st, &mut sc);
+        if sc.hit.iter().any(|&h| h) {
+            interfaces(&mut st, &mut sc, last);
+        }
+        interacting(&mut st, &mut sc);
+        if lk.mixture.is_empty() {
+            hg_cos_lanes(&st, &mut sc);
+        } else {
+            for i in 0..L {
+                let j = (st.layer[i] as usize).min(lk.mixture.len() - 1);
+                sc.cos_theta[i] = lk.mixture[j].sample(sc.u_phase[i]);
+            }
+        }
+        events += interactions(&mut st, &mut sc) as u64;
+        // Phase 4, lane by lane: tally calls, layer changes, ends of histories, refills.
+        let mut any_live = false;
+        for i in 0..L {
+            if sc.interact[i] && sc.dep[i] != 0.0 {
+                tally.absorb(i, &packet(&st, i), sc.dep[i]);
+            }
+            let f = sc.fate[i];
+            if f == fate::CROSSED {
+                st.l.set(i, &lk.lay[st.layer[i] as usize]);
+            } else if f != fate::MOVING {
+                let p = packet(&st, i);
+                match f {
+                    fate::ESCAPE_TOP => tally.escape(i, &p, Side::Top, [sc.ox[i], sc.oy[i], sc.oz[i]], p.w),
+                    fate::ESCAPE_BOTTOM => tally.escape(i, &p, Side::Bottom, [sc.ox[i], sc.oy[i], sc.oz[i]], p.w),
+                    fate::CLEAR_END if p.dir[2] > 0.0 => tally.escape(i, &p, Side::Bottom, p.dir, p.w),
+                    fate::CLEAR_END | fate::STUCK => tally.absorb(i, &p, p.w),
+                    _ => {}
+                }
+                tally.end_photon(i);
+                st.live[i] = false;
+                if next < range.end {
+                    launch(lk, seed, next, &mut st, i, tally);
+                    next += 1;
+                }
+            }
+            any_live |= st.live[i];
+        }
+        if !any_live {
+            return Some(events);
+        }
+    }
+}

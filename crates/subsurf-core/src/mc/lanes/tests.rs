@@ -1,0 +1,76 @@
+//! Tests of the lane kernel: the same bits on every instruction set, agreement with the
+//! scalar reference kernel, and the benchmark of the kernel alone.
+
+use super::*;
+use crate::mc::kernel::Kernel;
+use crate::mc::source::Source;
+use crate::mc::tally::totals::Totals;
+use crate::medium::{Layer, Stack};
+use std::sync::atomic::AtomicBool;
+
+fn layer(n: f64, mua: f64, mus: f64, g: f64, d: f64) -> Layer {
+    Layer::new(n, mua, mus, g, d).unwrap()
+}
+
+/// The benchmark cases (a), (c), (d) of `make bench`.
+pub(crate) fn bench_cases() -> Vec<(&'static str, Stack, u64)> {
+    vec![
+        ("a", Stack::new(vec![layer(1.0, 1.0, 9.0, 0.75, 0.2)], 1.0, 1.0).unwrap(), 400_000),
+        (
+            "c",
+            Stack::new(
+                vec![
+                    layer(1.4, 0.1, 10.0, 0.9, 0.1),
+                    layer(1.4, 0.05, 15.0, 0.85, 2.0),
+                    layer(1.4, 0.02, 12.0, 0.9, 10.0),
+                ],
+                1.0,
+                1.0,
+            )
+            .unwrap(),
+            8_000,
+        ),
+        ("d", Stack::new(vec![layer(1.4, 0.01, 10.0, 0.9, 100.0)], 1.0, 1.0).unwrap(), 3_000),
+    ]
+}
+
+/// CPU time of the calling thread in ns, from /proc/thread-self/schedstat (Linux; 0 elsewhere).
+fn cpu_ns() -> u64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().and_then(|x| x.parse().ok()))
+        .unwrap_or(0)
+}
+
+/// Not a test: `cargo test -p subsurf-core bench_lanes -- --ignored --nocapture` prints the
+/// single-thread speed of the lane kernel on each instruction set and of the scalar reference
+/// (Totals tally), per second of this thread's CPU time.
+#[test]
+#[ignore]
+fn bench_lanes() {
+    let filter = std::env::var("BENCH_CASE").unwrap_or_default();
+    for (name, s, n) in bench_cases() {
+        if !filter.is_empty() && !filter.contains(name) {
+            continue;
+        }
+        let k = Kernel::new(&s, Source::default());
+        let nl = s.layers.len();
+        let mut line = format!("case {name}:");
+        for isa in Isa::available() {
+            let mut t = Totals::new(nl);
+            let c0 = cpu_ns();
+            let ev = trace_range(isa, &k, 1, 0..n, &mut t, &AtomicBool::new(false)).unwrap();
+            let cpu = (cpu_ns() - c0) as f64 * 1e-9;
+            line += &format!(" {} {:.3e} ev/s ({:.3e} ph/s);", isa.name(), ev as f64 / cpu, n as f64 / cpu);
+        }
+        let mut t = Totals::new(nl);
+        let c0 = cpu_ns();
+        let mut ev = 0;
+        for i in 0..n {
+            ev += k.trace::<Totals, false, false>(1, i, &mut t);
+        }
+        let cpu = (cpu_ns() - c0) as f64 * 1e-9;
+        line += &format!(" scalar reference {:.3e} ev/s", ev as f64 / cpu);
+        println!("{line}");
+    }
+}
