@@ -23,14 +23,25 @@ use crate::mc::kernel::{KLayer, Kernel};
 use crate::mc::packet::{Packet, Side};
 use crate::mc::tally::Tally;
 use crate::optics::Phase;
-use crate::rng::{u32_to_open01, PhotonRng};
+use crate::rng::{philox4x32_10, u32_to_open01, PhotonRng};
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 const L: usize = LANES;
 type F = [f64; L];
 type U = [u32; L];
-type B = [bool; L];
+/// A mask per lane: 0 or all ones, as u64 (the width of the f64 lanes: no conversions).
+type B = [u64; L];
+
+#[inline(always)]
+fn mk(c: bool) -> u64 {
+    0u64.wrapping_sub(c as u64)
+}
+
+#[inline(always)]
+fn on(m: u64) -> bool {
+    m != 0
+}
 
 /// Lane steps between polls of the cancel flag.
 const CANCEL_POLL: u32 = 4096;
@@ -145,6 +156,12 @@ struct Lanes {
     s: [U; 4],
     photon: [u64; L],
     live: B,
+    /// Weight absorbed and not yet handed to a tally without positions (`Tally::POSITIONS`
+    /// false), and the layer it was absorbed in.
+    absorbed: F,
+    absorbed_layer: U,
+    /// Which layer's parameters `l` holds for each lane.
+    l_layer: U,
     /// The current layer's parameters.
     l: LaneLayer,
 }
@@ -169,27 +186,27 @@ fn selu(c: bool, a: u32, b: u32) -> u32 {
 }
 
 #[inline(always)]
-fn sel8(c: bool, a: u8, b: u8) -> u8 {
-    let m = 0u8.wrapping_sub(c as u8);
+fn selq(c: bool, a: u64, b: u64) -> u64 {
+    let m = mk(c);
     (a & m) | (b & !m)
 }
 
-/// What happened to a lane in one step, for the scalar pass (a `u8` per lane).
+/// What happened to a lane in one step, for the scalar pass (a `u64` per lane).
 mod fate {
     /// Still moving.
-    pub const MOVING: u8 = 0;
+    pub const MOVING: u64 = 0;
     /// Left through the top / bottom with direction (ox, oy, oz).
-    pub const ESCAPE_TOP: u8 = 1;
-    pub const ESCAPE_BOTTOM: u8 = 2;
+    pub const ESCAPE_TOP: u64 = 1;
+    pub const ESCAPE_BOTTOM: u64 = 2;
     /// Died after depositing (roulette or complete absorption); the deposit is in `dep`.
-    pub const DIED: u8 = 3;
+    pub const DIED: u64 = 3;
     /// In a clear layer with no interface ahead (see `mc::kernel`): leaves through the bottom
     /// if it moves down (a semi-infinite clear layer), else deposits its weight.
-    pub const CLEAR_END: u8 = 4;
+    pub const CLEAR_END: u64 = 4;
     /// Past `MAX_CLEAR_HITS` interface hits in clear layers: deposits its weight.
-    pub const STUCK: u8 = 5;
+    pub const STUCK: u64 = 5;
     /// Crossed into another layer: its parameters are copied in.
-    pub const CROSSED: u8 = 6;
+    pub const CROSSED: u64 = 6;
 }
 
 /// Tables prepared once per run for the lanes.
@@ -284,10 +301,56 @@ fn packet(st: &Lanes, i: usize) -> Packet {
     }
 }
 
+/// Philox states of the next photons to launch, computed [`L`] at a time (a vectorised loop:
+/// the 32×32→64-bit multiplies of Philox's rounds run lane-parallel).
+struct SeedQueue {
+    first: u64,
+    len: u64,
+    states: [[u32; L]; 4],
+}
+
+impl SeedQueue {
+    fn new() -> Self {
+        SeedQueue { first: 0, len: 0, states: [[0; L]; 4] }
+    }
+
+    /// The Philox state of photon `photon` (refilling the queue from it when needed).
+    #[inline(always)]
+    fn state(&mut self, seed: u64, photon: u64) -> [u32; 4] {
+        if photon < self.first || photon >= self.first + self.len {
+            self.fill(seed, photon);
+        }
+        let j = (photon - self.first) as usize % L;
+        [self.states[0][j], self.states[1][j], self.states[2][j], self.states[3][j]]
+    }
+
+    #[inline(always)]
+    fn fill(&mut self, seed: u64, first: u64) {
+        let key = [seed as u32, (seed >> 32) as u32];
+        for j in 0..L {
+            let p = first.wrapping_add(j as u64);
+            let c = philox4x32_10([p as u32, (p >> 32) as u32, 0, 0], key);
+            for k in 0..4 {
+                self.states[k][j] = c[k];
+            }
+        }
+        self.first = first;
+        self.len = L as u64;
+    }
+}
+
 /// Start photon `photon` on lane `i`.
 #[inline(always)]
-fn launch<T: Tally>(lk: &LaneKernel, seed: u64, photon: u64, st: &mut Lanes, i: usize, tally: &mut T) {
-    let mut rng = PhotonRng::new(seed, photon);
+fn launch<T: Tally>(
+    lk: &LaneKernel,
+    q: &mut SeedQueue,
+    seed: u64,
+    photon: u64,
+    st: &mut Lanes,
+    i: usize,
+    tally: &mut T,
+) {
+    let mut rng = PhotonRng::from_state(q.state(seed, photon));
     tally.begin_photon(i, photon);
     let (dir, rsp) = lk.k.launcher.launch(&mut rng);
     tally.specular(i, rsp);
@@ -305,15 +368,34 @@ fn launch<T: Tally>(lk: &LaneKernel, seed: u64, photon: u64, st: &mut Lanes, i: 
     st.refl[i] = 0;
     st.clear_hits[i] = 0;
     st.photon[i] = photon;
-    st.live[i] = true;
-    st.l.set(i, &lk.lay[0]);
+    st.live[i] = !0;
+    st.absorbed[i] = 0.0;
+    st.absorbed_layer[i] = 0;
+    if st.l_layer[i] != 0 {
+        st.l.set(i, &lk.lay[0]);
+        st.l_layer[i] = 0;
+    }
+}
+
+/// Hand lane `i`'s pending absorbed weight to a tally without positions.
+#[inline(always)]
+fn flush_absorbed<T: Tally>(st: &mut Lanes, i: usize, tally: &mut T) {
+    if st.absorbed[i] != 0.0 {
+        let mut p = packet(st, i);
+        p.layer = st.absorbed_layer[i] as usize;
+        tally.absorb(i, &p, st.absorbed[i]);
+        st.absorbed[i] = 0.0;
+    }
+    st.absorbed_layer[i] = st.layer[i];
 }
 
 /// Per-step scratch arrays of the lane loop.
 #[derive(Default)]
 struct Scratch {
+    /// The step's four random words per lane (see [`draw_words`]).
+    words: [U; 4],
     hit: B,
-    fate: [u8; L],
+    fate: [u64; L],
     dep: F,
     interact: B,
     u_phase: F,
@@ -323,16 +405,33 @@ struct Scratch {
     oz: F,
 }
 
+/// Every lane step consumes four words of the lane's stream, drawn here at once whether or
+/// not the step uses them (so no lane waits on a mask): [0] the optical depth −ln ξ (used
+/// when the previous one is spent), [1] the phase-function ξ, [2] the azimuth, [3] the
+/// roulette ξ. A Fresnel ξ, drawn in [`interfaces`] only by a lane at an interface with
+/// 0 < R < 1, follows them. The words a photon consumes depend on its own history only.
+#[inline(always)]
+fn draw_words(st: &mut Lanes, sc: &mut Scratch) {
+    for i in 0..L {
+        let mut t = [st.s[0][i], st.s[1][i], st.s[2][i], st.s[3][i]];
+        for k in 0..4 {
+            sc.words[k][i] = crate::rng::xoshiro128pp_next(&mut t);
+        }
+        for k in 0..4 {
+            st.s[k][i] = t[k];
+        }
+    }
+}
+
 /// Phase 1: step every live lane to its interaction point or to the interface ahead.
 #[inline(always)]
 fn step(st: &mut Lanes, sc: &mut Scratch) {
     for i in 0..L {
-        let live = st.live[i];
+        let live = on(st.live[i]);
         let (sigma_t, inv_sigma_t, z0, z1) = (st.l.sigma_t[i], st.l.inv_sigma_t[i], st.l.z0[i], st.l.z1[i]);
         let clear = sigma_t == 0.0;
         let need = live & (st.s_left[i] <= 0.0) & !clear;
-        let r = draw(&mut st.s, i, need);
-        let fresh = neg_ln(u32_to_open01(r));
+        let fresh = neg_ln(u32_to_open01(sc.words[0][i]));
         let sl = sel(need, fresh, st.s_left[i]);
         let s = sl * inv_sigma_t;
         let (z, dz) = (st.z[i], st.uz[i]);
@@ -359,9 +458,9 @@ fn step(st: &mut Lanes, sc: &mut Scratch) {
         let left = sel(h, rest, 0.0);
         st.s_left[i] = sel(moving, left, sl);
         st.clear_hits[i] = selu(moving, ch, st.clear_hits[i]);
-        sc.hit[i] = h;
-        let f = sel8(clear_end, fate::CLEAR_END, fate::MOVING);
-        sc.fate[i] = sel8(stuck, fate::STUCK, f);
+        sc.hit[i] = mk(h);
+        let f = selq(clear_end, fate::CLEAR_END, fate::MOVING);
+        sc.fate[i] = selq(stuck, fate::STUCK, f);
     }
 }
 
@@ -370,7 +469,7 @@ fn step(st: &mut Lanes, sc: &mut Scratch) {
 fn interfaces(st: &mut Lanes, sc: &mut Scratch, last: u32) {
     for i in 0..L {
         let l = &st.l;
-        let h = sc.hit[i];
+        let h = on(sc.hit[i]);
         let uz = st.uz[i];
         let up = uz < 0.0;
         let n_t = sel(up, l.n_up[i], l.n_down[i]);
@@ -410,9 +509,9 @@ fn interfaces(st: &mut Lanes, sc: &mut Scratch, last: u32) {
         let next = selu(up, upl, dn);
         st.layer[i] = selu(cross, next, layer);
         st.refl[i] = st.refl[i].wrapping_add(refl as u32);
-        let esc = sel8(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
-        let f = sel8(cross, fate::CROSSED, sc.fate[i]);
-        sc.fate[i] = sel8(h & out, esc, f);
+        let esc = selq(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
+        let f = selq(cross, fate::CROSSED, sc.fate[i]);
+        sc.fate[i] = selq(h & out, esc, f);
     }
 }
 
@@ -420,9 +519,9 @@ fn interfaces(st: &mut Lanes, sc: &mut Scratch, last: u32) {
 #[inline(always)]
 fn interacting(st: &mut Lanes, sc: &mut Scratch) {
     for i in 0..L {
-        let it = st.live[i] & !sc.hit[i] & (sc.fate[i] == fate::MOVING);
-        sc.interact[i] = it;
-        sc.u_phase[i] = u32_to_open01(draw(&mut st.s, i, it));
+        let it = on(st.live[i]) & !on(sc.hit[i]) & (sc.fate[i] == fate::MOVING);
+        sc.interact[i] = mk(it);
+        sc.u_phase[i] = u32_to_open01(sc.words[1][i]);
     }
 }
 
@@ -444,17 +543,17 @@ fn hg_cos_lanes(st: &Lanes, sc: &mut Scratch) {
 /// Phase 3c: absorption by weight, scattering (azimuth drawn here) and roulette of the
 /// interacting lanes; returns the number of scattering events.
 #[inline(always)]
-fn interactions(st: &mut Lanes, sc: &mut Scratch) -> u32 {
+fn interactions(st: &mut Lanes, sc: &mut Scratch, positions: bool) -> u32 {
     let mut n_int = [0u32; L];
     for i in 0..L {
-        let it = sc.interact[i];
+        let it = on(sc.interact[i]);
         let w0 = st.w[i];
         let dw = w0 * st.l.absorb_frac[i];
         let w1 = w0 - dw;
         let absorbed_all = w1 <= 0.0;
         let scatter = it & !absorbed_all;
         // Azimuth and MCML's direction update (mc::kernel::spin_disc with cos φ, sin φ given).
-        let (cp, sp) = cos_sin_2pi(draw(&mut st.s, i, scatter));
+        let (cp, sp) = cos_sin_2pi(sc.words[2][i]);
         let cth = sc.cos_theta[i];
         let (ux, uy, uz) = (st.ux[i], st.uy[i], st.uz[i]);
         let t2 = 1.0 - uz * uz;
@@ -477,18 +576,22 @@ fn interactions(st: &mut Lanes, sc: &mut Scratch) -> u32 {
         n_int[i] = scatter as u32;
         // Russian roulette.
         let low = scatter & (w1 < ROULETTE_THRESHOLD);
-        let ur = u32_to_open01(draw(&mut st.s, i, low));
+        let ur = u32_to_open01(sc.words[3][i]);
         let survive = ur * ROULETTE_M <= 1.0;
         let (kept, boosted) = (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M);
         let control = sel(survive, kept, w1);
         let extra = sel(low, control, 0.0);
         let total = dw + extra;
         sc.dep[i] = sel(it, total, 0.0);
+        // (`positions` is a constant of the tally type: the branch folds away.)
+        if !positions {
+            st.absorbed[i] += sc.dep[i];
+        }
         let w_low = sel(survive, boosted, 0.0);
         let w2 = sel(low, w_low, w1);
         st.w[i] = sel(it, w2, w0);
         let died = it & (absorbed_all | (low & !survive));
-        sc.fate[i] = sel8(died, fate::DIED, sc.fate[i]);
+        sc.fate[i] = selq(died, fate::DIED, sc.fate[i]);
     }
     n_int.iter().sum()
 }
@@ -504,10 +607,14 @@ fn run_lanes<T: Tally>(
 ) -> Option<u64> {
     let last = lk.last;
     let mut st = Lanes::default();
+    let mut q = SeedQueue::new();
+    for i in 0..L {
+        st.l.set(i, &lk.lay[0]);
+    }
     let mut next = range.start;
     for i in 0..L {
         if next < range.end {
-            launch(lk, seed, next, &mut st, i, tally);
+            launch(lk, &mut q, seed, next, &mut st, i, tally);
             next += 1;
         }
     }
@@ -519,8 +626,9 @@ fn run_lanes<T: Tally>(
         if steps % CANCEL_POLL == 0 && cancel.load(Ordering::Relaxed) {
             return None;
         }
+        draw_words(&mut st, &mut sc);
         step(&mut st, &mut sc);
-        if sc.hit.iter().any(|&h| h) {
+        if sc.hit.iter().any(|&h| on(h)) {
             interfaces(&mut st, &mut sc, last);
         }
         interacting(&mut st, &mut sc);
@@ -532,35 +640,49 @@ fn run_lanes<T: Tally>(
                 sc.cos_theta[i] = lk.mixture[j].sample(sc.u_phase[i]);
             }
         }
-        events += interactions(&mut st, &mut sc) as u64;
-        // Phase 4, lane by lane: tally calls, layer changes, ends of histories, refills.
-        let mut any_live = false;
+        events += interactions(&mut st, &mut sc, T::POSITIONS) as u64;
+        // Phase 4, only for the lanes that need it: tally calls, layer changes, ends of
+        // histories, refills.
+        let mut attention = 0u32;
         for i in 0..L {
-            if sc.interact[i] && sc.dep[i] != 0.0 {
+            let deposit = T::POSITIONS & on(sc.interact[i]) & (sc.dep[i] != 0.0);
+            attention |= (((sc.fate[i] != fate::MOVING) | deposit) as u32) << i;
+        }
+        while attention != 0 {
+            let i = attention.trailing_zeros() as usize;
+            attention &= attention - 1;
+            if T::POSITIONS && on(sc.interact[i]) && sc.dep[i] != 0.0 {
                 tally.absorb(i, &packet(&st, i), sc.dep[i]);
             }
             let f = sc.fate[i];
-            if f == fate::CROSSED {
-                st.l.set(i, &lk.lay[st.layer[i] as usize]);
-            } else if f != fate::MOVING {
-                let p = packet(&st, i);
-                match f {
-                    fate::ESCAPE_TOP => tally.escape(i, &p, Side::Top, [sc.ox[i], sc.oy[i], sc.oz[i]], p.w),
-                    fate::ESCAPE_BOTTOM => tally.escape(i, &p, Side::Bottom, [sc.ox[i], sc.oy[i], sc.oz[i]], p.w),
-                    fate::CLEAR_END if p.dir[2] > 0.0 => tally.escape(i, &p, Side::Bottom, p.dir, p.w),
-                    fate::CLEAR_END | fate::STUCK => tally.absorb(i, &p, p.w),
-                    _ => {}
-                }
-                tally.end_photon(i);
-                st.live[i] = false;
-                if next < range.end {
-                    launch(lk, seed, next, &mut st, i, tally);
-                    next += 1;
-                }
+            if f == fate::MOVING {
+                continue;
             }
-            any_live |= st.live[i];
+            if !T::POSITIONS {
+                flush_absorbed(&mut st, i, tally);
+            }
+            if f == fate::CROSSED {
+                let j = st.layer[i];
+                st.l.set(i, &lk.lay[j as usize]);
+                st.l_layer[i] = j;
+                continue;
+            }
+            let p = packet(&st, i);
+            match f {
+                fate::ESCAPE_TOP => tally.escape(i, &p, Side::Top, [sc.ox[i], sc.oy[i], sc.oz[i]], p.w),
+                fate::ESCAPE_BOTTOM => tally.escape(i, &p, Side::Bottom, [sc.ox[i], sc.oy[i], sc.oz[i]], p.w),
+                fate::CLEAR_END if p.dir[2] > 0.0 => tally.escape(i, &p, Side::Bottom, p.dir, p.w),
+                fate::CLEAR_END | fate::STUCK => tally.absorb(i, &p, p.w),
+                _ => {}
+            }
+            tally.end_photon(i);
+            st.live[i] = 0;
+            if next < range.end {
+                launch(lk, &mut q, seed, next, &mut st, i, tally);
+                next += 1;
+            }
         }
-        if !any_live {
+        if !st.live.iter().any(|&l| on(l)) {
             return Some(events);
         }
     }

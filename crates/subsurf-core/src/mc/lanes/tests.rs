@@ -56,12 +56,20 @@ fn bench_lanes() {
         let k = Kernel::new(&s, Source::default());
         let nl = s.layers.len();
         let mut line = format!("case {name}:");
+        let isa_filter = std::env::var("BENCH_ISA").unwrap_or_default();
         for isa in Isa::available() {
+            if !isa_filter.is_empty() && isa.name() != isa_filter {
+                continue;
+            }
             let mut t = Totals::new(nl);
             let c0 = cpu_ns();
             let ev = trace_range(isa, &k, 1, 0..n, &mut t, &AtomicBool::new(false)).unwrap();
             let cpu = (cpu_ns() - c0) as f64 * 1e-9;
-            line += &format!(" {} {:.3e} ev/s ({:.3e} ph/s);", isa.name(), ev as f64 / cpu, n as f64 / cpu);
+            line += &format!(" {} {:.3e} ev/s ({:.3e} ph/s, {ev} events);", isa.name(), ev as f64 / cpu, n as f64 / cpu);
+        }
+        if !isa_filter.is_empty() {
+            println!("{line}");
+            continue;
         }
         let mut t = Totals::new(nl);
         let c0 = cpu_ns();

@@ -14,6 +14,10 @@ use super::packet::{Packet, Side};
 
 /// Receiver of the kernel's events. All weights are in units of the launched packet weight (1).
 pub trait Tally: Send {
+    /// Whether [`Tally::absorb`] needs each deposit with its position. `false` (the totals):
+    /// the kernel may add up a lane's deposits in one layer and report them together, with
+    /// the packet where the sum is handed over (its `layer` is right, its position is not).
+    const POSITIONS: bool = true;
     /// Whether the tally needs [`Tally::end_batch`] calls (batch-means standard errors); a run
     /// then traces each batch to its end before starting the next.
     fn batched(&self) -> bool {
@@ -42,6 +46,7 @@ pub trait Tally: Send {
 
 /// The empty tally: scores nothing (for runs that need only the engine's own counters).
 impl Tally for () {
+    const POSITIONS: bool = false;
     #[inline]
     fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
     #[inline]
@@ -58,6 +63,7 @@ impl Tally for () {
 
 /// Two tallies side by side, e.g. `(Totals, TallySet)`: each sees every event.
 impl<A: Tally, B: Tally> Tally for (A, B) {
+    const POSITIONS: bool = A::POSITIONS || B::POSITIONS;
     fn batched(&self) -> bool {
         self.0.batched() || self.1.batched()
     }

@@ -97,6 +97,7 @@ impl Totals {
 }
 
 impl Tally for Totals {
+    const POSITIONS: bool = false;
     #[inline]
     fn begin_photon(&mut self, lane: usize, _photon: u64) {
         self.cur[lane] = [0.0; NQ];
