@@ -398,7 +398,7 @@ struct Scratch {
     fate: [u64; L],
     dep: F,
     interact: B,
-    u_phase: F,
+    /// cos θ per lane when the stack has phase-function mixtures (sampled lane by lane).
     cos_theta: F,
     ox: F,
     oy: F,
@@ -423,10 +423,18 @@ fn draw_words(st: &mut Lanes, sc: &mut Scratch) {
     }
 }
 
-/// Phase 1: step every live lane to its interaction point or to the interface ahead.
+/// Phase 1, one loop over the lanes: step every live lane to its interaction point or to the
+/// interface ahead; a lane that stays inside its layer then interacts: absorption by weight,
+/// scattering (cos θ from its Henyey–Greenstein lobe, MCML eq. 3.28 as `mc::kernel::hg_cos`,
+/// or from `sc.cos_theta` when `mixture`; azimuth from its word; MCML's direction update as
+/// `mc::kernel::spin_disc`) and roulette. Lanes that hit an interface go to [`interfaces`].
+/// Returns the number of scattering events. (`positions` and `mixture` are constant per run:
+/// their branches are hoisted.)
 #[inline(always)]
-fn step(st: &mut Lanes, sc: &mut Scratch) {
+fn advance(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> u32 {
+    let mut n_int = [0u32; L];
     for i in 0..L {
+        // Step.
         let live = on(st.live[i]);
         let (sigma_t, inv_sigma_t, z0, z1) = (st.l.sigma_t[i], st.l.inv_sigma_t[i], st.l.z0[i], st.l.z1[i]);
         let clear = sigma_t == 0.0;
@@ -434,10 +442,11 @@ fn step(st: &mut Lanes, sc: &mut Scratch) {
         let fresh = neg_ln(u32_to_open01(sc.words[0][i]));
         let sl = sel(need, fresh, st.s_left[i]);
         let s = sl * inv_sigma_t;
-        let (z, dz) = (st.z[i], st.uz[i]);
-        let zb = sel(dz > 0.0, z1, z0);
-        let db = (zb - z) / dz;
-        let zn = z + s * dz;
+        let (x, y, z) = (st.x[i], st.y[i], st.z[i]);
+        let (ux, uy, uz) = (st.ux[i], st.uy[i], st.uz[i]);
+        let zb = sel(uz > 0.0, z1, z0);
+        let db = (zb - z) / uz;
+        let zn = z + s * uz;
         let crossed = clear | (zn > z1) | (zn < z0);
         // A clear layer with no interface ahead (parallel to it, or down a semi-infinite clear
         // layer) cannot be stepped: the scalar pass ends it.
@@ -449,9 +458,9 @@ fn step(st: &mut Lanes, sc: &mut Scratch) {
         let h = moving & crossed;
         let stp = sel(h, db, s);
         let stp = sel(moving, stp, 0.0);
-        st.x[i] += stp * st.ux[i];
-        st.y[i] += stp * st.uy[i];
-        let zs = z + stp * dz;
+        st.x[i] = x + stp * ux;
+        st.y[i] = y + stp * uy;
+        let zs = z + stp * uz;
         st.z[i] = sel(h, zb, zs);
         st.path[i] += st.l.n[i] * stp;
         let rest = sl - db * sigma_t;
@@ -460,8 +469,63 @@ fn step(st: &mut Lanes, sc: &mut Scratch) {
         st.clear_hits[i] = selu(moving, ch, st.clear_hits[i]);
         sc.hit[i] = mk(h);
         let f = selq(clear_end, fate::CLEAR_END, fate::MOVING);
-        sc.fate[i] = selq(stuck, fate::STUCK, f);
+        let f = selq(stuck, fate::STUCK, f);
+        // Interaction.
+        let it = moving & !h;
+        sc.interact[i] = mk(it);
+        let w0 = st.w[i];
+        let dw = w0 * st.l.absorb_frac[i];
+        let w1 = w0 - dw;
+        let absorbed_all = w1 <= 0.0;
+        let scatter = it & !absorbed_all;
+        let cth = if mixture {
+            sc.cos_theta[i]
+        } else {
+            let hg = &st.l.hg;
+            let (a, b, c, d, e) = (hg[0][i], hg[1][i], hg[2][i], hg[3][i], hg[4][i]);
+            let u = u32_to_open01(sc.words[1][i]);
+            let t = c / (d + e * u);
+            let ct = ((a - t * t) * b).max(-1.0).min(1.0);
+            sel(st.l.iso[i] != 0.0, 2.0 * u - 1.0, ct)
+        };
+        let (cp, sp) = cos_sin_2pi(sc.words[2][i]);
+        let t2 = 1.0 - uz * uz;
+        let normal = uz.abs() > UZ_NORMAL;
+        let den = sel(normal, 1.0, t2);
+        // q = sin θ / √(1 − uz²) (= sin θ for the normal-incidence form): one √, one ÷.
+        let q = ((1.0 - cth * cth).max(0.0) / den).sqrt();
+        let (a, b) = (q * cp, q * sp);
+        let gx = a * ux * uz - b * uy + ux * cth;
+        let gy = a * uy * uz + b * ux + uy * cth;
+        let gz = -a * t2 + uz * cth;
+        let nx = sel(normal, a, gx);
+        let ny = sel(normal, b, gy);
+        let nz_normal = sel(uz > 0.0, cth, -cth);
+        let nz = sel(normal, nz_normal, gz);
+        st.ux[i] = sel(scatter, nx, ux);
+        st.uy[i] = sel(scatter, ny, uy);
+        st.uz[i] = sel(scatter, nz, uz);
+        st.order[i] = st.order[i].wrapping_add(scatter as u32);
+        n_int[i] = scatter as u32;
+        // Russian roulette; its zero-mean control term joins the deposit.
+        let low = scatter & (w1 < ROULETTE_THRESHOLD);
+        let ur = u32_to_open01(sc.words[3][i]);
+        let survive = ur * ROULETTE_M <= 1.0;
+        let (kept, boosted) = (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M);
+        let control = sel(survive, kept, w1);
+        let extra = sel(low, control, 0.0);
+        let dep = sel(it, dw + extra, 0.0);
+        sc.dep[i] = dep;
+        if !positions {
+            st.absorbed[i] += dep;
+        }
+        let w_low = sel(survive, boosted, 0.0);
+        let w2 = sel(low, w_low, w1);
+        st.w[i] = sel(it, w2, w0);
+        let died = it & (absorbed_all | (low & !survive));
+        sc.fate[i] = selq(died, fate::DIED, f);
     }
+    n_int.iter().sum()
 }
 
 /// Phase 2: Fresnel reflection or refraction of the lanes that hit an interface.
@@ -515,87 +579,6 @@ fn interfaces(st: &mut Lanes, sc: &mut Scratch, last: u32) {
     }
 }
 
-/// Phase 3a: which lanes interact, and their phase-function draw.
-#[inline(always)]
-fn interacting(st: &mut Lanes, sc: &mut Scratch) {
-    for i in 0..L {
-        let it = on(st.live[i]) & !on(sc.hit[i]) & (sc.fate[i] == fate::MOVING);
-        sc.interact[i] = mk(it);
-        sc.u_phase[i] = u32_to_open01(sc.words[1][i]);
-    }
-}
-
-/// Phase 3b: cos θ from each lane's Henyey–Greenstein lobe (MCML eq. 3.28, as
-/// `mc::kernel::hg_cos`).
-#[inline(always)]
-fn hg_cos_lanes(st: &Lanes, sc: &mut Scratch) {
-    for i in 0..L {
-        let hg = &st.l.hg;
-        let (a, b, c, d, e) = (hg[0][i], hg[1][i], hg[2][i], hg[3][i], hg[4][i]);
-        let u = sc.u_phase[i];
-        let s = c / (d + e * u);
-        let ct = ((a - s * s) * b).max(-1.0).min(1.0);
-        let iso = 2.0 * u - 1.0;
-        sc.cos_theta[i] = sel(st.l.iso[i] != 0.0, iso, ct);
-    }
-}
-
-/// Phase 3c: absorption by weight, scattering (azimuth drawn here) and roulette of the
-/// interacting lanes; returns the number of scattering events.
-#[inline(always)]
-fn interactions(st: &mut Lanes, sc: &mut Scratch, positions: bool) -> u32 {
-    let mut n_int = [0u32; L];
-    for i in 0..L {
-        let it = on(sc.interact[i]);
-        let w0 = st.w[i];
-        let dw = w0 * st.l.absorb_frac[i];
-        let w1 = w0 - dw;
-        let absorbed_all = w1 <= 0.0;
-        let scatter = it & !absorbed_all;
-        // Azimuth and MCML's direction update (mc::kernel::spin_disc with cos φ, sin φ given).
-        let (cp, sp) = cos_sin_2pi(sc.words[2][i]);
-        let cth = sc.cos_theta[i];
-        let (ux, uy, uz) = (st.ux[i], st.uy[i], st.uz[i]);
-        let t2 = 1.0 - uz * uz;
-        let normal = uz.abs() > UZ_NORMAL;
-        // q = sin θ / √(1 − uz²) (= sin θ for the normal-incidence form): one √, one ÷.
-        let den = sel(normal, 1.0, t2);
-        let q = ((1.0 - cth * cth).max(0.0) / den).sqrt();
-        let (a, b) = (q * cp, q * sp);
-        let gx = a * ux * uz - b * uy + ux * cth;
-        let gy = a * uy * uz + b * ux + uy * cth;
-        let gz = -a * t2 + uz * cth;
-        let nx = sel(normal, a, gx);
-        let ny = sel(normal, b, gy);
-        let nz_normal = sel(uz > 0.0, cth, -cth);
-        let nz = sel(normal, nz_normal, gz);
-        st.ux[i] = sel(scatter, nx, ux);
-        st.uy[i] = sel(scatter, ny, uy);
-        st.uz[i] = sel(scatter, nz, uz);
-        st.order[i] = st.order[i].wrapping_add(scatter as u32);
-        n_int[i] = scatter as u32;
-        // Russian roulette.
-        let low = scatter & (w1 < ROULETTE_THRESHOLD);
-        let ur = u32_to_open01(sc.words[3][i]);
-        let survive = ur * ROULETTE_M <= 1.0;
-        let (kept, boosted) = (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M);
-        let control = sel(survive, kept, w1);
-        let extra = sel(low, control, 0.0);
-        let total = dw + extra;
-        sc.dep[i] = sel(it, total, 0.0);
-        // (`positions` is a constant of the tally type: the branch folds away.)
-        if !positions {
-            st.absorbed[i] += sc.dep[i];
-        }
-        let w_low = sel(survive, boosted, 0.0);
-        let w2 = sel(low, w_low, w1);
-        st.w[i] = sel(it, w2, w0);
-        let died = it & (absorbed_all | (low & !survive));
-        sc.fate[i] = selq(died, fate::DIED, sc.fate[i]);
-    }
-    n_int.iter().sum()
-}
-
 /// The lane loop over `range` (see the module docs).
 #[inline(always)]
 fn run_lanes<T: Tally>(
@@ -627,20 +610,17 @@ fn run_lanes<T: Tally>(
             return None;
         }
         draw_words(&mut st, &mut sc);
-        step(&mut st, &mut sc);
+        let mixture = !lk.mixture.is_empty();
+        if mixture {
+            for i in 0..L {
+                let j = (st.layer[i] as usize).min(lk.mixture.len() - 1);
+                sc.cos_theta[i] = lk.mixture[j].sample(u32_to_open01(sc.words[1][i]));
+            }
+        }
+        events += advance(&mut st, &mut sc, T::POSITIONS, mixture) as u64;
         if sc.hit.iter().any(|&h| on(h)) {
             interfaces(&mut st, &mut sc, last);
         }
-        interacting(&mut st, &mut sc);
-        if lk.mixture.is_empty() {
-            hg_cos_lanes(&st, &mut sc);
-        } else {
-            for i in 0..L {
-                let j = (st.layer[i] as usize).min(lk.mixture.len() - 1);
-                sc.cos_theta[i] = lk.mixture[j].sample(sc.u_phase[i]);
-            }
-        }
-        events += interactions(&mut st, &mut sc, T::POSITIONS) as u64;
         // Phase 4, only for the lanes that need it: tally calls, layer changes, ends of
         // histories, refills.
         let mut attention = 0u32;
