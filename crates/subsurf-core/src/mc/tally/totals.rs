@@ -98,14 +98,9 @@ impl Totals {
 
 impl Tally for Totals {
     const POSITIONS: bool = false;
+    /// The lane's partial scores are zero here: `end_photon` clears them as it reads them.
     #[inline]
-    fn begin_photon(&mut self, lane: usize, _photon: u64) {
-        self.cur[lane] = [0.0; NQ];
-        let nl = self.layers;
-        for x in &mut self.cur_layer[lane * nl..(lane + 1) * nl] {
-            *x = 0.0;
-        }
-    }
+    fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
     #[inline]
     fn specular(&mut self, lane: usize, w: f64) {
         self.cur[lane][Total::Specular as usize] += w;
@@ -132,12 +127,11 @@ impl Tally for Totals {
         self.photons += 1;
         let nl = self.layers;
         let mut a = 0.0;
-        for ((c, s), s2) in
-            self.cur_layer[lane * nl..(lane + 1) * nl].iter().zip(&mut self.sum_layer).zip(&mut self.sum2_layer)
-        {
-            a += *c;
-            *s += *c;
-            *s2 += *c * *c;
+        for j in 0..nl {
+            let c = std::mem::take(&mut self.cur_layer[lane * nl + j]);
+            a += c;
+            self.sum_layer[j] += c;
+            self.sum2_layer[j] += c * c;
         }
         let cur = &mut self.cur[lane];
         cur[Total::Absorbed as usize] = a;
@@ -146,6 +140,7 @@ impl Tally for Totals {
             self.sum[i] += x;
             self.sum2[i] += x * x;
         }
+        *cur = [0.0; NQ];
     }
     fn merge(&mut self, other: &Self) {
         self.photons += other.photons;
