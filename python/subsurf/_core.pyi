@@ -32,6 +32,9 @@ def diffusion_ft(eta: _F, cos_theta: _F) -> _F: ...
 def diffusion_check_properties(sigma_a: _F, sigma_s_prime: _F, eta: _F) -> None: ...
 
 # --- mc ---
+def mc_isa() -> str:
+    """Instruction set of the Monte Carlo lane kernel on this machine: avx512, avx2, neon or scalar."""
+
 def mc_validate_source(kind: str, theta: float, phi: float) -> None: ...
 def mc_simulate(
     layers: list[tuple[float, float, float, list[tuple[float, float]], float]],

@@ -57,6 +57,9 @@ class Tallies:
         the Hanrahan–Krueger paths). None disables it.
     spatial : score rd_r, tt_r, a_z, a_rz, fluence_z, fluence_rz (and rd_rt when nt > 0).
     angular : score rd_a, tt_a (and rd_ra, tt_ra when ``spatial`` too).
+    errors : keep standard errors of the histograms (batch means over fixed photon batches, see
+        ``subsurf_core::mc::tally::accum``); False skips them entirely (``stderr`` is NaN) and
+        makes each deposit a single add. The totals always have standard errors.
     """
 
     nr: int = 100
@@ -70,6 +73,7 @@ class Tallies:
     max_order: int | None = None
     spatial: bool = True
     angular: bool = True
+    errors: bool = True
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
@@ -96,7 +100,7 @@ class Tallies:
                     f"tallies.max_order = {k!r} is out of range: must be None or an integer in [0, {MAX_ORDER}]"
                 )
             set_("max_order", int(k))
-        for name in ("spatial", "angular"):
+        for name in ("spatial", "angular", "errors"):
             v = getattr(self, name)
             if not isinstance(v, bool):
                 raise ParameterError(f"tallies.{name} = {v!r} is invalid: must be True or False")

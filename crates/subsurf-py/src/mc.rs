@@ -64,6 +64,7 @@ fn tally_config_from_py(d: &Bound<'_, PyDict>) -> PyResult<TallyConfig> {
         max_order: get!("max_order"),
         spatial: get!("spatial"),
         angular: get!("angular"),
+        errors: get!("errors"),
     };
     cfg.validate().py()?;
     Ok(cfg)
@@ -112,7 +113,8 @@ fn mc_simulate<'py>(
     tallies: Option<Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let stack = stack_from_py(&layers, n_above, n_below).py()?;
-    let cfg = RunConfig { photons, seed, threads, source: source_from_py(&source.0, source.1, source.2).py()? };
+    let source = source_from_py(&source.0, source.1, source.2).py()?;
+    let cfg = RunConfig { photons, seed, threads, source, isa: None };
     cfg.validate().py()?;
     let nl = stack.layers.len();
     let proto = match &tallies {
@@ -204,7 +206,15 @@ fn mc_simulate<'py>(
     Ok(d)
 }
 
+/// Name of the instruction set the Monte Carlo lane kernel uses on this machine
+/// (`"avx512"`, `"avx2"`, `"neon"` or `"scalar"`).
+#[pyfunction]
+fn mc_isa() -> &'static str {
+    subsurf_core::mc::lanes::Isa::detect().name()
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(mc_isa, m)?)?;
     m.add_function(wrap_pyfunction!(mc_simulate, m)?)?;
     m.add_function(wrap_pyfunction!(mc_validate_source, m)?)?;
     Ok(())

@@ -53,6 +53,7 @@ use crate::rng::PhotonRng;
 /// interacting: after this many consecutive interface hits its weight is deposited where it is
 /// (physically impossible for plane-parallel layers, where total internal reflection cannot
 /// trap a packet that entered from outside; guards against rounding pathologies only).
+#[cfg_attr(not(test), allow(dead_code))] // the scalar kernel is the tests' reference (see mc::lanes)
 const MAX_CLEAR_HITS: u32 = 1_000_000;
 
 /// One layer as the kernel sees it (plain data, precomputed once per run).
@@ -87,6 +88,7 @@ pub(crate) struct Kernel {
     pub(crate) layers: Vec<KLayer>,
     pub(crate) launcher: Launcher,
     /// Some layer has σt = 0 (a clear layer): selects the kernel variant that handles it.
+    #[allow(dead_code)]
     pub(crate) any_clear: bool,
     /// Some layer has a phase-function mixture: selects the general phase sampler.
     pub(crate) any_mixture: bool,
@@ -140,6 +142,7 @@ impl Kernel {
     /// number of scattering events. `CLEAR`: handle σt = 0 layers; `MIXTURE`: general phase
     /// sampler. The reference the lane kernel (`mc::lanes`) is tested against.
     #[inline]
+    #[cfg_attr(not(test), allow(dead_code))]
     pub(crate) fn trace<T: Tally, const CLEAR: bool, const MIXTURE: bool>(
         &self,
         seed: u64,
@@ -295,6 +298,7 @@ impl Kernel {
 /// formula as [`crate::optics::sample_hg`], with the constants precomputed so that one
 /// division remains): s = (1 − g²)/(1 − g + 2gξ), cos θ = (1 + g² − s²)/(2g).
 #[inline(always)]
+#[cfg_attr(not(test), allow(dead_code))] // the scalar kernel is the tests' reference (see mc::lanes)
 fn hg_cos(lay: &KLayer, u: f64) -> f64 {
     if lay.iso {
         return 2.0 * u - 1.0;
@@ -312,6 +316,7 @@ fn hg_cos(lay: &KLayer, u: f64) -> f64 {
 /// u′z = −q X (1 − uz²) + uz cos θ, with X = x² − y², Y = 2xy (for |uz| ≈ 1:
 /// u′ = (sin θ cos φ, sin θ sin φ, cos θ sign uz)).
 #[inline(always)]
+#[cfg_attr(not(test), allow(dead_code))] // the scalar kernel is the tests' reference (see mc::lanes)
 fn spin_disc(d: [f64; 3], cos_theta: f64, x: f64, y: f64) -> [f64; 3] {
     let [ux, uy, uz] = d;
     let rho2 = x * x + y * y;
@@ -333,6 +338,7 @@ fn spin_disc(d: [f64; 3], cos_theta: f64, x: f64, y: f64) -> [f64; 3] {
 
 /// Move the packet a geometric distance `s` (mm) along its direction in a layer of index `n`.
 #[inline(always)]
+#[cfg_attr(not(test), allow(dead_code))] // the scalar kernel is the tests' reference (see mc::lanes)
 fn hop(p: &mut Packet, s: f64, n: f64) {
     p.pos[0] += s * p.dir[0];
     p.pos[1] += s * p.dir[1];

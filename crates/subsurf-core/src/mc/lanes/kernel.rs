@@ -485,6 +485,8 @@ fn advance(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> 
             let (a, b, c, d, e) = (hg[0][i], hg[1][i], hg[2][i], hg[3][i], hg[4][i]);
             let u = u32_to_open01(sc.words[1][i]);
             let t = c / (d + e * u);
+            // (max/min, not clamp: clamp's NaN assertions keep LLVM from vectorising.)
+            #[allow(clippy::manual_clamp)]
             let ct = ((a - t * t) * b).max(-1.0).min(1.0);
             sel(st.l.iso[i] != 0.0, 2.0 * u - 1.0, ct)
         };
@@ -606,7 +608,7 @@ fn run_lanes<T: Tally>(
     let mut sc = Scratch::default();
     loop {
         steps = steps.wrapping_add(1);
-        if steps % CANCEL_POLL == 0 && cancel.load(Ordering::Relaxed) {
+        if steps.is_multiple_of(CANCEL_POLL) && cancel.load(Ordering::Relaxed) {
             return None;
         }
         draw_words(&mut st, &mut sc);

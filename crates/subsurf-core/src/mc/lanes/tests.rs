@@ -65,7 +65,8 @@ fn bench_lanes() {
             let c0 = cpu_ns();
             let ev = trace_range(isa, &k, 1, 0..n, &mut t, &AtomicBool::new(false)).unwrap();
             let cpu = (cpu_ns() - c0) as f64 * 1e-9;
-            line += &format!(" {} {:.3e} ev/s ({:.3e} ph/s, {ev} events);", isa.name(), ev as f64 / cpu, n as f64 / cpu);
+            line +=
+                &format!(" {} {:.3e} ev/s ({:.3e} ph/s, {ev} events);", isa.name(), ev as f64 / cpu, n as f64 / cpu);
         }
         if !isa_filter.is_empty() {
             println!("{line}");
