@@ -21,7 +21,7 @@ use super::{Isa, LANES};
 use crate::mc::config::{ROULETTE_M, ROULETTE_THRESHOLD};
 use crate::mc::kernel::{KLayer, Kernel};
 use crate::mc::packet::{Packet, Side};
-use crate::mc::tally::Tally;
+use crate::mc::tally::{Deposits, Tally};
 use crate::optics::Phase;
 use crate::rng::{philox4x32_10, u32_to_open01, PhotonRng};
 use std::ops::Range;
@@ -623,23 +623,22 @@ fn run_lanes<T: Tally>(
         if sc.hit.iter().any(|&h| on(h)) {
             interfaces(&mut st, &mut sc, last);
         }
-        // Phase 4, only for the lanes that need it: tally calls, layer changes, ends of
-        // histories, refills.
+        // Phase 4: absorption deposits (tallies with positions), then, only for the lanes that
+        // need it: layer changes, ends of histories, refills.
         let mut attention = 0u32;
+        let mut deposits = 0u32;
         for i in 0..L {
-            let deposit = T::POSITIONS & on(sc.interact[i]) & (sc.dep[i] != 0.0);
-            attention |= (((sc.fate[i] != fate::MOVING) | deposit) as u32) << i;
+            deposits |= ((T::POSITIONS & on(sc.interact[i]) & (sc.dep[i] != 0.0)) as u32) << i;
+            attention |= ((sc.fate[i] != fate::MOVING) as u32) << i;
+        }
+        if T::POSITIONS && deposits != 0 {
+            let d = Deposits { x: &st.x, y: &st.y, z: &st.z, layer: &st.layer, dep: &sc.dep, mask: deposits };
+            tally.absorb_lanes(&d);
         }
         while attention != 0 {
             let i = attention.trailing_zeros() as usize;
             attention &= attention - 1;
-            if T::POSITIONS && on(sc.interact[i]) && sc.dep[i] != 0.0 {
-                tally.absorb(i, &packet(&st, i), sc.dep[i]);
-            }
             let f = sc.fate[i];
-            if f == fate::MOVING {
-                continue;
-            }
             if !T::POSITIONS {
                 flush_absorbed(&mut st, i, tally);
             }

@@ -83,3 +83,46 @@ fn bench_lanes() {
         println!("{line}");
     }
 }
+
+/// CPU time of the whole process (all threads), s, from /proc/self/stat (Linux; 0 elsewhere).
+fn process_cpu_s() -> f64 {
+    std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|s| {
+            let f: Vec<&str> = s.rsplit(')').next()?.split_whitespace().collect();
+            Some((f[11].parse::<f64>().ok()? + f[12].parse::<f64>().ok()?) / 100.0)
+        })
+        .unwrap_or(0.0)
+}
+
+/// Not a test: `cargo test --release -p subsurf-core bench_runs -- --ignored --nocapture` prints
+/// events per CPU-second of whole runs (`mc::run`, 1 thread) with the totals and with MCML's
+/// tally set (100 × 0.01 mm in r and z, 30 angles), with and without errors.
+#[test]
+#[ignore]
+fn bench_runs() {
+    use crate::mc::tally::{TallyConfig, TallySet};
+    use crate::mc::{run, RunConfig};
+    use std::sync::atomic::AtomicU64;
+    let filter = std::env::var("BENCH_CASE").unwrap_or_default();
+    for (name, s, n) in bench_cases() {
+        if !filter.is_empty() && !filter.contains(name) {
+            continue;
+        }
+        let nl = s.layers.len();
+        let mut cfg = RunConfig::new(n * 4, 1);
+        cfg.threads = Some(1);
+        let (stop, done) = (AtomicBool::new(false), AtomicU64::new(0));
+        let mut line = format!("case {name}:");
+        let c0 = process_cpu_s();
+        let ev = run(&s, &cfg, || Totals::new(nl), &stop, &done).unwrap().events;
+        line += &format!(" totals {:.3e} ev/CPU-s;", ev as f64 / (process_cpu_s() - c0));
+        for errors in [true, false] {
+            let set = TallySet::new(&TallyConfig { errors, ..TallyConfig::default() }, &s).unwrap();
+            let c0 = process_cpu_s();
+            let ev = run(&s, &cfg, || (Totals::new(nl), set.clone()), &stop, &done).unwrap().events;
+            line += &format!(" mcml set (errors {errors}) {:.3e} ev/CPU-s;", ev as f64 / (process_cpu_s() - c0));
+        }
+        println!("{line}");
+    }
+}

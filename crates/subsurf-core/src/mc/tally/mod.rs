@@ -10,7 +10,51 @@
 
 pub mod totals;
 
+use super::lanes::LANES;
 use super::packet::{Packet, Side};
+
+/// The absorption deposits of one step of the lane kernel: lane `i` deposits `dep[i]` at
+/// (`x[i]`, `y[i]`, `z[i]`) in layer `layer[i]` when bit `i` of `mask` is set. Handed to
+/// [`Tally::absorb_lanes`] so that a tally can compute its bins for all lanes at once.
+#[derive(Clone, Copy, Debug)]
+pub struct Deposits<'a> {
+    pub x: &'a [f64; LANES],
+    pub y: &'a [f64; LANES],
+    pub z: &'a [f64; LANES],
+    pub layer: &'a [u32; LANES],
+    pub dep: &'a [f64; LANES],
+    pub mask: u32,
+}
+
+impl Deposits<'_> {
+    /// The lanes with a deposit, in increasing order.
+    #[inline]
+    pub fn lanes(&self) -> impl Iterator<Item = usize> {
+        let mut m = self.mask;
+        std::iter::from_fn(move || {
+            (m != 0).then(|| {
+                let i = m.trailing_zeros() as usize;
+                m &= m - 1;
+                i
+            })
+        })
+    }
+
+    /// The packet of lane `i` as [`Tally::absorb`] sees it (position and layer; the rest is
+    /// not known here and set to neutral values).
+    #[inline]
+    pub fn packet(&self, i: usize) -> Packet {
+        Packet {
+            pos: [self.x[i], self.y[i], self.z[i]],
+            dir: [0.0, 0.0, 1.0],
+            w: 0.0,
+            layer: self.layer[i] as usize,
+            order: 0,
+            reflections: 0,
+            path: 0.0,
+        }
+    }
+}
 
 /// Receiver of the kernel's events. All weights are in units of the launched packet weight (1).
 pub trait Tally: Send {
@@ -31,6 +75,14 @@ pub trait Tally: Send {
     /// `dw` can be negative: Russian roulette deposits its zero-mean control term here, so that
     /// energy balance holds exactly in every run (see `mc::kernel`).
     fn absorb(&mut self, lane: usize, p: &Packet, dw: f64);
+    /// The deposits of one lane step (see [`Deposits`]); by default one [`Tally::absorb`] per
+    /// lane. Absorption tallies override it to bin all lanes at once (vectorised).
+    #[inline]
+    fn absorb_lanes(&mut self, d: &Deposits) {
+        for i in d.lanes() {
+            self.absorb(i, &d.packet(i), d.dep[i]);
+        }
+    }
     /// The packet leaves through `side` with weight `w`. `p` is its state at the exit point
     /// (inside, before refraction); `dir_out` is its unit direction in the ambient medium after
     /// refraction (`dir_out[2] < 0` for `Side::Top`, `> 0` for `Side::Bottom`).
@@ -81,6 +133,11 @@ impl<A: Tally, B: Tally> Tally for (A, B) {
     fn absorb(&mut self, lane: usize, p: &Packet, dw: f64) {
         self.0.absorb(lane, p, dw);
         self.1.absorb(lane, p, dw);
+    }
+    #[inline(always)]
+    fn absorb_lanes(&mut self, d: &Deposits) {
+        self.0.absorb_lanes(d);
+        self.1.absorb_lanes(d);
     }
     #[inline]
     fn escape(&mut self, lane: usize, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {

@@ -45,8 +45,9 @@ use super::histogram::{
     annulus_area, bin_clamped, cos_bin_projected_solid_angle, histogram, ring_projected_solid_angle, ring_solid_angle,
     Axis, HistogramOut,
 };
-use super::Tally;
+use super::{Deposits, Tally};
 use crate::error::Result;
+use crate::mc::lanes::LANES;
 use crate::mc::packet::{Packet, Side};
 use crate::medium::Stack;
 
@@ -148,7 +149,17 @@ pub struct TallySet {
     bin_mua: Vec<f64>,
     phi_z: Accum,
     phi_rz: Accum,
+    /// Per lane, the (r, z) bin of its latest absorption deposits and their sum, not yet
+    /// added to `a_z`/`a_rz`: consecutive deposits of a lane often fall in one bin (deep or
+    /// far photons in the overflow bins), and adding them up per lane avoids a chain of
+    /// dependent read-modify-writes on that bin. Flushed when the lane moves to another bin,
+    /// at each batch end, and folded in by `merge` and `finalize`.
+    pend_bin: [usize; LANES],
+    pend: [f64; LANES],
 }
+
+/// No pending deposit.
+const NO_BIN: usize = usize::MAX;
 
 impl TallySet {
     /// Build the tallies asked for by `cfg` for a run on `stack` (validates `cfg`).
@@ -176,6 +187,8 @@ impl TallySet {
             bin_mua: Vec::new(),
             phi_z: sp(cfg.nz),
             phi_rz: sp(cfg.nr * cfg.nz),
+            pend_bin: [NO_BIN; LANES],
+            pend: [0.0; LANES],
         };
         if cfg.spatial {
             t.bin_mua = (0..cfg.nz)
@@ -198,6 +211,23 @@ impl TallySet {
         (0..self.inv_mua.len()).filter(move |&j| z0 < self.bounds[j + 1] && self.bounds[j] < z1)
     }
 
+    /// Add `dw` to the absorption bin `irz` (= ir · nz + iz) of `a_rz` and to `a_z`.
+    #[inline]
+    fn add_rz(&mut self, irz: usize, dw: f64) {
+        self.a_z.add(irz % self.cfg.nz, dw);
+        self.a_rz.add(irz, dw);
+    }
+
+    /// Add lane `i`'s pending deposits to the grids.
+    #[inline]
+    fn flush_lane(&mut self, i: usize) {
+        if self.pend_bin[i] != NO_BIN {
+            self.add_rz(self.pend_bin[i], self.pend[i]);
+            self.pend_bin[i] = NO_BIN;
+            self.pend[i] = 0.0;
+        }
+    }
+
     /// The configuration.
     pub fn config(&self) -> &TallyConfig {
         &self.cfg
@@ -211,6 +241,13 @@ impl TallySet {
     /// Normalise everything into histograms for a run of `photons` photons (see the module docs
     /// for each normalisation). Only the enabled tallies are returned.
     pub fn finalize(&self, photons: u64) -> Vec<HistogramOut> {
+        if self.pend_bin.iter().any(|&b| b != NO_BIN) {
+            let mut t = self.clone();
+            for i in 0..LANES {
+                t.flush_lane(i);
+            }
+            return t.finalize(photons);
+        }
         let c = &self.cfg;
         let n = (photons, self.batches);
         let (r_ax, z_ax) = (Axis::uniform("r", "mm", c.nr, c.dr), Axis::uniform("z", "mm", c.nz, c.dz));
@@ -418,6 +455,39 @@ impl Tally for TallySet {
         }
     }
 
+    /// Bins of all lanes first (a loop LLVM vectorises), then the scattered adds.
+    #[inline(always)]
+    fn absorb_lanes(&mut self, d: &Deposits) {
+        if self.a_z.is_empty() || d.mask == 0 {
+            return;
+        }
+        let (nz, nr) = (self.cfg.nz, self.cfg.nr);
+        let (mut iz, mut irz) = ([0usize; LANES], [0usize; LANES]);
+        for i in 0..LANES {
+            let r = (d.x[i] * d.x[i] + d.y[i] * d.y[i]).sqrt();
+            let z = bin_clamped(d.z[i], self.inv_dz, nz);
+            iz[i] = z;
+            irz[i] = bin_clamped(r, self.inv_dr, nr) * nz + z;
+        }
+        for i in d.lanes() {
+            let dw = d.dep[i];
+            if self.pend_bin[i] == irz[i] {
+                self.pend[i] += dw;
+            } else {
+                self.flush_lane(i);
+                self.pend_bin[i] = irz[i];
+                self.pend[i] = dw;
+            }
+            if self.bin_mua[iz[i]] < 0.0 {
+                let im = self.inv_mua.get(d.layer[i] as usize).copied().unwrap_or(0.0);
+                if im > 0.0 {
+                    self.phi_z.add(iz[i], dw * im);
+                    self.phi_rz.add(irz[i], dw * im);
+                }
+            }
+        }
+    }
+
     #[inline]
     fn escape(&mut self, _lane: usize, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
         let c = &self.cfg;
@@ -474,6 +544,9 @@ impl Tally for TallySet {
     fn end_photon(&mut self, _lane: usize) {}
 
     fn end_batch(&mut self, photons: u64) {
+        for i in 0..LANES {
+            self.flush_lane(i);
+        }
         self.photons += photons;
         self.batches += 1;
         for a in self.rd.each_mut().into_iter().chain(self.tt.each_mut()) {
@@ -497,6 +570,12 @@ impl Tally for TallySet {
         self.a_rz.merge(&other.a_rz);
         self.phi_z.merge(&other.phi_z);
         self.phi_rz.merge(&other.phi_rz);
+        // Pending deposits exist only without errors (a batch end flushes them): plain sums.
+        for i in 0..LANES {
+            if other.pend_bin[i] != NO_BIN {
+                self.add_rz(other.pend_bin[i], other.pend[i]);
+            }
+        }
     }
 }
 

@@ -10,7 +10,7 @@
 
 use crate::mc::lanes::LANES;
 use crate::mc::packet::{Packet, Side};
-use crate::mc::tally::Tally;
+use crate::mc::tally::{Deposits, Tally};
 
 /// Index of each total in the accumulator arrays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -108,6 +108,12 @@ impl Tally for Totals {
     #[inline]
     fn absorb(&mut self, lane: usize, p: &Packet, dw: f64) {
         self.cur_layer[lane * self.layers + p.layer] += dw;
+    }
+    #[inline(always)]
+    fn absorb_lanes(&mut self, d: &Deposits) {
+        for i in d.lanes() {
+            self.cur_layer[i * self.layers + d.layer[i] as usize] += d.dep[i];
+        }
     }
     #[inline]
     fn escape(&mut self, lane: usize, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
