@@ -423,6 +423,40 @@ fn draw_words(st: &mut Lanes, sc: &mut Scratch) {
     }
 }
 
+/// cos θ from a Henyey–Greenstein lobe by inverting its CDF (MCML eq. 3.28; as
+/// `mc::kernel::hg_cos`, constants `k` = 1 + g², 1/(2g), 1 − g², 1 − g, 2g), or 2u − 1 for
+/// an isotropic layer.
+#[inline(always)]
+pub(super) fn hg_cos(k: [f64; 5], iso: bool, u: f64) -> f64 {
+    let [a, b, c, d, e] = k;
+    let t = c / (d + e * u);
+    // (max/min, not clamp: clamp's NaN assertions keep LLVM from vectorising.)
+    #[allow(clippy::manual_clamp)]
+    let ct = ((a - t * t) * b).max(-1.0).min(1.0);
+    sel(iso, 2.0 * u - 1.0, ct)
+}
+
+/// MCML's direction update (Wang et al. 1995, eq. 3.30; [`crate::optics::spin`]) of the unit
+/// direction (ux, uy, uz) by the polar cosine `cth` and the azimuth φ = 2πu of the 32-bit
+/// `word` ([`cos_sin_2pi`]), with one square root and one division:
+/// q = sin θ / √(1 − uz²), u′x = q (ux uz cos φ − uy sin φ) + ux cos θ,
+/// u′y = q (uy uz cos φ + ux sin φ) + uy cos θ, u′z = −q cos φ (1 − uz²) + uz cos θ; for
+/// |uz| > 1 − 10⁻¹² the normal-incidence form (sin θ cos φ, sin θ sin φ, ± cos θ).
+#[inline(always)]
+pub(super) fn spin_word(ux: f64, uy: f64, uz: f64, cth: f64, word: u32) -> (f64, f64, f64) {
+    let (cp, sp) = cos_sin_2pi(word);
+    let t2 = 1.0 - uz * uz;
+    let normal = uz.abs() > UZ_NORMAL;
+    let den = sel(normal, 1.0, t2);
+    let q = ((1.0 - cth * cth).max(0.0) / den).sqrt();
+    let (a, b) = (q * cp, q * sp);
+    let gx = a * ux * uz - b * uy + ux * cth;
+    let gy = a * uy * uz + b * ux + uy * cth;
+    let gz = -a * t2 + uz * cth;
+    let nz_normal = sel(uz > 0.0, cth, -cth);
+    (sel(normal, a, gx), sel(normal, b, gy), sel(normal, nz_normal, gz))
+}
+
 /// Phase 1, one loop over the lanes: step every live lane to its interaction point or to the
 /// interface ahead; a lane that stays inside its layer then interacts: absorption by weight,
 /// scattering (cos θ from its Henyey–Greenstein lobe, MCML eq. 3.28 as `mc::kernel::hg_cos`,
@@ -482,28 +516,10 @@ fn advance(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> 
             sc.cos_theta[i]
         } else {
             let hg = &st.l.hg;
-            let (a, b, c, d, e) = (hg[0][i], hg[1][i], hg[2][i], hg[3][i], hg[4][i]);
-            let u = u32_to_open01(sc.words[1][i]);
-            let t = c / (d + e * u);
-            // (max/min, not clamp: clamp's NaN assertions keep LLVM from vectorising.)
-            #[allow(clippy::manual_clamp)]
-            let ct = ((a - t * t) * b).max(-1.0).min(1.0);
-            sel(st.l.iso[i] != 0.0, 2.0 * u - 1.0, ct)
+            let k = [hg[0][i], hg[1][i], hg[2][i], hg[3][i], hg[4][i]];
+            hg_cos(k, st.l.iso[i] != 0.0, u32_to_open01(sc.words[1][i]))
         };
-        let (cp, sp) = cos_sin_2pi(sc.words[2][i]);
-        let t2 = 1.0 - uz * uz;
-        let normal = uz.abs() > UZ_NORMAL;
-        let den = sel(normal, 1.0, t2);
-        // q = sin θ / √(1 − uz²) (= sin θ for the normal-incidence form): one √, one ÷.
-        let q = ((1.0 - cth * cth).max(0.0) / den).sqrt();
-        let (a, b) = (q * cp, q * sp);
-        let gx = a * ux * uz - b * uy + ux * cth;
-        let gy = a * uy * uz + b * ux + uy * cth;
-        let gz = -a * t2 + uz * cth;
-        let nx = sel(normal, a, gx);
-        let ny = sel(normal, b, gy);
-        let nz_normal = sel(uz > 0.0, cth, -cth);
-        let nz = sel(normal, nz_normal, gz);
+        let (nx, ny, nz) = spin_word(ux, uy, uz, cth, sc.words[2][i]);
         st.ux[i] = sel(scatter, nx, ux);
         st.uy[i] = sel(scatter, ny, uy);
         st.uz[i] = sel(scatter, nz, uz);

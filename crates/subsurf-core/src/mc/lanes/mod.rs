@@ -36,6 +36,8 @@ mod kernel;
 pub mod math;
 
 pub(crate) use kernel::trace_range;
+#[cfg(test)]
+use kernel::{hg_cos, spin_word};
 
 /// Photon histories traced together by one core.
 pub const LANES: usize = 8;
