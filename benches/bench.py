@@ -115,7 +115,15 @@ def run_mcml(binary: str, stack: Stack, seconds: float):
             with open(path, "w") as f:
                 f.write(mci_text(stack, n, "run.mco"))
             c0 = cpu_children()
-            subprocess.run([binary, path], cwd=tmp, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+            subprocess.run(
+                [binary, path],
+                cwd=tmp,
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                check=True,
+                timeout=30 * seconds + 60,
+            )
             cpu = cpu_children() - c0
             if cpu >= 0.6 * seconds:
                 text = open(os.path.join(tmp, "run.mco")).read()
@@ -267,7 +275,10 @@ def main(argv=None):
             n, cpu, rd = run_mcml(mcml, stack, args.seconds)
             ph = n / cpu
             ev = ph * ours[(key, "totals", 1)]["ev_per_ph"]
-            ratio = lambda t: ours[(key, t, 1)]["ph_cpu"] / ph  # noqa: E731
+
+            def ratio(t, key=key, ph=ph):
+                return ours[(key, t, 1)]["ph_cpu"] / ph
+
             print(
                 f"{name:<24} {n:>9} {cpu:>7.2f} {ph:>10.3e} {ev:>10.3e} {rd:>8.5f} "
                 f"{ratio('totals'):>8.2f} {ratio('mcml'):>7.2f} {ratio('mcml-noerr'):>7.2f}"
@@ -287,7 +298,10 @@ def main(argv=None):
                 print(f"{name:<24} failed: {e}")
                 continue
             ph = n / secs
-            ratio = lambda t: ours[(key, t, cores)]["ph"] / ph  # noqa: E731
+
+            def ratio(t, key=key, ph=ph):
+                return ours[(key, t, cores)]["ph"] / ph
+
             print(f"{name:<24} {n:>9} {secs:>8.2f} {ph:>10.3e} {ratio('totals'):>8.2f} {ratio('mcml'):>7.2f}  {dev}")
     print(f"load average {os.getloadavg()[0]:.2f} at the end")
     print(TARGETS)

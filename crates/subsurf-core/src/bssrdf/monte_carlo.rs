@@ -26,6 +26,8 @@
 use super::cdf::RadialCdf;
 use super::RadialProfile;
 use crate::error::{Error, Result};
+use crate::mc::lanes::LANES;
+use crate::mc::tally::accum::mean_stderr;
 use crate::mc::tally::Accum;
 use crate::mc::{run, Packet, RunConfig, Side, Source, Tally};
 use crate::medium::Stack;
@@ -83,7 +85,7 @@ pub fn log_edges(r_min: f64, r_max: f64, per_decade: usize) -> Result<Vec<f64>> 
     Ok(e)
 }
 
-/// Escaping weight on a log radial grid, all orders and order 1, with per-photon moments.
+/// Escaping weight on a log radial grid, all orders and order 1, with batch-means errors.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RadialTally {
     edges: Vec<f64>,
@@ -91,9 +93,14 @@ pub struct RadialTally {
     per_ln: f64,
     all: Accum,
     single: Accum,
-    total: Accum,
-    photon: u64,
+    /// The total with per-photon moments (as `mc::tally::totals`): a partial score per lane,
+    /// then Σx and Σx².
+    total_cur: [f64; LANES],
+    total_s1: f64,
+    total_s2: f64,
     photons: u64,
+    /// Batches closed (batch-means standard errors, see `mc::tally::accum`).
+    batches: u64,
 }
 
 impl RadialTally {
@@ -105,11 +112,13 @@ impl RadialTally {
             ln_rmin: edges[1].ln(),
             per_ln,
             edges,
-            all: Accum::new(n),
-            single: Accum::new(n),
-            total: Accum::new(1),
-            photon: 0,
+            all: Accum::new(n, true),
+            single: Accum::new(n, true),
+            total_cur: [0.0; LANES],
+            total_s1: 0.0,
+            total_s2: 0.0,
             photons: 0,
+            batches: 0,
         }
     }
 
@@ -135,10 +144,11 @@ impl RadialTally {
     /// and the total.
     pub fn data(&self) -> RadialData {
         let n = self.edges.len();
-        let col = |a: &Accum| -> (Vec<f64>, Vec<f64>) { (0..n).map(|i| a.mean_stderr(i, self.photons)).unzip() };
+        let (np, nb) = (self.photons, self.batches);
+        let col = |a: &Accum| -> (Vec<f64>, Vec<f64>) { (0..n).map(|i| a.mean_stderr(i, np, nb)).unzip() };
         let (w, s) = col(&self.all);
         let (w1, s1) = col(&self.single);
-        let (t, ts) = self.total.mean_stderr(0, self.photons);
+        let (t, ts) = mean_stderr(self.total_s1, self.total_s2, np);
         RadialData {
             edges: self.edges.clone(),
             weight: w,
@@ -153,34 +163,47 @@ impl RadialTally {
 }
 
 impl Tally for RadialTally {
-    #[inline]
-    fn begin_photon(&mut self, photon: u64) {
-        self.photon = photon;
+    const POSITIONS: bool = false;
+    fn batched(&self) -> bool {
+        true
     }
     #[inline]
-    fn specular(&mut self, _w: f64) {}
+    fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
     #[inline]
-    fn absorb(&mut self, _p: &Packet, _dw: f64) {}
+    fn specular(&mut self, _lane: usize, _w: f64) {}
     #[inline]
-    fn escape(&mut self, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
+    fn absorb(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
+    #[inline]
+    fn escape(&mut self, lane: usize, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
         if side == Side::Top {
             let b = self.bin((p.pos[0] * p.pos[0] + p.pos[1] * p.pos[1]).sqrt());
-            self.all.add(b, w, self.photon);
+            self.all.add(b, w);
             if p.order == 1 {
-                self.single.add(b, w, self.photon);
+                self.single.add(b, w);
             }
-            self.total.add(0, w, self.photon);
+            self.total_cur[lane] += w;
         }
     }
     #[inline]
-    fn end_photon(&mut self) {
-        self.photons += 1;
+    fn end_photon(&mut self, lane: usize) {
+        let x = std::mem::take(&mut self.total_cur[lane]);
+        self.total_s1 += x;
+        self.total_s2 += x * x;
+    }
+    fn end_batch(&mut self, photons: u64) {
+        self.photons += photons;
+        self.batches += 1;
+        for a in [&mut self.all, &mut self.single] {
+            a.end_batch(photons);
+        }
     }
     fn merge(&mut self, other: &Self) {
         self.all.merge(&other.all);
         self.single.merge(&other.single);
-        self.total.merge(&other.total);
+        self.total_s1 += other.total_s1;
+        self.total_s2 += other.total_s2;
         self.photons += other.photons;
+        self.batches += other.batches;
     }
 }
 
@@ -300,7 +323,8 @@ impl MonteCarloProfile {
         progress: &AtomicU64,
     ) -> Result<(MonteCarloProfile, bool)> {
         let edges = default_edges(stack, s)?;
-        let cfg = RunConfig { photons: s.photons, seed: s.seed, threads: s.threads, source: Source::default() };
+        let cfg =
+            RunConfig { photons: s.photons, seed: s.seed, threads: s.threads, source: Source::default(), isa: None };
         let out = run(stack, &cfg, || RadialTally::new(edges.clone()), cancel, progress)?;
         if out.photons < 2 {
             return Err(Error::Invalid("monte_carlo: the run was interrupted before two photons were traced".into()));

@@ -214,6 +214,8 @@ struct LaneKernel<'a> {
     k: &'a Kernel,
     lay: Vec<LLayer>,
     last: u32,
+    /// Every layer and both ambient media have the same index: interfaces never reflect.
+    matched: bool,
     mixture: Vec<Phase>,
 }
 
@@ -222,7 +224,8 @@ impl<'a> LaneKernel<'a> {
         let lay: Vec<LLayer> = k.layers.iter().map(LLayer::from).collect();
         let last = (lay.len() - 1) as u32;
         let mixture = if k.any_mixture { k.layers.iter().map(|l| l.phase).collect() } else { Vec::new() };
-        LaneKernel { k, lay, last, mixture }
+        let matched = lay.iter().all(|l| l.n == l.n_up && l.n == l.n_down);
+        LaneKernel { k, lay, last, matched, mixture }
     }
 }
 
@@ -548,7 +551,7 @@ fn advance(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> 
 
 /// Phase 2: Fresnel reflection or refraction of the lanes that hit an interface.
 #[inline(always)]
-fn interfaces(st: &mut Lanes, sc: &mut Scratch, last: u32) {
+fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) {
     for i in 0..L {
         let l = &st.l;
         let h = on(sc.hit[i]);
@@ -559,6 +562,20 @@ fn interfaces(st: &mut Lanes, sc: &mut Scratch, last: u32) {
         let cc = sel(up, l.cc_up[i], l.cc_down[i]);
         let ni = l.n[i];
         let ci = uz.abs().min(1.0);
+        if MATCHED {
+            // Every index equal (`MATCHED`): no reflection, no refraction, no draw.
+            let layer = st.layer[i];
+            let out = (up & (layer == 0)) | (!up & (layer == last));
+            let cross = h & !out;
+            sc.ox[i] = st.ux[i];
+            sc.oy[i] = st.uy[i];
+            sc.oz[i] = uz;
+            let (dn, upl) = (layer.wrapping_add(1), layer.wrapping_sub(1));
+            st.layer[i] = selu(cross, selu(up, upl, dn), layer);
+            let esc = selq(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
+            sc.fate[i] = selq(h & out, esc, selq(cross, fate::CROSSED, sc.fate[i]));
+            continue;
+        }
         // Fresnel (as optics::fr_dielectric_cos_t): sin²θt = η²(1 − cos²θi).
         let st2 = eta * eta * (1.0 - ci * ci).max(0.0);
         let ct = (1.0 - st2).max(0.0).sqrt();
@@ -637,7 +654,11 @@ fn run_lanes<T: Tally>(
         }
         events += advance(&mut st, &mut sc, T::POSITIONS, mixture) as u64;
         if sc.hit.iter().any(|&h| on(h)) {
-            interfaces(&mut st, &mut sc, last);
+            if lk.matched {
+                interfaces::<true>(&mut st, &mut sc, last);
+            } else {
+                interfaces::<false>(&mut st, &mut sc, last);
+            }
         }
         // Phase 4: absorption deposits (tallies with positions), then, only for the lanes that
         // need it: layer changes, ends of histories, refills.
