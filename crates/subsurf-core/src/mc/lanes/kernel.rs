@@ -481,28 +481,24 @@ fn advance(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> 
         let s = sl * inv_sigma_t;
         let (x, y, z) = (st.x[i], st.y[i], st.z[i]);
         let (ux, uy, uz) = (st.ux[i], st.uy[i], st.uz[i]);
-        let zb = sel(uz > 0.0, z1, z0);
-        let db = (zb - z) / uz;
         let zn = z + s * uz;
         let crossed = clear | (zn > z1) | (zn < z0);
         // A clear layer with no interface ahead (parallel to it, or down a semi-infinite clear
         // layer) cannot be stepped: the scalar pass ends it.
-        let clear_end = live & clear & !(db.abs() < f64::INFINITY);
+        let clear_end = live & clear & ((uz == 0.0) | ((uz > 0.0) & (z1 == f64::INFINITY)));
         let ch1 = st.clear_hits[i].wrapping_add(1);
         let ch = selu(clear, ch1, 0);
         let stuck = live & clear & (ch > MAX_CLEAR_HITS);
         let moving = live & !clear_end & !stuck;
         let h = moving & crossed;
-        let stp = sel(h, db, s);
-        let stp = sel(moving, stp, 0.0);
+        // A lane that reaches an interface is moved onto it by `interfaces` (the distance
+        // needs a division, which the common path does without).
+        let stp = sel(moving & !h, s, 0.0);
         st.x[i] = x + stp * ux;
         st.y[i] = y + stp * uy;
-        let zs = z + stp * uz;
-        st.z[i] = sel(h, zb, zs);
+        st.z[i] = z + stp * uz;
         st.path[i] += st.l.n[i] * stp;
-        let rest = sl - db * sigma_t;
-        let left = sel(h, rest, 0.0);
-        st.s_left[i] = sel(moving, left, sl);
+        st.s_left[i] = sel(moving & !h, 0.0, sl);
         st.clear_hits[i] = selu(moving, ch, st.clear_hits[i]);
         sc.hit[i] = mk(h);
         let f = selq(clear_end, fate::CLEAR_END, fate::MOVING);
@@ -561,6 +557,15 @@ fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) 
         let eta = sel(up, l.eta_up[i], l.eta_down[i]);
         let cc = sel(up, l.cc_up[i], l.cc_down[i]);
         let ni = l.n[i];
+        // Onto the interface ahead, keeping the unused optical depth (MCML's HitBoundary).
+        let zb = sel(up, l.z0[i], l.z1[i]);
+        let db = (zb - st.z[i]) / uz;
+        let d = sel(h, db, 0.0);
+        st.x[i] += d * st.ux[i];
+        st.y[i] += d * st.uy[i];
+        st.z[i] = sel(h, zb, st.z[i]);
+        st.path[i] += ni * d;
+        st.s_left[i] -= d * l.sigma_t[i];
         let ci = uz.abs().min(1.0);
         if MATCHED {
             // Every index equal (`MATCHED`): no reflection, no refraction, no draw.
