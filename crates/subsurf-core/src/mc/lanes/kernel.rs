@@ -667,12 +667,14 @@ fn run_lanes<T: Tally>(
         }
         // Phase 4: absorption deposits (tallies with positions), then, only for the lanes that
         // need it: layer changes, ends of histories, refills.
-        let mut attention = 0u32;
-        let mut deposits = 0u32;
+        let (mut attention, mut deposits) = (0u32, 0u32);
         for i in 0..L {
-            deposits |= ((T::POSITIONS & on(sc.interact[i]) & (sc.dep[i] != 0.0)) as u32) << i;
+            // (bit i of each mask; `interact` is all ones or zero)
+            let dep = (sc.interact[i] & (sc.dep[i] != 0.0) as u64) as u32;
+            deposits |= dep << i;
             attention |= ((sc.fate[i] != fate::MOVING) as u32) << i;
         }
+        deposits = if T::POSITIONS { deposits } else { 0 };
         if T::POSITIONS && deposits != 0 {
             let d = Deposits { x: &st.x, y: &st.y, z: &st.z, layer: &st.layer, dep: &sc.dep, mask: deposits };
             tally.absorb_lanes(&d);
