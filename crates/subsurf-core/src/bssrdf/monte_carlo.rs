@@ -28,7 +28,7 @@ use super::RadialProfile;
 use crate::error::{Error, Result};
 use crate::mc::lanes::LANES;
 use crate::mc::tally::accum::mean_stderr;
-use crate::mc::tally::Accum;
+use crate::mc::tally::{Accum, Channel, ChannelState};
 use crate::mc::{run, Packet, RunConfig, Side, Source, Tally};
 use crate::medium::Stack;
 use crate::stats::chi2_sf;
@@ -85,7 +85,8 @@ pub fn log_edges(r_min: f64, r_max: f64, per_decade: usize) -> Result<Vec<f64>> 
     Ok(e)
 }
 
-/// Escaping weight on a log radial grid, all orders and order 1, with batch-means errors.
+/// Escaping weight on a log radial grid, all orders and order 1 (batch-means errors), and its
+/// total (per-photon moments, as `mc::tally::totals`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RadialTally {
     edges: Vec<f64>,
@@ -93,14 +94,11 @@ pub struct RadialTally {
     per_ln: f64,
     all: Accum,
     single: Accum,
-    /// The total with per-photon moments (as `mc::tally::totals`): a partial score per lane,
-    /// then Σx and Σx².
+    /// The total: a partial score per lane, then Σx and Σx² over photons.
     total_cur: [f64; LANES],
     total_s1: f64,
     total_s2: f64,
     photons: u64,
-    /// Batches closed (batch-means standard errors, see `mc::tally::accum`).
-    batches: u64,
 }
 
 impl RadialTally {
@@ -118,7 +116,6 @@ impl RadialTally {
             total_s1: 0.0,
             total_s2: 0.0,
             photons: 0,
-            batches: 0,
         }
     }
 
@@ -144,11 +141,10 @@ impl RadialTally {
     /// and the total.
     pub fn data(&self) -> RadialData {
         let n = self.edges.len();
-        let (np, nb) = (self.photons, self.batches);
-        let col = |a: &Accum| -> (Vec<f64>, Vec<f64>) { (0..n).map(|i| a.mean_stderr(i, np, nb)).unzip() };
+        let col = |a: &Accum| -> (Vec<f64>, Vec<f64>) { (0..n).map(|i| a.mean_stderr(i, self.photons)).unzip() };
         let (w, s) = col(&self.all);
         let (w1, s1) = col(&self.single);
-        let (t, ts) = mean_stderr(self.total_s1, self.total_s2, np);
+        let (t, ts) = mean_stderr(self.total_s1, self.total_s2, self.photons);
         RadialData {
             edges: self.edges.clone(),
             weight: w,
@@ -186,24 +182,36 @@ impl Tally for RadialTally {
     }
     #[inline]
     fn end_photon(&mut self, lane: usize) {
+        self.photons += 1;
         let x = std::mem::take(&mut self.total_cur[lane]);
         self.total_s1 += x;
         self.total_s2 += x * x;
     }
     fn end_batch(&mut self, photons: u64) {
-        self.photons += photons;
-        self.batches += 1;
-        for a in [&mut self.all, &mut self.single] {
-            a.end_batch(photons);
+        self.all.end_batch(photons);
+        self.single.end_batch(photons);
+    }
+    #[inline]
+    fn roulette(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
+    fn channels(&self, out: &mut Vec<Channel>) {
+        for (name, len) in [("profile", self.all.len()), ("profile_single", self.single.len()), ("profile_total", 1)] {
+            out.push(Channel { name: name.into(), len, extremes: false });
         }
     }
-    fn merge(&mut self, other: &Self) {
-        self.all.merge(&other.all);
-        self.single.merge(&other.single);
-        self.total_s1 += other.total_s1;
-        self.total_s2 += other.total_s2;
-        self.photons += other.photons;
-        self.batches += other.batches;
+    fn drain_into(&mut self, state: &mut [ChannelState]) -> Option<usize> {
+        let ok = self.all.drain_into(&mut state[0])
+            & self.single.drain_into(&mut state[1])
+            & state[2].add(0, self.total_s1, self.total_s2);
+        (self.total_s1, self.total_s2) = (0.0, 0.0);
+        self.photons = 0;
+        ok.then_some(3)
+    }
+    fn load_from(&mut self, state: &[ChannelState], photons: u64) -> usize {
+        self.all.load_from(&state[0]);
+        self.single.load_from(&state[1]);
+        (self.total_s1, self.total_s2) = state[2].get(0);
+        self.photons = photons;
+        3
     }
 }
 

@@ -43,13 +43,7 @@ fn on(m: u64) -> bool {
     m != 0
 }
 
-/// Lane steps between polls of the cancel flag.
-const CANCEL_POLL: u32 = 4096;
-/// Safety net of the scalar kernel (see `mc::kernel::MAX_CLEAR_HITS`).
-const MAX_CLEAR_HITS: u32 = 1_000_000;
-/// |uz| above which MCML's update uses its normal-incidence form.
-const UZ_NORMAL: f64 = 1.0 - 1e-12;
-
+use crate::mc::kernel::{clear_bounces, Crossing, CLEAR_HITS_STEPWISE, MAX_HITS_WITHOUT_INTERACTION, STOP_POLL_STEPS};
 /// One layer as the lanes copy it into their state: f64 fields only (`iso` is 1.0 for an
 /// isotropic layer), in the order of [`LaneLayer`]'s arrays.
 #[derive(Clone, Copy, Debug, Default)]
@@ -59,7 +53,9 @@ struct LLayer {
     n: f64,
     sigma_t: f64,
     inv_sigma_t: f64,
-    absorb_frac: f64,
+    /// σs/σt: the weight kept at an interaction (w′ = w σs/σt, deposit w − w′, exact as in
+    /// `mc::kernel`).
+    keep_frac: f64,
     /// HG constants 1 + g², 1/(2g), 1 − g², 1 − g, 2g (as `mc::kernel::hg_cos`).
     hg: [f64; 5],
     iso: f64,
@@ -79,9 +75,9 @@ impl From<&KLayer> for LLayer {
             n: k.n,
             sigma_t: k.sigma_t,
             inv_sigma_t: k.inv_sigma_t,
-            absorb_frac: k.absorb_frac,
-            hg: k.hg,
-            iso: if k.iso { 1.0 } else { 0.0 },
+            keep_frac: k.keep_frac,
+            hg: [k.hg.one_plus_g2, k.hg.inv_two_g, k.hg.one_minus_g2, k.hg.one_minus_g, k.hg.two_g],
+            iso: if k.hg.isotropic { 1.0 } else { 0.0 },
             n_up: k.n_up,
             n_down: k.n_down,
             eta_up: k.eta_up,
@@ -102,7 +98,7 @@ struct LaneLayer {
     n: F,
     sigma_t: F,
     inv_sigma_t: F,
-    absorb_frac: F,
+    keep_frac: F,
     hg: [F; 5],
     iso: F,
     n_up: F,
@@ -121,7 +117,7 @@ impl LaneLayer {
         self.n[i] = l.n;
         self.sigma_t[i] = l.sigma_t;
         self.inv_sigma_t[i] = l.inv_sigma_t;
-        self.absorb_frac[i] = l.absorb_frac;
+        self.keep_frac[i] = l.keep_frac;
         for k in 0..5 {
             self.hg[k][i] = l.hg[k];
         }
@@ -151,7 +147,10 @@ struct Lanes {
     layer: U,
     order: U,
     refl: U,
-    clear_hits: U,
+    /// Interface hits since the last interaction (see `mc::kernel`'s termination rules).
+    hits: U,
+    /// Roulette threshold of the lane's photon: `ROULETTE_THRESHOLD` × its entering weight.
+    w_min: F,
     /// xoshiro128++ state words s0…s3 of each lane.
     s: [U; 4],
     photon: [u64; L],
@@ -198,15 +197,17 @@ mod fate {
     /// Left through the top / bottom with direction (ox, oy, oz).
     pub const ESCAPE_TOP: u64 = 1;
     pub const ESCAPE_BOTTOM: u64 = 2;
-    /// Died after depositing (roulette or complete absorption); the deposit is in `dep`.
+    /// Died: roulette, or complete absorption (the deposit is in `dep`).
     pub const DIED: u64 = 3;
-    /// In a clear layer with no interface ahead (see `mc::kernel`): leaves through the bottom
-    /// if it moves down (a semi-infinite clear layer), else deposits its weight.
-    pub const CLEAR_END: u64 = 4;
-    /// Past `MAX_CLEAR_HITS` interface hits in clear layers: deposits its weight.
-    pub const STUCK: u64 = 5;
+    /// Down a semi-infinite clear layer: transmitted in its own direction (see `mc::kernel`).
+    pub const CLEAR_DOWN: u64 = 4;
+    /// Trapped (see `mc::kernel`): its weight goes to `Tally::roulette`.
+    pub const TRAPPED: u64 = 5;
     /// Crossed into another layer: its parameters are copied in.
     pub const CROSSED: u64 = 6;
+    /// More than `CLEAR_HITS_STEPWISE` hits in a finite clear layer: the rest of its bounces
+    /// are sampled at once (`mc::kernel::clear_bounces`), lane by lane.
+    pub const BOUNCES: u64 = 7;
 }
 
 /// Tables prepared once per run for the lanes.
@@ -342,41 +343,57 @@ impl SeedQueue {
     }
 }
 
-/// Start photon `photon` on lane `i`.
+/// Start the next photon of `range` with some weight on lane `i` (a photon that enters with
+/// weight 0 — impossible for the sources allowed — has its history ended at once, as in
+/// `mc::kernel`); the lane stays dead when the range is exhausted.
 #[inline(always)]
-fn launch<T: Tally>(
+#[allow(clippy::too_many_arguments)]
+fn refill<T: Tally>(
     lk: &LaneKernel,
     q: &mut SeedQueue,
     seed: u64,
-    photon: u64,
+    next: &mut u64,
+    end: u64,
     st: &mut Lanes,
     i: usize,
     tally: &mut T,
 ) {
-    let mut rng = PhotonRng::from_state(q.state(seed, photon));
-    tally.begin_photon(i, photon);
-    let (dir, rsp) = lk.k.launcher.launch(&mut rng);
-    tally.specular(i, rsp);
-    let s = rng.state();
-    for k in 0..4 {
-        st.s[k][i] = s[k];
-    }
-    (st.x[i], st.y[i], st.z[i]) = (0.0, 0.0, 0.0);
-    (st.ux[i], st.uy[i], st.uz[i]) = (dir[0], dir[1], dir[2]);
-    st.w[i] = 1.0 - rsp;
-    st.s_left[i] = 0.0;
-    st.path[i] = 0.0;
-    st.layer[i] = 0;
-    st.order[i] = 0;
-    st.refl[i] = 0;
-    st.clear_hits[i] = 0;
-    st.photon[i] = photon;
-    st.live[i] = !0;
-    st.absorbed[i] = 0.0;
-    st.absorbed_layer[i] = 0;
-    if st.l_layer[i] != 0 {
-        st.l.set(i, &lk.lay[0]);
-        st.l_layer[i] = 0;
+    st.live[i] = 0;
+    while *next < end {
+        let photon = *next;
+        *next += 1;
+        let mut rng = PhotonRng::from_state(q.state(seed, photon));
+        tally.begin_photon(i, photon);
+        let (dir, rsp) = lk.k.launcher.launch(&mut rng);
+        tally.specular(i, rsp);
+        let w0 = 1.0 - rsp;
+        if !(w0 > 0.0) {
+            tally.end_photon(i);
+            continue;
+        }
+        let s = rng.state();
+        for k in 0..4 {
+            st.s[k][i] = s[k];
+        }
+        (st.x[i], st.y[i], st.z[i]) = (0.0, 0.0, 0.0);
+        (st.ux[i], st.uy[i], st.uz[i]) = (dir[0], dir[1], dir[2]);
+        st.w[i] = w0;
+        st.w_min[i] = ROULETTE_THRESHOLD * w0;
+        st.s_left[i] = 0.0;
+        st.path[i] = 0.0;
+        st.layer[i] = 0;
+        st.order[i] = 0;
+        st.refl[i] = 0;
+        st.hits[i] = 0;
+        st.photon[i] = photon;
+        st.live[i] = !0;
+        st.absorbed[i] = 0.0;
+        st.absorbed_layer[i] = 0;
+        if st.l_layer[i] != 0 {
+            st.l.set(i, &lk.lay[0]);
+            st.l_layer[i] = 0;
+        }
+        return;
     }
 }
 
@@ -400,6 +417,8 @@ struct Scratch {
     hit: B,
     fate: [u64; L],
     dep: F,
+    /// Roulette control term of the step (0 where no roulette was played).
+    rou: F,
     interact: B,
     /// cos θ per lane when the stack has phase-function mixtures (sampled lane by lane).
     cos_theta: F,
@@ -449,7 +468,7 @@ pub(super) fn hg_cos(k: [f64; 5], iso: bool, u: f64) -> f64 {
 pub(super) fn spin_word(ux: f64, uy: f64, uz: f64, cth: f64, word: u32) -> (f64, f64, f64) {
     let (cp, sp) = cos_sin_2pi(word);
     let t2 = 1.0 - uz * uz;
-    let normal = uz.abs() > UZ_NORMAL;
+    let normal = uz.abs() > crate::optics::SPIN_POLE_COS;
     let den = sel(normal, 1.0, t2);
     let q = ((1.0 - cth * cth).max(0.0) / den).sqrt();
     let (a, b) = (q * cp, q * sp);
@@ -483,13 +502,16 @@ fn advance(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> 
         let (ux, uy, uz) = (st.ux[i], st.uy[i], st.uz[i]);
         let zn = z + s * uz;
         let crossed = clear | (zn > z1) | (zn < z0);
-        // A clear layer with no interface ahead (parallel to it, or down a semi-infinite clear
-        // layer) cannot be stepped: the scalar pass ends it.
-        let clear_end = live & clear & ((uz == 0.0) | ((uz > 0.0) & (z1 == f64::INFINITY)));
-        let ch1 = st.clear_hits[i].wrapping_add(1);
-        let ch = selu(clear, ch1, 0);
-        let stuck = live & clear & (ch > MAX_CLEAR_HITS);
-        let moving = live & !clear_end & !stuck;
+        // `mc::kernel`'s termination rules: down a semi-infinite clear layer the packet is
+        // transmitted; an interface hit counts towards the trapping limit (parallel to the
+        // faces of a clear layer it is trapped at once); after `CLEAR_HITS_STEPWISE` hits in a
+        // finite clear layer its remaining bounces are sampled at once. All three are rare
+        // and handled lane by lane.
+        let h1 = st.hits[i].wrapping_add(1);
+        let clear_down = live & clear & (uz > 0.0) & (z1 == f64::INFINITY);
+        let trapped = live & !clear_down & ((clear & (uz == 0.0)) | (crossed & (h1 > MAX_HITS_WITHOUT_INTERACTION)));
+        let bounces = live & clear & !clear_down & !trapped & (h1 > CLEAR_HITS_STEPWISE) & (z1 < f64::INFINITY);
+        let moving = live & !clear_down & !trapped & !bounces;
         let h = moving & crossed;
         // A lane that reaches an interface is moved onto it by `interfaces` (the distance
         // needs a division, which the common path does without).
@@ -499,16 +521,17 @@ fn advance(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> 
         st.z[i] = z + stp * uz;
         st.path[i] += st.l.n[i] * stp;
         st.s_left[i] = sel(moving & !h, 0.0, sl);
-        st.clear_hits[i] = selu(moving, ch, st.clear_hits[i]);
+        st.hits[i] = selu(h | bounces, h1, selu(moving, 0, st.hits[i]));
         sc.hit[i] = mk(h);
-        let f = selq(clear_end, fate::CLEAR_END, fate::MOVING);
-        let f = selq(stuck, fate::STUCK, f);
+        let f = selq(clear_down, fate::CLEAR_DOWN, fate::MOVING);
+        let f = selq(trapped, fate::TRAPPED, f);
+        let f = selq(bounces, fate::BOUNCES, f);
         // Interaction.
         let it = moving & !h;
         sc.interact[i] = mk(it);
         let w0 = st.w[i];
-        let dw = w0 * st.l.absorb_frac[i];
-        let w1 = w0 - dw;
+        let w1 = w0 * st.l.keep_frac[i];
+        let dw = w0 - w1;
         let absorbed_all = w1 <= 0.0;
         let scatter = it & !absorbed_all;
         let cth = if mixture {
@@ -524,14 +547,15 @@ fn advance(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> 
         st.uz[i] = sel(scatter, nz, uz);
         st.order[i] = st.order[i].wrapping_add(scatter as u32);
         n_int[i] = scatter as u32;
-        // Russian roulette; its zero-mean control term joins the deposit.
-        let low = scatter & (w1 < ROULETTE_THRESHOLD);
+        // Russian roulette below `ROULETTE_THRESHOLD` × the entering weight; its zero-mean
+        // control term goes to `Tally::roulette` (not to absorption), lane by lane.
+        let low = scatter & (w1 < st.w_min[i]);
         let ur = u32_to_open01(sc.words[3][i]);
         let survive = ur * ROULETTE_M <= 1.0;
         let (kept, boosted) = (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M);
         let control = sel(survive, kept, w1);
-        let extra = sel(low, control, 0.0);
-        let dep = sel(it, dw + extra, 0.0);
+        sc.rou[i] = sel(low, control, 0.0);
+        let dep = sel(it, dw, 0.0);
         sc.dep[i] = dep;
         if !positions {
             st.absorbed[i] += dep;
@@ -619,6 +643,42 @@ fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) 
     }
 }
 
+/// The rest of the bounces of lane `i` in its finite clear layer, sampled at once
+/// ([`clear_bounces`]) from the lane's own stream, then refraction out of the layer (as
+/// `mc::kernel`). Returns whether the packet is still inside the stack (its state written
+/// back into the lane); else it escaped (scored) or was trapped (booked to roulette).
+#[inline(never)]
+fn bounce_out<T: Tally>(lk: &LaneKernel, st: &mut Lanes, i: usize, p: &mut Packet, tally: &mut T) -> bool {
+    let lay = &lk.k.layers[p.layer];
+    let mut rng = PhotonRng::from_state([st.s[0][i], st.s[1][i], st.s[2][i], st.s[3][i]]);
+    let inside = match clear_bounces(p, lay, &mut rng) {
+        None => {
+            tally.roulette(i, p, p.w); // both faces reflect totally: trapped
+            false
+        }
+        Some(up) => matches!(lk.k.transmit(i, p, lay, up, tally), Crossing::Inside),
+    };
+    let s = rng.state();
+    for k in 0..4 {
+        st.s[k][i] = s[k];
+    }
+    if inside {
+        (st.x[i], st.y[i], st.z[i]) = (p.pos[0], p.pos[1], p.pos[2]);
+        (st.ux[i], st.uy[i], st.uz[i]) = (p.dir[0], p.dir[1], p.dir[2]);
+        st.path[i] = p.path;
+        st.refl[i] = p.reflections;
+        let j = p.layer as u32;
+        if j != st.layer[i] {
+            st.layer[i] = j;
+            st.l.set(i, &lk.lay[j as usize]);
+            st.l_layer[i] = j;
+            // (the pending absorption was handed over before: later deposits are in layer j)
+            st.absorbed_layer[i] = j;
+        }
+    }
+    inside
+}
+
 /// The lane loop over `range` (see the module docs).
 #[inline(always)]
 fn run_lanes<T: Tally>(
@@ -636,17 +696,14 @@ fn run_lanes<T: Tally>(
     }
     let mut next = range.start;
     for i in 0..L {
-        if next < range.end {
-            launch(lk, &mut q, seed, next, &mut st, i, tally);
-            next += 1;
-        }
+        refill(lk, &mut q, seed, &mut next, range.end, &mut st, i, tally);
     }
     let mut events = 0u64;
     let mut steps = 0u32;
     let mut sc = Scratch::default();
     loop {
         steps = steps.wrapping_add(1);
-        if steps.is_multiple_of(CANCEL_POLL) && cancel.load(Ordering::Relaxed) {
+        if steps.is_multiple_of(STOP_POLL_STEPS) && cancel.load(Ordering::Relaxed) {
             return None;
         }
         draw_words(&mut st, &mut sc);
@@ -672,7 +729,7 @@ fn run_lanes<T: Tally>(
             // (bit i of each mask; `interact` is all ones or zero)
             let dep = (sc.interact[i] & (sc.dep[i] != 0.0) as u64) as u32;
             deposits |= dep << i;
-            attention |= ((sc.fate[i] != fate::MOVING) as u32) << i;
+            attention |= (((sc.fate[i] != fate::MOVING) | (sc.rou[i] != 0.0)) as u32) << i;
         }
         deposits = if T::POSITIONS { deposits } else { 0 };
         if T::POSITIONS && deposits != 0 {
@@ -682,7 +739,13 @@ fn run_lanes<T: Tally>(
         while attention != 0 {
             let i = attention.trailing_zeros() as usize;
             attention &= attention - 1;
+            if sc.rou[i] != 0.0 {
+                tally.roulette(i, &packet(&st, i), sc.rou[i]);
+            }
             let f = sc.fate[i];
+            if f == fate::MOVING {
+                continue;
+            }
             if !T::POSITIONS {
                 flush_absorbed(&mut st, i, tally);
             }
@@ -692,20 +755,18 @@ fn run_lanes<T: Tally>(
                 st.l_layer[i] = j;
                 continue;
             }
-            let p = packet(&st, i);
+            let mut p = packet(&st, i);
             match f {
                 fate::ESCAPE_TOP => tally.escape(i, &p, Side::Top, [sc.ox[i], sc.oy[i], sc.oz[i]], p.w),
                 fate::ESCAPE_BOTTOM => tally.escape(i, &p, Side::Bottom, [sc.ox[i], sc.oy[i], sc.oz[i]], p.w),
-                fate::CLEAR_END if p.dir[2] > 0.0 => tally.escape(i, &p, Side::Bottom, p.dir, p.w),
-                fate::CLEAR_END | fate::STUCK => tally.absorb(i, &p, p.w),
+                fate::CLEAR_DOWN => tally.escape(i, &p, Side::Bottom, p.dir, p.w),
+                fate::TRAPPED => tally.roulette(i, &p, p.w),
+                // still inside after its bounces: keeps moving
+                fate::BOUNCES if bounce_out(lk, &mut st, i, &mut p, tally) => continue,
                 _ => {}
             }
             tally.end_photon(i);
-            st.live[i] = 0;
-            if next < range.end {
-                launch(lk, &mut q, seed, next, &mut st, i, tally);
-                next += 1;
-            }
+            refill(lk, &mut q, seed, &mut next, range.end, &mut st, i, tally);
         }
         if !st.live.iter().any(|&l| on(l)) {
             return Some(events);

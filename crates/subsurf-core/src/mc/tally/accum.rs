@@ -1,17 +1,25 @@
 //! [`Accum`]: an array of bins with batch-means standard errors (or none at all).
 //!
-//! Photons are grouped in fixed batches of consecutive indices (the run closes a batch with
-//! [`Accum::end_batch`] once all its photons have ended). Each bin keeps the running batch
-//! total Tₖ in `cur` (one add per deposit, no per-photon bookkeeping), and at the end of
-//! batch k folds it into S₁ = Σ Tₖ and Q = Σ Tₖ²/nₖ (nₖ photons in batch k). With N = Σ nₖ
-//! photons in K batches, the estimate is x̄ = S₁/N and the standard error of x̄ is
-//! √(σ̂²/N) with σ̂² = (Q − N x̄²)/(K − 1), an unbiased estimate of the per-photon variance
-//! σ² for *any* batch sizes: Tₖ − nₖ x̄ has variance nₖ σ² (1 − nₖ/N), so
-//! E[Σ (Tₖ − nₖx̄)²/nₖ] = σ² Σ (1 − nₖ/N) = (K − 1) σ², and Σ (Tₖ − nₖx̄)²/nₖ = Q − N x̄².
-//! (Batches of one photon give back the per-photon formula √((S₂/N − x̄²)/(N − 1)); the
-//! method of batch means, e.g. Kalos & Whitlock, *Monte Carlo Methods*, 2nd ed., §3.3.)
-//! A bin touched for the first time in a batch is listed, so closing a batch costs the bins
-//! it touched, not the whole grid. Without errors, deposits go straight into S₁.
+//! Photons are grouped in fixed batches of [`BATCH_PHOTONS`] consecutive indices (batch k =
+//! photons [k·B, (k+1)·B), cut at the run's last photon; B divides the chunk size, so a chunk
+//! holds whole batches). The run closes a batch with [`Accum::end_batch`] once all its photons
+//! have ended. Each bin keeps the running batch total Tₖ in `cur` (one add per deposit, no
+//! per-photon bookkeeping, so interleaved lanes need nothing special), and at the end of batch
+//! k folds it into S₁ = Σ Tₖ and Q = Σ Tₖ²/nₖ (nₖ photons in batch k). With N photons in
+//! K = ⌈N/B⌉ batches, the estimate is x̄ = S₁/N and the standard error of x̄ is √(σ̂²/N) with
+//! σ̂² = (Q − N x̄²)/(K − 1), an unbiased estimate of the per-photon variance σ² for *any* batch
+//! sizes: Tₖ − nₖ x̄ has variance nₖ σ² (1 − nₖ/N), so E[Σ (Tₖ − nₖx̄)²/nₖ] = σ² Σ (1 − nₖ/N)
+//! = (K − 1) σ², and Σ (Tₖ − nₖx̄)²/nₖ = Q − N x̄². (Batches of one photon give back the
+//! per-photon formula √((S₂/N − x̄²)/(N − 1)); the method of batch means, e.g. Kalos &
+//! Whitlock, *Monte Carlo Methods*, 2nd ed., §3.3.) A bin touched for the first time in a
+//! batch is listed, so closing a batch costs the bins it touched, not the whole grid. Without
+//! errors, deposits go straight into S₁.
+//!
+//! The exact state of a run ([`super::ChannelState`]) holds S₁ and Q of every bin (in its
+//! `s1` and `s2`): chunk sums are drained into it exactly, so batch means are as
+//! partition-independent as the sums themselves.
+
+pub use crate::mc::config::BATCH_PHOTONS;
 
 /// A flat array of bins (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
@@ -70,25 +78,37 @@ impl Accum {
         let inv_n = 1.0 / photons.max(1) as f64;
         for &b in &self.touched {
             let b = b as usize;
-            let t = self.cur[b];
+            let t = std::mem::take(&mut self.cur[b]);
             self.s1[b] += t;
             self.q[b] += t * t * inv_n;
-            self.cur[b] = 0.0;
         }
         self.touched.clear();
     }
 
-    /// Add another accumulator of the same size with no open batch (whole batches, as chunks
-    /// of a run are). Deterministic: the result depends only on the operands and the order of
-    /// merges.
-    pub fn merge(&mut self, other: &Accum) {
-        debug_assert_eq!(self.len(), other.len());
-        debug_assert!(other.touched.is_empty(), "merge of an accumulator with an open batch");
-        for (a, b) in self.s1.iter_mut().zip(&other.s1) {
-            *a += *b;
+    /// Add every bin's (S₁, Q) exactly into `state` (same length) and clear the bins for the
+    /// next chunk (whose batches are all closed). `false` if a sum is outside the exact range.
+    pub fn drain_into(&mut self, state: &mut super::ChannelState) -> bool {
+        debug_assert_eq!(self.len(), state.s1.len());
+        debug_assert!(self.touched.is_empty(), "drain with an open batch");
+        let mut ok = true;
+        for i in 0..self.s1.len() {
+            let (s1, q) = (std::mem::take(&mut self.s1[i]), self.q.get_mut(i).map_or(0.0, std::mem::take));
+            if s1 != 0.0 || q != 0.0 {
+                ok &= state.add(i, s1, q);
+            }
         }
-        for (a, b) in self.q.iter_mut().zip(&other.q) {
-            *a += *b;
+        ok
+    }
+
+    /// Set every bin to the exact sums of `state`, rounded to f64 (for normalisation).
+    pub fn load_from(&mut self, state: &super::ChannelState) {
+        debug_assert_eq!(self.len(), state.s1.len());
+        for i in 0..self.s1.len() {
+            let (s1, q) = state.get(i);
+            self.s1[i] = s1;
+            if let Some(x) = self.q.get_mut(i) {
+                *x = q;
+            }
         }
     }
 
@@ -98,21 +118,20 @@ impl Accum {
         self.s1[i]
     }
 
-    /// Mean per photon of bin `i` over `n` photons in `batches` batches, and its standard
-    /// error (NaN without errors or with fewer than 2 batches; 0 if rounding makes the
+    /// Mean per photon of bin `i` over `n` photons (in ⌈n / [`BATCH_PHOTONS`]⌉ batches) and its
+    /// standard error (NaN without errors or with fewer than 2 batches; 0 if rounding makes the
     /// variance negative).
-    pub fn mean_stderr(&self, i: usize, n: u64, batches: u64) -> (f64, f64) {
-        let m = self.s1[i] / n as f64;
+    pub fn mean_stderr(&self, i: usize, n: u64) -> (f64, f64) {
         if !self.has_errors() {
-            return (m, f64::NAN);
+            return (self.s1[i] / n as f64, f64::NAN);
         }
-        batch_mean_stderr(self.s1[i], self.q[i], n, batches)
+        batch_mean_stderr(self.s1[i], self.q[i], n, n.div_ceil(BATCH_PHOTONS))
     }
 }
 
 /// Mean and standard error from batch sums: S₁ = Σ Tₖ (`s1`), Q = Σ Tₖ²/nₖ (`q`), N photons
-/// (`n`) in K batches (`batches`): x̄ = S₁/N, se = √((Q − N x̄²)/((K − 1) N)) (see the
-/// module docs; with one-photon batches, Q = Σ x² and K = N, this is [`mean_stderr`]).
+/// (`n`) in K batches (`batches`): x̄ = S₁/N, se = √((Q − N x̄²)/((K − 1) N)) (see the module
+/// docs; with one-photon batches, Q = Σ x² and K = N, this is [`mean_stderr`]).
 pub fn batch_mean_stderr(s1: f64, q: f64, n: u64, batches: u64) -> (f64, f64) {
     if n == 0 {
         return (f64::NAN, f64::NAN);
@@ -130,38 +149,40 @@ pub use super::totals::mean_stderr;
 
 #[cfg(test)]
 mod tests {
+    use super::super::{Channel, ChannelState};
     use super::*;
     use crate::stats::SplitMix64;
 
     /// Random deposits: (photon, bin, x) with several deposits per photon, some repeated bins,
     /// negative values included.
     fn events(n_photons: u64, bins: usize, seed: u64) -> Vec<(u64, usize, f64)> {
-        let mut s = SplitMix64::new(seed);
+        let mut rng = SplitMix64::new(seed);
         let mut ev = Vec::new();
         for p in 0..n_photons {
-            let k = s.next_u64() % 7;
+            let k = rng.next_u64() % 7;
             for _ in 0..k {
-                let b = (s.next_u64() % bins as u64) as usize;
-                ev.push((p, b, s.next_f64() - 0.2));
+                let b = (rng.next_u64() % bins as u64) as usize;
+                ev.push((p, b, rng.next_f64() - 0.2));
             }
         }
         ev
     }
 
     /// Brute force: per-batch per-bin totals, then S₁ and Σ T²/n.
-    fn brute(ev: &[(u64, usize, f64)], n_photons: u64, batch: u64, bins: usize) -> Vec<(f64, f64)> {
-        let nb = n_photons.div_ceil(batch) as usize;
+    fn brute(ev: &[(u64, usize, f64)], n_photons: u64, bins: usize) -> Vec<(f64, f64)> {
+        let b = BATCH_PHOTONS;
+        let nb = n_photons.div_ceil(b) as usize;
         let mut t = vec![vec![0.0; bins]; nb];
-        for &(p, b, x) in ev {
-            t[(p / batch) as usize][b] += x;
+        for &(p, bin, x) in ev {
+            t[(p / b) as usize][bin] += x;
         }
         (0..bins)
-            .map(|b| {
-                let s1: f64 = t.iter().map(|r| r[b]).sum();
+            .map(|bin| {
+                let s1: f64 = t.iter().map(|r| r[bin]).sum();
                 let q: f64 = (0..nb)
                     .map(|k| {
-                        let nk = (n_photons - k as u64 * batch).min(batch) as f64;
-                        t[k][b] * t[k][b] / nk
+                        let nk = (n_photons - k as u64 * b).min(b) as f64;
+                        t[k][bin] * t[k][bin] / nk
                     })
                     .sum();
                 (s1, q)
@@ -169,47 +190,52 @@ mod tests {
             .collect()
     }
 
-    fn fill(ev: &[(u64, usize, f64)], lo: u64, hi: u64, batch: u64, bins: usize, errors: bool) -> Accum {
+    /// An accumulator fed photons [lo, hi) batch by batch (as the run does).
+    fn fill(ev: &[(u64, usize, f64)], lo: u64, hi: u64, bins: usize, errors: bool) -> Accum {
+        let b = BATCH_PHOTONS;
         let mut a = Accum::new(bins, errors);
-        let mut k = lo / batch;
-        for &(p, b, x) in ev.iter().filter(|e| e.0 >= lo && e.0 < hi) {
-            while p / batch > k {
-                a.end_batch(batch);
+        let mut k = lo / b;
+        for &(p, bin, x) in ev.iter().filter(|e| e.0 >= lo && e.0 < hi) {
+            while p / b > k {
+                a.end_batch(b);
                 k += 1;
             }
-            a.add(b, x);
+            a.add(bin, x);
         }
-        while k * batch < hi {
-            a.end_batch((hi - k * batch).min(batch));
+        while k * b < hi {
+            a.end_batch((hi - k * b).min(b));
             k += 1;
         }
         a
     }
 
-    /// Batch sums (last batch short) against brute force, merge of chunk accumulators, and
-    /// the error-free mode keeps the same sums.
+    fn channel(bins: usize) -> ChannelState {
+        ChannelState::new(&Channel { name: "x".into(), len: bins, extremes: false })
+    }
+
+    /// Batch sums (the last batch short) against brute force, through the exact state; the
+    /// error-free mode keeps the same sums.
     #[test]
-    fn matches_brute_force_batch_moments_and_merges() {
-        let (n, bins, batch) = (1000u64, 13, 64u64);
+    fn matches_brute_force_batch_moments() {
+        let (n, bins) = (5 * BATCH_PHOTONS + 37, 13);
         let ev = events(n, bins, 7);
-        let whole = fill(&ev, 0, n, batch, bins, true);
-        let want = brute(&ev, n, batch, bins);
+        let mut a = fill(&ev, 0, n, bins, true);
+        let want = brute(&ev, n, bins);
+        let mut st = channel(bins);
+        assert!(a.drain_into(&mut st));
+        assert!((0..bins).all(|b| a.sum(b) == 0.0));
+        a.load_from(&st);
+        let mut plain = fill(&ev, 0, n, bins, false);
         for b in 0..bins {
             let (s1, q) = want[b];
-            assert!((whole.sum(b) - s1).abs() < 1e-12 * (1.0 + s1.abs()), "bin {b}");
-            assert!((whole.q[b] - q).abs() < 1e-12 * (1.0 + q), "bin {b}");
+            assert!((a.sum(b) - s1).abs() < 1e-12 * (1.0 + s1.abs()), "bin {b}");
+            assert!((a.q[b] - q).abs() < 1e-12 * (1.0 + q), "bin {b}");
+            assert!((plain.sum(b) - s1).abs() < 1e-12 * (1.0 + s1.abs()), "bin {b}");
         }
-        let mut merged = Accum::new(bins, true);
-        for (lo, hi) in [(0, 320), (320, 640), (640, 1000)] {
-            merged.merge(&fill(&ev, lo, hi, batch, bins, true));
-        }
-        let plain = fill(&ev, 0, n, batch, bins, false);
-        assert!(!plain.has_errors() && plain.mean_stderr(0, n, 16).1.is_nan());
-        for b in 0..bins {
-            assert!((merged.sum(b) - whole.sum(b)).abs() < 1e-12 * (1.0 + whole.sum(b).abs()));
-            assert!((merged.q[b] - whole.q[b]).abs() < 1e-12 * (1.0 + whole.q[b]));
-            assert!((plain.sum(b) - whole.sum(b)).abs() < 1e-12 * (1.0 + whole.sum(b).abs()));
-        }
+        let mut st = channel(bins);
+        assert!(plain.drain_into(&mut st));
+        plain.load_from(&st);
+        assert!(plain.mean_stderr(0, n).1.is_nan());
     }
 
     /// Batches of one photon give the per-photon formula; a hand-made case.
@@ -217,12 +243,8 @@ mod tests {
     fn stderr_formula() {
         // samples 1, 2, 3, 0 (one photon scored nothing): mean 1.5, sample variance 5/3,
         // stderr √(5/3/4).
-        let mut a = Accum::new(1, true);
-        for x in [1.0, 2.0, 3.0, 0.0] {
-            a.add(0, x);
-            a.end_batch(1);
-        }
-        let (m, se) = a.mean_stderr(0, 4, 4);
+        let (s1, q) = (6.0, 1.0 + 4.0 + 9.0);
+        let (m, se) = batch_mean_stderr(s1, q, 4, 4);
         assert_eq!(m, 1.5);
         assert!((se - (5.0f64 / 3.0 / 4.0).sqrt()).abs() < 1e-15);
         assert_eq!(mean_stderr(14.0, 14.0, 4), batch_mean_stderr(14.0, 14.0, 4, 4));
@@ -234,5 +256,35 @@ mod tests {
         }
         a.end_batch(2);
         assert_eq!((a.sum(1), a.q[1]), (2.0, 2.0));
+    }
+
+    /// Chunks (whole batches) drained into exact sums in any grouping and order give the same
+    /// bits.
+    #[test]
+    fn exact_merge_of_chunks_is_partition_independent() {
+        let b = BATCH_PHOTONS;
+        let (n, bins) = (9 * b, 5);
+        let ev = events(n, bins, 11);
+        let chunk = |lo: u64, hi: u64| {
+            let mut a = fill(&ev, lo, hi, bins, true);
+            let mut st = channel(bins);
+            assert!(a.drain_into(&mut st));
+            st
+        };
+        let (c0, c1, c2) = (chunk(0, 3 * b), chunk(3 * b, 6 * b), chunk(6 * b, 9 * b));
+        let mut left = c0.clone();
+        left.merge(&c1);
+        left.merge(&c2);
+        let mut right = c2.clone();
+        right.merge(&c1);
+        let mut other = c0.clone();
+        other.merge(&right);
+        assert_eq!(left, other, "exact sums must not depend on grouping or order");
+        let want = brute(&ev, n, bins);
+        for bin in 0..bins {
+            let (s1, q) = left.get(bin);
+            assert!((s1 - want[bin].0).abs() < 1e-12 * (1.0 + s1.abs()));
+            assert!((q - want[bin].1).abs() < 1e-12 * (1.0 + q));
+        }
     }
 }
