@@ -54,9 +54,10 @@ class Tallies:
         the Hanrahan–Krueger paths). None disables it.
     spatial : score rd_r, tt_r, a_z, a_rz, fluence_z, fluence_rz (and rd_rt when nt > 0).
     angular : score rd_a, tt_a (and rd_ra, tt_ra when ``spatial`` too).
-    errors : keep standard errors of the histograms (batch means over fixed batches of 256
-        photons, see ``subsurf_core::mc::tally::accum``); False skips them entirely (``stderr``
-        is NaN) and makes each deposit a single add. The totals always have standard errors.
+    errors : keep standard errors of the histograms (per photon for the escape histograms; batch
+        means over fixed batches of 256 photons for A(z), A(r,z) and fluence, NaN for runs of at
+        most 256 photons; see ``subsurf_core::mc::tally::accum``); False skips them entirely
+        (``stderr`` is NaN) and makes each deposit a single add. The totals always have them.
     """
 
     nr: int = 100

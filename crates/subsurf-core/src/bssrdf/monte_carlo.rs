@@ -85,8 +85,8 @@ pub fn log_edges(r_min: f64, r_max: f64, per_decade: usize) -> Result<Vec<f64>> 
     Ok(e)
 }
 
-/// Escaping weight on a log radial grid, all orders and order 1 (batch-means errors), and its
-/// total (per-photon moments, as `mc::tally::totals`).
+/// Escaping weight on a log radial grid, all orders and order 1, and its total, with per-photon
+/// moments (a photon escapes once: Σw² per bin; the total per lane, as `mc::tally::totals`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RadialTally {
     edges: Vec<f64>,
@@ -110,8 +110,8 @@ impl RadialTally {
             ln_rmin: edges[1].ln(),
             per_ln,
             edges,
-            all: Accum::new(n, true),
-            single: Accum::new(n, true),
+            all: Accum::per_photon(n, true),
+            single: Accum::per_photon(n, true),
             total_cur: [0.0; LANES],
             total_s1: 0.0,
             total_s2: 0.0,
@@ -160,9 +160,6 @@ impl RadialTally {
 
 impl Tally for RadialTally {
     const POSITIONS: bool = false;
-    fn batched(&self) -> bool {
-        true
-    }
     #[inline]
     fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
     #[inline]
@@ -186,10 +183,6 @@ impl Tally for RadialTally {
         let x = std::mem::take(&mut self.total_cur[lane]);
         self.total_s1 += x;
         self.total_s2 += x * x;
-    }
-    fn end_batch(&mut self, photons: u64) {
-        self.all.end_batch(photons);
-        self.single.end_batch(photons);
     }
     #[inline]
     fn roulette(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}

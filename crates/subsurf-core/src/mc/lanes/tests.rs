@@ -167,8 +167,9 @@ fn lanes_agree_with_scalar_reference() {
 /// (Rd = 0.09739, Tt = 0.66096, A = 1 − Rd − Tt, MCML paper Table 2) with 16384 photons each;
 /// the fraction of runs whose estimate lies within 1 (2) reported standard errors of the exact
 /// value must match 68.3 % (95.4 %) within 3 binomial standard errors (3.3 % and 1.5 % points
-/// for 200 runs). Checked for the per-photon errors of the totals and for the batch-means
-/// errors of one-bin histograms (rd_r over the whole surface, a_z over the whole slab: its
+/// for 200 runs). Checked for the per-photon errors of the totals and of an escape histogram
+/// (rd_r, one bin over the whole surface), and for the batch-means errors of an absorption
+/// histogram (a_z, one bin over the whole slab: its
 /// physical deposits, whose mean is A since roulette's term has mean 0; 64 batches of 256
 /// photons, so the t-distribution of the estimate, 67.9 % and 95.0 % for 63 degrees of
 /// freedom, is within the tolerance of the normal one).
@@ -199,7 +200,7 @@ fn standard_errors_cover_the_exact_values() {
             }
         }
     }
-    let names = ["Rd (per photon)", "Tt (per photon)", "rd_r (batch means)", "a_z (batch means)"];
+    let names = ["Rd (per photon)", "Tt (per photon)", "rd_r (per photon)", "a_z (batch means)"];
     for (k, name) in names.iter().enumerate() {
         for (j, p) in [0.6827, 0.9545].into_iter().enumerate() {
             let f = inside[k][j] as f64 / runs as f64;

@@ -18,6 +18,10 @@
 //! The exact state of a run ([`super::ChannelState`]) holds S₁ and Q of every bin (in its
 //! `s1` and `s2`): chunk sums are drained into it exactly, so batch means are as
 //! partition-independent as the sums themselves.
+//!
+//! Escape tallies need no batches ([`Accum::per_photon`]): a photon escapes once, so its score
+//! in a bin is the weight of that one escape and Q = Σ w² is the exact per-photon second
+//! moment (batches of one photon, K = N), at the cost of one multiply per escape.
 
 pub use crate::mc::config::BATCH_PHOTONS;
 
@@ -31,6 +35,8 @@ pub struct Accum {
     cur: Vec<f64>,
     /// Bins deposited into in the current batch (may repeat; closing a batch zeroes `cur`).
     touched: Vec<u32>,
+    /// At most one deposit per photon (escapes): Q = Σ x², no batches.
+    single: bool,
 }
 
 impl Accum {
@@ -38,7 +44,14 @@ impl Accum {
     /// accumulator that must not be deposited into).
     pub fn new(n: usize, errors: bool) -> Self {
         let e = if errors { n } else { 0 };
-        Accum { s1: vec![0.0; n], q: vec![0.0; e], cur: vec![0.0; e], touched: Vec::new() }
+        Accum { s1: vec![0.0; n], q: vec![0.0; e], cur: vec![0.0; e], touched: Vec::new(), single: false }
+    }
+
+    /// `n` empty bins that each photon deposits into at most once (escapes), with exact
+    /// per-photon errors if `errors` (see the module docs).
+    pub fn per_photon(n: usize, errors: bool) -> Self {
+        let e = if errors { n } else { 0 };
+        Accum { s1: vec![0.0; n], q: vec![0.0; e], cur: Vec::new(), touched: Vec::new(), single: errors }
     }
 
     /// Number of bins.
@@ -56,13 +69,16 @@ impl Accum {
     /// Whether standard errors are kept.
     #[inline]
     pub fn has_errors(&self) -> bool {
-        !self.cur.is_empty()
+        !self.q.is_empty()
     }
 
     /// Add `x` to bin `bin` (the caller guarantees `bin < len()`).
     #[inline]
     pub fn add(&mut self, bin: usize, x: f64) {
-        if self.cur.is_empty() {
+        if self.single {
+            self.s1[bin] += x;
+            self.q[bin] += x * x;
+        } else if self.cur.is_empty() {
             self.s1[bin] += x;
         } else {
             let c = &mut self.cur[bin];
@@ -125,7 +141,8 @@ impl Accum {
         if !self.has_errors() {
             return (self.s1[i] / n as f64, f64::NAN);
         }
-        batch_mean_stderr(self.s1[i], self.q[i], n, n.div_ceil(BATCH_PHOTONS))
+        let batches = if self.single { n } else { n.div_ceil(BATCH_PHOTONS) };
+        batch_mean_stderr(self.s1[i], self.q[i], n, batches)
     }
 }
 
@@ -256,6 +273,19 @@ mod tests {
         }
         a.end_batch(2);
         assert_eq!((a.sum(1), a.q[1]), (2.0, 2.0));
+    }
+
+    /// One deposit per photon: the per-photon formula, whatever the batches.
+    #[test]
+    fn per_photon_accumulator() {
+        let mut a = Accum::per_photon(2, true);
+        for x in [1.0, 2.0, 3.0] {
+            a.add(1, x);
+        }
+        a.end_batch(4); // nothing to close
+        let (m, se) = a.mean_stderr(1, 4);
+        assert_eq!((m, se), mean_stderr(6.0, 14.0, 4));
+        assert!(Accum::per_photon(2, false).mean_stderr(0, 4).1.is_nan());
     }
 
     /// Chunks (whole batches) drained into exact sums in any grouping and order give the same

@@ -268,8 +268,16 @@ impl TallySet {
             pend_bin: [NO_BIN; LANES],
             pend: [0.0; LANES],
         };
+        // Escape tallies (both sides) get exact per-photon errors, absorption grids batch means.
         t.acc = (0..N_ACC)
-            .map(|i| Accum::new(if Self::enabled(cfg, i) { Self::bins(cfg, i) } else { 0 }, cfg.errors))
+            .map(|i| {
+                let n = if Self::enabled(cfg, i) { Self::bins(cfg, i) } else { 0 };
+                if i < A_Z {
+                    Accum::per_photon(n, cfg.errors)
+                } else {
+                    Accum::new(n, cfg.errors)
+                }
+            })
             .collect();
         if cfg.spatial {
             t.bin_mua = (0..cfg.nz)
@@ -447,8 +455,9 @@ impl TallySet {
 }
 
 impl Tally for TallySet {
+    /// Only the absorption grids need batches (escape tallies have per-photon errors).
     fn batched(&self) -> bool {
-        self.cfg.errors
+        self.cfg.errors && !self.acc[A_Z].is_empty()
     }
 
     #[inline]
