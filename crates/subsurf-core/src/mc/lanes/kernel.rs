@@ -88,48 +88,31 @@ impl From<&KLayer> for LLayer {
     }
 }
 
-/// The parameters of each lane's current layer, copied in when the lane enters the layer (at
-/// launch and at each crossing, both rare next to interactions), so the vector loops read
-/// plain arrays instead of gathering from the layer table at every step.
-#[derive(Clone, Debug, Default)]
-struct LaneLayer {
-    z0: F,
-    z1: F,
-    n: F,
-    sigma_t: F,
-    inv_sigma_t: F,
-    keep_frac: F,
-    hg: [F; 5],
-    iso: F,
-    n_up: F,
-    n_down: F,
-    eta_up: F,
-    eta_down: F,
-    cc_up: F,
-    cc_down: F,
+/// `LaneLayer`: the parameters of each lane's current layer, copied in when the lane enters the
+/// layer (at launch and at each crossing, both rare next to interactions), so the vector loops
+/// read plain arrays instead of gathering from the layer table at every step. One array per
+/// [`LLayer`] field (and five for its HG constants).
+macro_rules! lane_layer {
+    ($($f:ident),*) => {
+        #[derive(Clone, Debug, Default)]
+        struct LaneLayer {
+            $($f: F,)*
+            hg: [F; 5],
+        }
+
+        impl LaneLayer {
+            #[inline(always)]
+            fn set(&mut self, i: usize, l: &LLayer) {
+                $(self.$f[i] = l.$f;)*
+                for k in 0..5 {
+                    self.hg[k][i] = l.hg[k];
+                }
+            }
+        }
+    };
 }
 
-impl LaneLayer {
-    #[inline(always)]
-    fn set(&mut self, i: usize, l: &LLayer) {
-        self.z0[i] = l.z0;
-        self.z1[i] = l.z1;
-        self.n[i] = l.n;
-        self.sigma_t[i] = l.sigma_t;
-        self.inv_sigma_t[i] = l.inv_sigma_t;
-        self.keep_frac[i] = l.keep_frac;
-        for k in 0..5 {
-            self.hg[k][i] = l.hg[k];
-        }
-        self.iso[i] = l.iso;
-        self.n_up[i] = l.n_up;
-        self.n_down[i] = l.n_down;
-        self.eta_up[i] = l.eta_up;
-        self.eta_down[i] = l.eta_down;
-        self.cc_up[i] = l.cc_up;
-        self.cc_down[i] = l.cc_down;
-    }
-}
+lane_layer!(z0, z1, n, sigma_t, inv_sigma_t, keep_frac, iso, n_up, n_down, eta_up, eta_down, cc_up, cc_down);
 
 /// The lanes' state, structure of arrays.
 #[derive(Clone, Debug, Default)]
@@ -255,41 +238,27 @@ pub(crate) fn trace_range<T: Tally>(
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
-unsafe fn avx512<T: Tally>(
-    lk: &LaneKernel,
-    seed: u64,
-    range: Range<u64>,
-    tally: &mut T,
-    cancel: &AtomicBool,
-) -> Option<u64> {
-    run_lanes(lk, seed, range, tally, cancel)
+/// The lane loop compiled for one instruction set (std's `#[target_feature]`; the loop is
+/// `#[inline(always)]`, so all of it is generated with these features).
+macro_rules! isa_entry {
+    ($arch:literal, $name:ident, $features:literal) => {
+        #[cfg(target_arch = $arch)]
+        #[target_feature(enable = $features)]
+        unsafe fn $name<T: Tally>(
+            lk: &LaneKernel,
+            seed: u64,
+            range: Range<u64>,
+            tally: &mut T,
+            cancel: &AtomicBool,
+        ) -> Option<u64> {
+            run_lanes(lk, seed, range, tally, cancel)
+        }
+    };
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn avx2<T: Tally>(
-    lk: &LaneKernel,
-    seed: u64,
-    range: Range<u64>,
-    tally: &mut T,
-    cancel: &AtomicBool,
-) -> Option<u64> {
-    run_lanes(lk, seed, range, tally, cancel)
-}
-
-#[cfg(target_arch = "aarch64")]
-#[target_feature(enable = "neon")]
-unsafe fn neon<T: Tally>(
-    lk: &LaneKernel,
-    seed: u64,
-    range: Range<u64>,
-    tally: &mut T,
-    cancel: &AtomicBool,
-) -> Option<u64> {
-    run_lanes(lk, seed, range, tally, cancel)
-}
+isa_entry!("x86_64", avx512, "avx512f,avx512vl,avx512dq,avx2,fma");
+isa_entry!("x86_64", avx2, "avx2,fma");
+isa_entry!("aarch64", neon, "neon");
 
 /// The packet of lane `i`, as the tallies see it.
 #[inline(always)]
