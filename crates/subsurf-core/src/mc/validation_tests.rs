@@ -236,7 +236,10 @@ fn exact_merge_is_partition_and_thread_independent() {
     part.end = st.end;
     part.events = st.events;
     part.channels = st.channels.clone();
-    assert_eq!(part, range(0, st.end, 1), "the partial state is the state of its prefix");
+    // (on a busy machine the chunks before the hook may still be in flight when it fires: then
+    // the prefix is empty)
+    let prefix = if st.end == 0 { TallyState::new(layout.clone(), fp, 0).unwrap() } else { range(0, st.end, 1) };
+    assert_eq!(part, prefix, "the partial state is the state of its prefix");
     assert!(!extend(&s, &cfg, &mut part, make, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap());
     assert_eq!(part, whole);
 }
