@@ -204,6 +204,7 @@ fn standard_errors_cover_the_exact_values() {
     for (k, name) in names.iter().enumerate() {
         for (j, p) in [0.6827, 0.9545].into_iter().enumerate() {
             let f = inside[k][j] as f64 / runs as f64;
+            println!("{name}: {f:.3} of the runs within {} σ (expected {p})", j + 1);
             let tol = 3.0 * (p * (1.0 - p) / runs as f64).sqrt();
             assert!((f - p).abs() < tol, "{name}: {f} of the runs within {} σ (expected {p} ± {tol})", j + 1);
         }
