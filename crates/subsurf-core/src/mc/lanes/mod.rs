@@ -22,15 +22,17 @@
 //! 8·10⁻⁶ mm, a thousandth of a mean free path in tissue) and packets are placed *exactly* on
 //! them. Weights and every tally accumulate in f64 (deposits span 10⁻⁸…1). Directions stay
 //! f64 too: MCML's update renormalises nothing, so f32 round-off (6·10⁻⁸ per event) would
-//! random-walk |u| by ~10⁻⁵ over the 10⁴ events of a thick-slab history, and mixing widths
-//! costs conversions that ate the gain of twice the lanes in an A/B measurement. The random
-//! words stay 32-bit (xoshiro128++ as in [`crate::rng`]).
+//! random-walk |u| by ~10⁻⁵ over the 10⁴ events of a thick-slab history; and f32 arithmetic
+//! only pays with twice the lanes (16 per AVX-512 register), where every f64 quantity would
+//! then take two registers and each step two conversions per quantity (not measured: a
+//! possible next step for the direction update and the azimuth). The random words stay
+//! 32-bit (xoshiro128++ as in [`crate::rng`]).
 //!
 //! Random-number order within a photon's stream (differs from the scalar reference kernel
-//! only in the azimuth): source draws, then per event: step ξ (when the previous optical
-//! depth is used up), a Fresnel ξ at each interface hit with 0 < R < 1, at each interaction:
-//! phase ξ, one 32-bit word for the azimuth φ = 2πu ([`math::cos_sin_2pi`]), then a roulette ξ
-//! when w < 10⁻⁴.
+//! only there): source draws, then four words per lane step, drawn whether or not the step
+//! uses them (optical depth, phase ξ, azimuth φ = 2πu by [`math::cos_sin_2pi`], roulette ξ),
+//! and a Fresnel ξ at an interface hit with 0 < R < 1 (see `kernel::draw_words`); the
+//! clear-layer bounce sampling of `mc::kernel` draws its two uniforms from the lane's stream.
 
 mod kernel;
 pub mod math;
