@@ -3,18 +3,19 @@
 //!
 //! Each step of the loop advances every live lane by one event, in phases that are loops over
 //! the lanes with branch-free bodies (vectorised):
-//! 1. **step**: draw an optical depth where the last one is used up, move to the interaction
-//!    point or to the interface ahead (keeping the unused optical depth);
-//! 2. **interface** (skipped when no lane hit one): Fresnel reflection or refraction, layer
-//!    change, escape;
-//! 3. **interaction**: absorption by weight, Henyey–Greenstein cos θ, azimuth, MCML's
-//!    direction update, Russian roulette (its zero-mean control term deposited with the
-//!    absorption, as in the scalar kernel).
+//! 1. **step and interaction** ([`advance`]): draw an optical depth where the last one is used
+//!    up; a lane whose step stays in its layer moves there and interacts (absorption by
+//!    weight, Henyey–Greenstein cos θ, azimuth, MCML's direction update, Russian roulette
+//!    relative to the entering weight, its control term for `Tally::roulette`);
+//! 2. **interface** ([`interfaces`], skipped when no lane reached one): move onto it, Fresnel
+//!    reflection or refraction, layer change, escape.
 //!
-//! Then, lane by lane (scalar, rare events): tally calls, ends of histories, and refills with
-//! the next photon index. The arithmetic of each lane is exactly that of the scalar loop over
-//! its own photon (same operations in the same order), so a photon's history does not depend
-//! on its lane, its neighbours or the instruction set.
+//! Then the absorption deposits of all lanes go to the tally at once (`Tally::absorb_lanes`)
+//! and, lane by lane, the rare events: roulette terms, layer changes, escapes, the termination
+//! rules of `mc::kernel` (trapped packets, clear-layer bounces), ends of histories and refills
+//! with the next photon index. Each lane computes with the same correctly rounded operations
+//! whatever its neighbours or the instruction set, so a photon's history depends on its own
+//! stream only.
 
 use super::math::{cos_sin_2pi, neg_ln, sel};
 use super::{Isa, LANES};
