@@ -181,7 +181,7 @@ impl SlabTable {
     ) -> Result<Option<[f64; 4]>> {
         Self::check_grid(&[a], &[tau])?;
         let s = Stack::new(vec![Layer::new(n, 1.0 - a, a, g, tau)?], n_above, n_below)?;
-        let cfg = RunConfig { photons, seed, threads, source: Source::default() };
+        let cfg = RunConfig { photons, seed, threads, source: Source::default(), isa: None };
         cfg.validate()?;
         let out = run(&s, &cfg, || Totals::new(1), cancel, progress)?;
         if out.cancelled {
