@@ -11,6 +11,7 @@ mod hk;
 mod mc;
 mod medium;
 mod optics;
+mod render;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -21,5 +22,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     mc::register(m)?;
     hk::register(m)?;
     diffusion::register(m)?;
+    render::register(m)?;
     Ok(())
 }

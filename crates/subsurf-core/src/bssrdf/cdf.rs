@@ -74,7 +74,10 @@ pub fn hermite(x: &[f64], y: &[f64], m: &[f64], xq: f64) -> f64 {
     let h = x[k + 1] - x[k];
     let t = (xq - x[k]) / h;
     let (t2, t3) = (t * t, t * t * t);
-    (2.0 * t3 - 3.0 * t2 + 1.0) * y[k] + (t3 - 2.0 * t2 + t) * h * m[k] + (-2.0 * t3 + 3.0 * t2) * y[k + 1] + (t3 - t2) * h * m[k + 1]
+    (2.0 * t3 - 3.0 * t2 + 1.0) * y[k]
+        + (t3 - 2.0 * t2 + t) * h * m[k]
+        + (-2.0 * t3 + 3.0 * t2) * y[k + 1]
+        + (t3 - t2) * h * m[k + 1]
 }
 
 /// A monotone cubic Hermite CDF on knots r₀ = 0 < r₁ < … < r_n, normalised so C(r_n) = 1.
@@ -126,11 +129,8 @@ impl RadialCdf {
         m[0] = (c[1] - c[0]) / (r[1] - r[0]);
         m[n - 1] = end_slope.max(0.0);
         let scale = if last > 0.0 { 1.0 / last } else { 0.0 };
-        let mut cdf = RadialCdf {
-            r,
-            c: c.iter().map(|x| x * scale).collect(),
-            m: m.iter().map(|x| x * scale).collect(),
-        };
+        let mut cdf =
+            RadialCdf { r, c: c.iter().map(|x| x * scale).collect(), m: m.iter().map(|x| x * scale).collect() };
         cdf.limit_slopes();
         cdf
     }

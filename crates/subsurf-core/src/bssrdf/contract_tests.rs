@@ -41,7 +41,12 @@ fn models() -> Vec<(&'static str, Box<dyn RadialProfile>, f64)> {
     vec![
         ("dipole", medium_profile(Model::Dipole, &m).unwrap(), 1.0),
         ("better_dipole", medium_profile(Model::BetterDipole, &m).unwrap(), 1.0),
-        ("multipole slab", multipole::profile(&Stack::new(vec![Layer::new(1.33, 0.05, 1.2, 0.3, 3.0).unwrap()], 1.0, 1.0).unwrap()).unwrap(), 1.0),
+        (
+            "multipole slab",
+            multipole::profile(&Stack::new(vec![Layer::new(1.33, 0.05, 1.2, 0.3, 3.0).unwrap()], 1.0, 1.0).unwrap())
+                .unwrap(),
+            1.0,
+        ),
         ("multipole layered", multipole::profile(&layered).unwrap(), 0.5),
         ("photon_beam_diffusion", medium_profile(Model::PhotonBeamDiffusion, &m).unwrap(), 1.0),
         ("normalized_diffusion", medium_profile(Model::NormalizedDiffusion, &m).unwrap(), 1.0),
@@ -85,7 +90,8 @@ fn sampling_chi2() {
     for (k, (name, p, s)) in all.into_iter().enumerate() {
         let n = 100_000usize;
         let nb = 40;
-        let edges: Vec<f64> = (0..=nb).map(|i| if i == 0 { 0.0 } else { p.sample_r(0.999 * i as f64 / nb as f64) }).collect();
+        let edges: Vec<f64> =
+            (0..=nb).map(|i| if i == 0 { 0.0 } else { p.sample_r(0.999 * i as f64 / nb as f64) }).collect();
         let mut rng = SplitMix64::new(100 + k as u64);
         let mut obs = vec![0.0; nb + 1];
         for _ in 0..n {

@@ -146,7 +146,11 @@ impl Medium {
         check_g("g", g)?;
         check_index("eta", eta)?;
         if !(sigma_a + sigma_s > 0.0) {
-            return Err(Error::param("sigma_a + sigma_s", sigma_a + sigma_s, "a finite number > 0 (a non-empty medium)"));
+            return Err(Error::param(
+                "sigma_a + sigma_s",
+                sigma_a + sigma_s,
+                "a finite number > 0 (a non-empty medium)",
+            ));
         }
         Ok(Medium { sigma_a, sigma_s, g, eta })
     }

@@ -139,7 +139,16 @@ impl RadialTally {
         let (w, s) = col(&self.all);
         let (w1, s1) = col(&self.single);
         let (t, ts) = self.total.mean_stderr(0, self.photons);
-        RadialData { edges: self.edges.clone(), weight: w, stderr: s, single: w1, single_stderr: s1, total: t, total_stderr: ts, photons: self.photons }
+        RadialData {
+            edges: self.edges.clone(),
+            weight: w,
+            stderr: s,
+            single: w1,
+            single_stderr: s1,
+            total: t,
+            total_stderr: ts,
+            photons: self.photons,
+        }
     }
 }
 
@@ -203,7 +212,12 @@ impl RadialData {
         if n < 3 || self.edges[0] != 0.0 || self.edges.windows(2).any(|w| !(w[1] > w[0]) || !w[1].is_finite()) {
             return Err(Error::Invalid("radial data: edges must be 0 followed by increasing finite radii".into()));
         }
-        for (name, v) in [("weight", &self.weight), ("stderr", &self.stderr), ("single", &self.single), ("single_stderr", &self.single_stderr)] {
+        for (name, v) in [
+            ("weight", &self.weight),
+            ("stderr", &self.stderr),
+            ("single", &self.single),
+            ("single_stderr", &self.single_stderr),
+        ] {
             if v.len() != n || v.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
                 return Err(Error::Invalid(format!("radial data: {name} must hold {n} finite values >= 0")));
             }
@@ -253,7 +267,15 @@ fn monotone(y: &[f64], w: &[f64], sigma: &[f64]) -> Vec<f64> {
             continue;
         }
         let chi2: f64 = (s..s + len)
-            .map(|i| if sigma[i] > 0.0 { ((y[i] - m) / sigma[i]).powi(2) } else if y[i] == m { 0.0 } else { f64::INFINITY })
+            .map(|i| {
+                if sigma[i] > 0.0 {
+                    ((y[i] - m) / sigma[i]).powi(2)
+                } else if y[i] == m {
+                    0.0
+                } else {
+                    f64::INFINITY
+                }
+            })
             .sum();
         let p = if chi2.is_finite() { chi2_sf(chi2, (len - 1) as f64).unwrap_or(0.0) } else { 0.0 };
         if p >= 1e-3 {

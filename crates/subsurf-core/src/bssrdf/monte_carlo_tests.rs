@@ -20,7 +20,14 @@ fn total_matches_chandrasekhar() {
         let s = McSettings { photons, seed: 7, ..McSettings::default() };
         let edges = default_edges(&semi(a), &s).unwrap();
         let cfg = RunConfig { photons, seed: 7, threads: None, source: Source::default() };
-        let out = run(&semi(a), &cfg, || (Totals::new(1), RadialTally::new(edges.clone())), &AtomicBool::new(false), &AtomicU64::new(0)).unwrap();
+        let out = run(
+            &semi(a),
+            &cfg,
+            || (Totals::new(1), RadialTally::new(edges.clone())),
+            &AtomicBool::new(false),
+            &AtomicU64::new(0),
+        )
+        .unwrap();
         let (tot, radial) = out.tally;
         let p = MonteCarloProfile::from_data(radial.data(), 0.2).unwrap();
         let (rd, se) = tot.get(Total::Diffuse);
@@ -52,7 +59,14 @@ fn layered_profile_matches_engine() {
     let tc = TallyConfig { nr: 60, dr: 0.05, nz: 1, dz: 1.0, na: 1, ..TallyConfig::default() };
     let set = TallySet::new(&tc, &stack).unwrap();
     let cfg = RunConfig { photons: s.photons, seed: s.seed, threads: None, source: Source::default() };
-    let out = run(&stack, &cfg, || (set.clone(), RadialTally::new(edges.clone())), &AtomicBool::new(false), &AtomicU64::new(0)).unwrap();
+    let out = run(
+        &stack,
+        &cfg,
+        || (set.clone(), RadialTally::new(edges.clone())),
+        &AtomicBool::new(false),
+        &AtomicU64::new(0),
+    )
+    .unwrap();
     let (set, radial) = out.tally;
     let p = MonteCarloProfile::from_data(radial.data(), 0.2).unwrap();
     let h = set.finalize(out.photons).into_iter().find(|h| h.name == "rd_r").unwrap();

@@ -195,7 +195,8 @@ pub fn profile(stack: &Stack) -> Result<Box<dyn RadialProfile>> {
     let top = slabs[0].0.clone();
     let total = stack_transform(&slabs, 0.0);
     // Radii: 12 per decade from 1e-3 z_r to 60 diffusion lengths (≤ 1e3 z_r).
-    let ell = slabs.iter().map(|(s, _)| if s.sigma_tr > 0.0 { 1.0 / s.sigma_tr } else { 1e3 * top.z_r }).fold(0.0, f64::max);
+    let ell =
+        slabs.iter().map(|(s, _)| if s.sigma_tr > 0.0 { 1.0 / s.sigma_tr } else { 1e3 * top.z_r }).fold(0.0, f64::max);
     let (r_lo, r_hi) = (1e-3 * top.z_r, (60.0 * ell).min(1e3 * top.z_r).max(10.0 * top.z_r));
     let nr = (12.0 * (r_hi / r_lo).log10()).ceil() as usize + 1;
     let radii: Vec<f64> = (0..nr).map(|i| r_lo * (r_hi / r_lo).powf(i as f64 / (nr - 1) as f64)).collect();
@@ -217,7 +218,13 @@ pub fn profile(stack: &Stack) -> Result<Box<dyn RadialProfile>> {
         .map(|&r| {
             let mut s = 0.0;
             for (j, gj) in g.iter().enumerate() {
-                let w = if j == 0 || j == nk - 1 { 1.0 } else if j % 2 == 1 { 4.0 } else { 2.0 };
+                let w = if j == 0 || j == nk - 1 {
+                    1.0
+                } else if j % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
                 s += w * gj * bessel_j0(j as f64 * dk * r);
             }
             s * dk / 3.0 / (2.0 * PI)
@@ -242,7 +249,8 @@ pub fn bessel_j0(x: f64) -> f64 {
         let y = z * z;
         let xx = ax - 0.785398164;
         let p = 1.0 + y * (-0.1098628627e-2 + y * (0.2734510407e-4 + y * (-0.2073370639e-5 + y * 0.2093887211e-6)));
-        let q = -0.1562499995e-1 + y * (0.1430488765e-3 + y * (-0.6911147651e-5 + y * (0.7621095161e-6 - y * 0.934935152e-7)));
+        let q = -0.1562499995e-1
+            + y * (0.1430488765e-3 + y * (-0.6911147651e-5 + y * (0.7621095161e-6 - y * 0.934935152e-7)));
         (0.636619772 / ax).sqrt() * (xx.cos() * p - z * xx.sin() * q)
     }
 }

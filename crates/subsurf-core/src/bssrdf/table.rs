@@ -109,7 +109,12 @@ pub fn build_point(s: &TableSettings, i: usize, cancel: &AtomicBool, progress: &
     s.validate()?;
     let a = *s.albedos.get(i).ok_or_else(|| Error::param("index", i as f64, "an index into albedos"))?;
     let edges = log_edges(s.r_min, s.r_max, s.per_decade)?;
-    let cfg = RunConfig { photons: s.photons, seed: s.seed.wrapping_add(i as u64), threads: s.threads, source: Source::default() };
+    let cfg = RunConfig {
+        photons: s.photons,
+        seed: s.seed.wrapping_add(i as u64),
+        threads: s.threads,
+        source: Source::default(),
+    };
     let out = run(&s.stack(a)?, &cfg, || RadialTally::new(edges.clone()), cancel, progress)?;
     if out.cancelled {
         return Err(Error::Invalid(format!("table point {i} (albedo {a}) was interrupted")));
@@ -154,7 +159,9 @@ impl ProfileTable {
 
     /// Build every point here (sequentially; each point uses all threads of its run).
     pub fn build(settings: TableSettings, cancel: &AtomicBool, progress: &AtomicU64) -> Result<ProfileTable> {
-        let pts = (0..settings.albedos.len()).map(|i| build_point(&settings, i, cancel, progress)).collect::<Result<Vec<_>>>()?;
+        let pts = (0..settings.albedos.len())
+            .map(|i| build_point(&settings, i, cancel, progress))
+            .collect::<Result<Vec<_>>>()?;
         Self::assemble(settings, pts)
     }
 

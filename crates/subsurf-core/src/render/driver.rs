@@ -17,6 +17,7 @@ use crate::error::{Error, Result};
 use crate::rng::PhotonRng;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
 
 /// The way the translucent term is computed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,27 +45,27 @@ impl Method {
 }
 
 /// A scene prepared for one method.
-pub struct Renderer<'a> {
-    pub scene: &'a Scene,
-    tr: Box<dyn Translucency + 'a>,
+pub struct Renderer {
+    pub scene: Arc<Scene>,
+    tr: Box<dyn Translucency>,
     seed: u64,
     /// Samples whose radiance was not finite (dropped; should stay 0).
     pub dropped: AtomicU64,
 }
 
-impl<'a> Renderer<'a> {
+impl Renderer {
     /// Prepare `scene` for `method` (the hierarchical method computes its irradiance samples
     /// and octree here). Errors: random_walk on an open translucent mesh, bad parameters.
-    pub fn new(scene: &'a Scene, method: Method, seed: u64, hp: &HierarchicalParams) -> Result<Renderer<'a>> {
+    pub fn new(scene: Arc<Scene>, method: Method, seed: u64, hp: &HierarchicalParams) -> Result<Renderer> {
         if scene.camera.is_none() {
             return Err(Error::Invalid("camera: the scene has no camera; add one to render an image".into()));
         }
-        let tr: Box<dyn Translucency + 'a> = match method {
-            Method::Hierarchical => Box::new(Hierarchical::new(scene, hp, seed)?),
-            Method::Probe => Box::new(Probe::new(scene)),
+        let tr: Box<dyn Translucency> = match method {
+            Method::Hierarchical => Box::new(Hierarchical::new(&scene, hp, seed)?),
+            Method::Probe => Box::new(Probe::new(&scene)),
             Method::RandomWalk => {
                 scene.require_closed_translucent("method random_walk")?;
-                Box::new(RandomWalk::new(scene))
+                Box::new(RandomWalk::new(&scene))
             }
         };
         Ok(Renderer { scene, tr, seed, dropped: AtomicU64::new(0) })
@@ -80,7 +81,7 @@ impl<'a> Renderer<'a> {
         let idx = (y * cam.width + x) as u64;
         let mut rng = PhotonRng::new(self.seed, ((s as u64) << 32) | idx);
         let d = cam.ray(x as f64 + rng.uniform(), y as f64 + rng.uniform());
-        let l = trace(self.scene, cam.position, d, u32::MAX, 0, &mut rng, self.tr.as_ref());
+        let l = trace(&self.scene, cam.position, d, u32::MAX, 0, &mut rng, self.tr.as_ref());
         if l.iter().all(|v| v.is_finite()) {
             l
         } else {

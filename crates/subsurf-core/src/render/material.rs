@@ -149,3 +149,57 @@ impl RadialProfile for TestProfile {
         x / self.s
     }
 }
+
+/// A profile scaled by a constant: R_d → k R_d (total → k total; pdf, cdf and sampling unchanged).
+pub struct Scaled {
+    pub inner: Box<dyn RadialProfile>,
+    pub k: f64,
+}
+
+impl RadialProfile for Scaled {
+    fn rd(&self, r: f64) -> f64 {
+        self.k * self.inner.rd(r)
+    }
+    fn total(&self) -> f64 {
+        self.k * self.inner.total()
+    }
+    fn cdf(&self, r: f64) -> f64 {
+        self.inner.cdf(r)
+    }
+    fn sample_r(&self, u: f64) -> f64 {
+        self.inner.sample_r(u)
+    }
+    fn radius_for_fraction(&self, q: f64) -> f64 {
+        self.inner.radius_for_fraction(q)
+    }
+}
+
+/// The profiles of `model` (a [`crate::bssrdf::Model`] name) for one stack per channel, as
+/// the renderer uses them, and whether the BSSRDF methods must add S⁽¹⁾:
+/// - profiles are per unit power *entering* the medium (the renderer applies F_t at entry):
+///   `monte_carlo` profiles, simulated for a pencil beam of unit *incident* power, are divided
+///   by the normal-incidence transmittance 1 − R_sp of the top interface;
+/// - S⁽¹⁾ is added for the pure diffusion models (dipole, better dipole, multipole) only:
+///   photon beam diffusion and Monte Carlo include single scattering in R_d, and normalized
+///   diffusion is a fit to every order (Christensen & Burley 2015).
+pub fn channel_profiles(
+    model: &str,
+    stacks: &[Stack; 3],
+    mc: &crate::bssrdf::monte_carlo::McSettings,
+) -> Result<([Arc<dyn RadialProfile>; 3], bool)> {
+    use crate::bssrdf::Model;
+    let m = Model::from_name(model)?;
+    let profs = crate::bssrdf::channel_profiles(m, stacks, mc)?;
+    let mut out: Vec<Arc<dyn RadialProfile>> = Vec::with_capacity(3);
+    for (p, s) in profs.into_iter().zip(stacks) {
+        if m == Model::MonteCarlo {
+            let rsp = crate::optics::fr_dielectric(1.0, s.n_above, s.layers[0].n);
+            out.push(Arc::new(Scaled { inner: p, k: 1.0 / (1.0 - rsp) }));
+        } else {
+            out.push(Arc::from(p));
+        }
+    }
+    let ss = matches!(m, Model::Dipole | Model::BetterDipole | Model::Multipole);
+    let arr: [Arc<dyn RadialProfile>; 3] = [out[0].clone(), out[1].clone(), out[2].clone()];
+    Ok((arr, ss))
+}

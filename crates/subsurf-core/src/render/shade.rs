@@ -21,7 +21,7 @@ pub const MAX_DEPTH: u32 = 6;
 
 /// A method's light transmitted through a translucent surface: radiance leaving `hit`
 /// towards `wo` (unit, on the outside), *not* counting the Fresnel-reflected part.
-pub trait Translucency: Sync {
+pub trait Translucency: Send + Sync {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb;
 }
 

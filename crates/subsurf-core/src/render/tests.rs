@@ -23,18 +23,18 @@ fn test_material(total: [f64; 3], s: f64, sigma_a: Rgb, sigma_s: Rgb, g: f64, et
     Material::Translucent(Box::new(Translucent::new("m", sigma_a, sigma_s, g, eta, profiles, ss).unwrap()))
 }
 
-fn scene(meshes: Vec<Mesh>, m: Material, lights: Vec<Light>, env: Rgb, cam: Option<Camera>) -> Scene {
+fn scene(meshes: Vec<Mesh>, m: Material, lights: Vec<Light>, env: Rgb, cam: Option<Camera>) -> Arc<Scene> {
     let objects = meshes
         .into_iter()
         .enumerate()
         .map(|(i, mesh)| Object { name: format!("objects[{i}]"), mesh, material: 0 })
         .collect();
-    Scene::new(objects, vec![m], lights, env, cam).unwrap()
+    Arc::new(Scene::new(objects, vec![m], lights, env, cam).unwrap())
 }
 
-fn render(s: &Scene, method: Method, spp: u32, hp: &HierarchicalParams) -> Vec<f64> {
+fn render(s: &Arc<Scene>, method: Method, spp: u32, hp: &HierarchicalParams) -> Vec<f64> {
     let cam = s.camera.as_ref().unwrap();
-    let r = Renderer::new(s, method, 7, hp).unwrap();
+    let r = Renderer::new(s.clone(), method, 7, hp).unwrap();
     let mut acc = vec![0.0; cam.width * cam.height * 3];
     assert!(r.pass(0, spp, &mut acc, &AtomicBool::new(false)));
     acc.iter().map(|v| v / spp as f64).collect()
@@ -78,7 +78,7 @@ fn flat_slab_hierarchical_and_probe_match_the_profile_total() {
         println!("hierarchical channel {k}: {got:.6} vs {:.6} ({:+.3} %)", want[k], 100.0 * (got / want[k] - 1.0));
         assert!((got / want[k] - 1.0).abs() < 0.01);
     }
-    let r = Renderer::new(&s, Method::Probe, 11, &HierarchicalParams::default()).unwrap();
+    let r = Renderer::new(s.clone(), Method::Probe, 11, &HierarchicalParams::default()).unwrap();
     let (mean, se) = pixel_stats(&r, 1, 1, 20_000);
     for k in 0..3 {
         println!("probe channel {k}: {:.6} ± {:.6} vs {:.6}", mean[k], se[k], want[k]);
@@ -110,7 +110,7 @@ fn hierarchical_matches_all_pairs() {
     assert!(worst < 5e-3);
 }
 
-fn lit_sphere(level: u32, method_camera: usize) -> Scene {
+fn lit_sphere(level: u32, method_camera: usize) -> Arc<Scene> {
     let m = test_material([0.8, 0.6, 0.4], 0.7, [0.01; 3], [1.0; 3], 0.0, 1.3, true);
     let light = Light::sphere("l", [20.0, 10.0, 30.0], 4.0, [5000.0; 3]).unwrap();
     let cam = Camera::new([0.0, -60.0, 10.0], [0.0; 3], [0.0, 0.0, 1.0], 22.0, method_camera, method_camera).unwrap();
@@ -123,8 +123,8 @@ fn lit_sphere(level: u32, method_camera: usize) -> Scene {
 fn probe_agrees_with_hierarchical_on_a_sphere() {
     let s = lit_sphere(4, 16);
     let hp = HierarchicalParams::default();
-    let hier = Renderer::new(&s, Method::Hierarchical, 4, &hp).unwrap();
-    let r = Renderer::new(&s, Method::Probe, 5, &hp).unwrap();
+    let hier = Renderer::new(s.clone(), Method::Hierarchical, 4, &hp).unwrap();
+    let r = Renderer::new(s.clone(), Method::Probe, 5, &hp).unwrap();
     for (x, y) in [(8, 8), (5, 6), (11, 9), (7, 12)] {
         let (mean, se) = pixel_stats(&r, x, y, 8000);
         let (hv, hse) = pixel_stats(&hier, x, y, 8000);
@@ -168,7 +168,7 @@ fn furnace_random_walk() {
         let m = test_material([0.5; 3], 1.0, [0.0; 3], sigma_s, 0.7, 1.4, false);
         let cam = Camera::new([0.0, -30.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 25.0, 8, 8).unwrap();
         let s = scene(vec![icosphere([0.0; 3], 5.0, 3)], m, vec![], [0.25; 3], Some(cam));
-        let r = Renderer::new(&s, Method::RandomWalk, 1, &HierarchicalParams::default()).unwrap();
+        let r = Renderer::new(s.clone(), Method::RandomWalk, 1, &HierarchicalParams::default()).unwrap();
         if exact {
             for y in 0..8 {
                 for x in 0..8 {
@@ -248,7 +248,7 @@ fn bad_scenes_are_refused() {
     let open =
         Mesh::new("objects[0]", vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2]], None).unwrap();
     let s = scene(vec![open], m, vec![], [1.0; 3], Some(down_camera(2)));
-    let e = Renderer::new(&s, Method::RandomWalk, 0, &HierarchicalParams::default()).err().unwrap().to_string();
+    let e = Renderer::new(s.clone(), Method::RandomWalk, 0, &HierarchicalParams::default()).err().unwrap().to_string();
     assert!(e.contains("not watertight"), "{e}");
     assert!(Method::from_name("photon_map").unwrap_err().to_string().contains("random_walk"));
     let _: V3 = [0.0; 3];

@@ -32,11 +32,19 @@ fn check_r(r: &[f64]) -> Result<()> {
 }
 
 /// R_d(r_i) of `model` for σa = p[0], σs' = p[1] (σs = σs'/(1 − g)).
-fn profile_values(model: Model, table: Option<&ProfileTable>, g: f64, eta: f64, r: &[f64], p: &[f64]) -> Result<Vec<f64>> {
+fn profile_values(
+    model: Model,
+    table: Option<&ProfileTable>,
+    g: f64,
+    eta: f64,
+    r: &[f64],
+    p: &[f64],
+) -> Result<Vec<f64>> {
     let sigma_s = p[1] / (1.0 - g);
     let prof: Box<dyn RadialProfile> = match model {
         Model::MonteCarlo => {
-            let t = table.ok_or_else(|| Error::Invalid("model \"monte_carlo\" needs a ProfileTable for the fit".into()))?;
+            let t =
+                table.ok_or_else(|| Error::Invalid("model \"monte_carlo\" needs a ProfileTable for the fit".into()))?;
             Box::new(t.profile(p[0], sigma_s)?)
         }
         m => medium_profile(m, &Medium::new(p[0], sigma_s, g, eta)?)?,
@@ -76,7 +84,10 @@ pub fn fit_profile_layer(
     initial: [f64; 2],
 ) -> Result<Fit> {
     check_r(r)?;
-    let l0 = *stack.layers.get(layer).ok_or_else(|| Error::param("layer", layer as f64, "an index into the stack's layers"))?;
+    let l0 = *stack
+        .layers
+        .get(layer)
+        .ok_or_else(|| Error::param("layer", layer as f64, "an index into the stack's layers"))?;
     let g = l0.g();
     let model = |p: &[f64]| -> Result<Vec<f64>> {
         let mut s = stack.clone();
@@ -129,14 +140,30 @@ impl SlabTable {
         if albedos.len() < 2 || taus.len() < 2 {
             return Err(Error::Invalid("slab table: give at least 2 albedos and 2 optical thicknesses".into()));
         }
-        let mut t = SlabTable { g, n, n_above, n_below, albedos, taus, rd: vec![], tt: vec![], rd_stderr: vec![], tt_stderr: vec![] };
+        let mut t = SlabTable {
+            g,
+            n,
+            n_above,
+            n_below,
+            albedos,
+            taus,
+            rd: vec![],
+            tt: vec![],
+            rd_stderr: vec![],
+            tt_stderr: vec![],
+        };
         for (i, &a) in t.albedos.iter().enumerate() {
             for (j, &tau) in t.taus.iter().enumerate() {
                 if !((0.0..1.0).contains(&a) && tau > 0.0 && tau.is_finite()) {
                     return Err(Error::Invalid(format!("slab table: albedo {a} must be in [0, 1) and tau {tau} > 0")));
                 }
                 let s = Stack::new(vec![Layer::new(n, 1.0 - a, a, g, tau)?], n_above, n_below)?;
-                let cfg = RunConfig { photons, seed: seed.wrapping_add((i * t.taus.len() + j) as u64), threads: None, source: Source::default() };
+                let cfg = RunConfig {
+                    photons,
+                    seed: seed.wrapping_add((i * t.taus.len() + j) as u64),
+                    threads: None,
+                    source: Source::default(),
+                };
                 let out = run(&s, &cfg, || Totals::new(1), &AtomicBool::new(false), &AtomicU64::new(0))?;
                 let (r, rs) = out.tally.get(Total::Diffuse);
                 let (tr, ts) = out.tally.get(Total::Transmittance);
@@ -153,10 +180,18 @@ impl SlabTable {
     pub fn totals(&self, a: f64, tau: f64) -> Result<(f64, f64)> {
         let (na, nt) = (self.albedos.len(), self.taus.len());
         if !(a >= self.albedos[0] && a <= self.albedos[na - 1]) {
-            return Err(Error::Invalid(format!("albedo = {a} is outside the slab table's [{}, {}]", self.albedos[0], self.albedos[na - 1])));
+            return Err(Error::Invalid(format!(
+                "albedo = {a} is outside the slab table's [{}, {}]",
+                self.albedos[0],
+                self.albedos[na - 1]
+            )));
         }
         if !(tau >= self.taus[0] && tau <= self.taus[nt - 1]) {
-            return Err(Error::Invalid(format!("optical thickness = {tau} is outside the slab table's [{}, {}]", self.taus[0], self.taus[nt - 1])));
+            return Err(Error::Invalid(format!(
+                "optical thickness = {tau} is outside the slab table's [{}, {}]",
+                self.taus[0],
+                self.taus[nt - 1]
+            )));
         }
         let u: Vec<f64> = self.albedos.iter().map(|&x| -(-x).ln_1p()).collect();
         let lt: Vec<f64> = self.taus.iter().map(|x| x.ln()).collect();
@@ -227,7 +262,10 @@ pub fn fit_slab_totals(
                 let (r, tr) = t.totals(mus / st, st * thickness)?;
                 Ok(vec![r, tr])
             }
-            m => Err(Error::Invalid(format!("slab totals are fitted with \"multipole\" or \"monte_carlo\", not {:?}", m.name()))),
+            m => Err(Error::Invalid(format!(
+                "slab totals are fitted with \"multipole\" or \"monte_carlo\", not {:?}",
+                m.name()
+            ))),
         }
     };
     levenberg_marquardt(&forward, &[rd, tt], &sigma, &initial)

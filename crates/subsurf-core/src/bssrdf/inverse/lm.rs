@@ -178,9 +178,8 @@ pub fn levenberg_marquardt(
             jtj[a * n + b] = (0..m).map(|i| j[i * n + a] * j[i * n + b]).sum();
         }
     }
-    let covq = inverse(&jtj, n).ok_or_else(|| {
-        Error::Invalid("fit: the data do not determine the parameters (singular Jacobian)".into())
-    })?;
+    let covq = inverse(&jtj, n)
+        .ok_or_else(|| Error::Invalid("fit: the data do not determine the parameters (singular Jacobian)".into()))?;
     let p: Vec<f64> = q.iter().map(|x| x.exp()).collect();
     let cov = (0..n * n).map(|k| p[k / n] * p[k % n] * covq[k]).collect();
     Ok(Fit { params: p, cov, chi2: c2, dof: m - n, iterations: it })
