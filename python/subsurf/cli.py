@@ -1,7 +1,8 @@
 """The ``subsurf`` command line.
 
 Sub-commands: ``simulate CONFIG.toml``, ``mcml INPUT.mci``, ``profile MATERIAL``, ``materials``,
-``plot RESULT``, ``merge A B -o C``, ``demo`` and ``render SCENE.toml -o IMAGE.exr``; ``subsurf COMMAND --help`` explains each.
+``plot RESULT``, ``merge A B -o C``, ``demo`` and ``render SCENE.toml -o IMAGE.exr``;
+``subsurf COMMAND --help`` explains each.
 Bad input ends the program with exit status 2 and one line on stderr
 (``subsurf: error: FILE:LINE: KEY: problem``), never a traceback (set ``SUBSURF_DEBUG=1`` to see one).
 Ctrl-C during a simulation still writes the photons traced so far, marked partial (exit status 130).

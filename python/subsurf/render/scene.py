@@ -133,7 +133,10 @@ class Translucent:
         }
 
     def __repr__(self):
-        return f"Translucent(name={self.name!r}, sigma_a={self.sigma_a}, sigma_s={self.sigma_s}, g={self.g}, eta={self.eta}, model={self.model!r})"
+        return (
+            f"Translucent(name={self.name!r}, sigma_a={self.sigma_a}, sigma_s={self.sigma_s}, g={self.g}, "
+            f"eta={self.eta}, model={self.model!r})"
+        )
 
 
 class Lambertian:
@@ -359,7 +362,8 @@ class Scene:
             for m, n in zip(mats, names):
                 if isinstance(m, Translucent) and m.layered:
                     raise _err(
-                        f"materials.{n}: random_walk cannot use a layered stack on one mesh; model the layers as nested closed meshes"
+                        f"materials.{n}: random_walk cannot use a layered stack on one mesh; "
+                        "model the layers as nested closed meshes"
                     )
         objs = []
         for i, o in enumerate(self.objects):

@@ -83,7 +83,8 @@ def load_scene(path):
             except _core.ParameterError:
                 raise _err(
                     path,
-                    f"{where}.material = {mname!r} is unknown: not in [materials] ({sorted(mats)}) nor the library (subsurf materials)",
+                    f"{where}.material = {mname!r} is unknown: not in [materials] ({sorted(mats)}) "
+                    "nor the library (subsurf materials)",
                 ) from None
             mats[str(mname)] = mat
         kw = {k: o[k] for k in ("translate", "scale", "rotate") if k in o}
