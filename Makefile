@@ -41,6 +41,7 @@ demo: build
 
 bench: build
 	$(PY) benches/bench.py
+	$(PY) benches/render_bench.py
 
 clean:
 	rm -rf target $(VENV)

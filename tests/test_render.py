@@ -11,7 +11,6 @@ import sys
 
 import numpy as np
 import pytest
-
 import subsurf
 import subsurf.render as R
 from subsurf.render import export

@@ -330,7 +330,15 @@ fn render_walk_simulate<'py>(
     Ok(out)
 }
 
+/// (inside rays/s, camera rays/s) of the BVH over `scene`'s meshes, one thread, `n` rays each.
+#[pyfunction]
+fn render_bvh_benchmark(py: Python<'_>, scene: &Bound<'_, PyDict>, n: usize) -> PyResult<(f64, f64)> {
+    let sc = scene_from_py(py, scene, None)?;
+    Ok(py.detach(|| subsurf_core::render::accel::rays_per_second(&sc.accel, n, 1)))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(render_bvh_benchmark, m)?)?;
     m.add_class::<RenderJob>()?;
     m.add_function(wrap_pyfunction!(render_shape, m)?)?;
     m.add_function(wrap_pyfunction!(render_mesh_info, m)?)?;

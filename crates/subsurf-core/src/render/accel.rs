@@ -238,3 +238,33 @@ mod tests {
         }
     }
 }
+
+/// Closest-hit rays per second on one thread for `n` rays from random points inside the
+/// bounding box's inner half in uniform directions (the random walk's rays), and for `n`
+/// rays from outside towards the centre (camera-like). For `make bench`.
+pub fn rays_per_second(acc: &Accel, n: usize, seed: u64) -> (f64, f64) {
+    let mut rng = crate::rng::PhotonRng::new(seed, 0);
+    let c = acc.center();
+    let half = scale(sub(acc.hi, acc.lo), 0.25);
+    let inside: Vec<(V3, V3)> = (0..n)
+        .map(|_| {
+            let o =
+                [c[0] + half[0] * rng.symmetric(), c[1] + half[1] * rng.symmetric(), c[2] + half[2] * rng.symmetric()];
+            (o, crate::optics::sample_uniform_sphere(rng.uniform(), rng.uniform()))
+        })
+        .collect();
+    let eye = madd(c, [0.0, -1.0, 0.3], 2.0 * acc.extent);
+    let cam: Vec<(V3, V3)> = (0..n)
+        .map(|_| {
+            let target = [c[0] + half[0] * 2.0 * rng.symmetric(), c[1], c[2] + half[2] * 2.0 * rng.symmetric()];
+            (eye, normalize(sub(target, eye)))
+        })
+        .collect();
+    let time = |rays: &[(V3, V3)]| {
+        let t0 = std::time::Instant::now();
+        let hits = rays.iter().filter(|(o, d)| acc.intersect(*o, *d, f64::INFINITY, u32::MAX).is_some()).count();
+        std::hint::black_box(hits);
+        rays.len() as f64 / t0.elapsed().as_secs_f64()
+    };
+    (time(&inside), time(&cam))
+}
