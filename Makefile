@@ -42,6 +42,7 @@ demo: build
 bench: build
 	$(PY) benches/bench.py
 	$(PY) benches/render_bench.py
+	$(PY) benches/bench_profiles.py
 
 clean:
 	rm -rf target $(VENV)

@@ -5,7 +5,7 @@ Units are mm and mm⁻¹ throughout. See README.md for an overview.
 
 from __future__ import annotations
 
-from . import _core, diffusion, hk, materials, optics, testing
+from . import _core, bssrdf, diffusion, hk, materials, optics, testing
 from ._core import ParameterError
 from .materials import Material
 from .mc import DiffuseIllumination, PencilBeam, simulate
@@ -27,6 +27,7 @@ __all__ = [
     "Stack",
     "Tallies",
     "__version__",
+    "bssrdf",
     "diffusion",
     "hk",
     "materials",

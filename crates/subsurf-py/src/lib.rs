@@ -5,6 +5,7 @@
 
 use pyo3::prelude::*;
 
+mod bssrdf;
 mod diffusion;
 mod errors;
 mod hk;
@@ -23,5 +24,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     hk::register(m)?;
     diffusion::register(m)?;
     render::register(m)?;
+    bssrdf::register(m)?;
     Ok(())
 }

@@ -125,6 +125,6 @@ fn names_and_bad_input() {
     assert!(e.starts_with("sigma_a"), "{e}");
     let layered = Stack::new(vec![Layer::new(1.4, 0.1, 1.0, 0.0, 1.0).unwrap()], 1.0, 1.0).unwrap();
     assert!(profile(Model::Dipole, &layered, &Default::default()).err().unwrap().to_string().contains("multipole"));
-    let chans = channel_profiles(Model::Dipole, &[layered.clone()], &Default::default());
+    let chans = channel_profiles(Model::Dipole, std::slice::from_ref(&layered), &Default::default());
     assert!(chans.err().unwrap().to_string().starts_with("channels[0]"));
 }

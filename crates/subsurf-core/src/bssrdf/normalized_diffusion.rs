@@ -140,10 +140,10 @@ mod tests {
         assert!((ShapeFit::SearchlightDmfp.s(0.33) - 3.5).abs() < 1e-15);
         assert!((ShapeFit::SearchlightDmfp.s(0.8) - (3.5 + 100.0 * 0.47f64.powi(4))).abs() < 1e-13);
         // eq. (3) at A = 0.5, ℓ = 1 mm, s = 1.539, r = 1 mm:
-        // 0.5·1.539·(e^{−1.539} + e^{−0.513})/(8π) = 0.0181713...
+        // 0.5·1.539·(e^{−1.539} + e^{−0.513})/(8π) = 0.0249009...
         let p = NormalizedDiffusion::new(0.5, 1.0, ShapeFit::Searchlight).unwrap();
         let want = 0.5 * 1.539 * ((-1.539f64).exp() + (-0.513f64).exp()) / (8.0 * PI);
-        assert!((p.rd(1.0) - want).abs() < 1e-15 && (want - 0.0181713).abs() < 1e-6, "{want}");
+        assert!((p.rd(1.0) - want).abs() < 1e-15 && (want - 0.0249009).abs() < 1e-6, "{want}");
         for i in 1..2000 {
             let u = i as f64 / 2000.0;
             let r = p.sample_r(u);

@@ -197,7 +197,7 @@ impl ProfileTable {
         if !(rho.is_finite() && rho >= lo && rho <= hi) {
             return Err(Error::Invalid(format!(
                 "{field} = {rho} is out of range: this table reaches total reflectances [{lo:.6}, {hi:.6}] \
-                 (g = {}, eta = {}); a brighter colour needs albedos closer to 1",
+                 (g = {}, eta = {}); build it with albedos that reach the colour",
                 self.settings.g, self.settings.eta
             )));
         }

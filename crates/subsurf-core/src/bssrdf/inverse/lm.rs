@@ -153,8 +153,14 @@ pub fn levenberg_marquardt(
             continue;
         };
         let qn: Vec<f64> = q.iter().zip(&step).map(|(a, b)| a + b.clamp(-2.0, 2.0)).collect();
-        let fnew = eval(&qn)?;
-        let cn = chi2(&fnew, y, sigma);
+        // A trial step the model refuses (e.g. outside a table) is a rejected step.
+        let (fnew, cn) = match eval(&qn) {
+            Ok(v) => {
+                let c = chi2(&v, y, sigma);
+                (v, c)
+            }
+            Err(_) => (Vec::new(), f64::INFINITY),
+        };
         if cn.is_finite() && cn <= c2 {
             let done = (c2 - cn) <= 1e-10 * c2.max(1e-300) && step.iter().all(|s| s.abs() < 1e-8);
             q = qn;

@@ -8,3 +8,6 @@ pub mod lm;
 pub use appearance::{albedo_from_reflectance, material_from_appearance};
 pub use fit::{fit_profile, fit_slab_totals, SlabTable};
 pub use lm::{levenberg_marquardt, Fit};
+
+#[cfg(test)]
+mod tests;
