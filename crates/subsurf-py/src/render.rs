@@ -223,10 +223,13 @@ impl RenderJob {
     }
 }
 
+/// Positions (N, 3) and triangles (M, 3) of a mesh.
+type MeshArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>);
+
 /// A built-in shape as (positions (N, 3), triangles (M, 3)): kind "sphere" (center, radius,
 /// subdivisions), "box" (lo, hi), "plane" (cx, cy, z, sx, sy) or "torus" (center, R, r, nu, nv).
 #[pyfunction]
-#[pyo3(signature = (kind, a, b=None, c=0.0, d=0.0, e=0.0, level=4, nu=64, nv=32))]
+#[pyo3(signature = (kind, a, b=None, c=0.0, d=0.0, level=4, nu=64, nv=32))]
 #[allow(clippy::too_many_arguments)]
 fn render_shape<'py>(
     py: Python<'py>,
@@ -239,7 +242,7 @@ fn render_shape<'py>(
     level: u32,
     nu: u32,
     nv: u32,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>)> {
+) -> PyResult<MeshArrays<'py>> {
     let mesh = match kind {
         "sphere" if c > 0.0 && level <= 8 => shapes::icosphere(a, c, level),
         "box" => {
@@ -257,7 +260,6 @@ fn render_shape<'py>(
             ))))
         }
     };
-    let _ = e;
     let p: Vec<f64> = mesh.positions.iter().flatten().copied().collect();
     let t: Vec<i64> = mesh.triangles.iter().flatten().map(|&x| x as i64).collect();
     Ok((

@@ -211,34 +211,6 @@ fn dir3(d: V3) -> Vec3A {
     Vec3A::new(f(d[0]), f(d[1]), f(d[2]))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::render::shapes::icosphere;
-
-    #[test]
-    fn rays_from_inside_a_sphere_hit_it_once_at_the_radius() {
-        let m = icosphere([0.0; 3], 2.0, 4);
-        let acc = Accel::new(&[&m]);
-        let mut rng = crate::rng::PhotonRng::new(1, 2);
-        for _ in 0..20_000 {
-            let d = crate::optics::sample_uniform_sphere(rng.uniform(), rng.uniform());
-            let o = scale([rng.symmetric(), rng.symmetric(), rng.symmetric()], 0.5);
-            let h = acc.intersect(o, d, f64::INFINITY, u32::MAX).expect("a closed sphere cannot be missed");
-            let r = length(h.p);
-            assert!(r <= 2.0 + 1e-12 && r > 2.0 * 0.99, "{r}");
-            assert!(dot(h.n, d) > 0.0, "the exit face points along the ray");
-            assert!(!acc.occluded(o, d, h.t * (1.0 - 1e-9), u32::MAX));
-            assert!(acc.occluded(o, d, h.t * (1.0 + 1e-9), u32::MAX));
-        }
-        // Directions with exactly zero components (axis-aligned and facet normals).
-        for d in [[0.0, 0.0, 1.0], [-0.0, -0.8960683512224559, -0.4439161068687069], [1.0, 0.0, -0.0]] {
-            let d = normalize(d);
-            assert!(acc.intersect([0.1, -0.2, 0.05], d, f64::INFINITY, u32::MAX).is_some(), "{d:?}");
-        }
-    }
-}
-
 /// Closest-hit rays per second on one thread for `n` rays from random points inside the
 /// bounding box's inner half in uniform directions (the random walk's rays), and for `n`
 /// rays from outside towards the centre (camera-like). For `make bench`.
@@ -267,4 +239,32 @@ pub fn rays_per_second(acc: &Accel, n: usize, seed: u64) -> (f64, f64) {
         rays.len() as f64 / t0.elapsed().as_secs_f64()
     };
     (time(&inside), time(&cam))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::shapes::icosphere;
+
+    #[test]
+    fn rays_from_inside_a_sphere_hit_it_once_at_the_radius() {
+        let m = icosphere([0.0; 3], 2.0, 4);
+        let acc = Accel::new(&[&m]);
+        let mut rng = crate::rng::PhotonRng::new(1, 2);
+        for _ in 0..20_000 {
+            let d = crate::optics::sample_uniform_sphere(rng.uniform(), rng.uniform());
+            let o = scale([rng.symmetric(), rng.symmetric(), rng.symmetric()], 0.5);
+            let h = acc.intersect(o, d, f64::INFINITY, u32::MAX).expect("a closed sphere cannot be missed");
+            let r = length(h.p);
+            assert!(r <= 2.0 + 1e-12 && r > 2.0 * 0.99, "{r}");
+            assert!(dot(h.n, d) > 0.0, "the exit face points along the ray");
+            assert!(!acc.occluded(o, d, h.t * (1.0 - 1e-9), u32::MAX));
+            assert!(acc.occluded(o, d, h.t * (1.0 + 1e-9), u32::MAX));
+        }
+        // Directions with exactly zero components (axis-aligned and facet normals).
+        for d in [[0.0, 0.0, 1.0], [-0.0, -0.8960683512224559, -0.4439161068687069], [1.0, 0.0, -0.0]] {
+            let d = normalize(d);
+            assert!(acc.intersect([0.1, -0.2, 0.05], d, f64::INFINITY, u32::MAX).is_some(), "{d:?}");
+        }
+    }
 }
