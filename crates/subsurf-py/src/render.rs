@@ -238,7 +238,6 @@ fn render_shape<'py>(
     b: Option<[f64; 3]>,
     c: f64,
     d: f64,
-    e: f64,
     level: u32,
     nu: u32,
     nv: u32,
