@@ -43,7 +43,7 @@ pub struct HierarchicalParams {
 
 impl Default for HierarchicalParams {
     fn default() -> Self {
-        HierarchicalParams { spacing: 0.35, epsilon: 0.02, env_samples: 32, light_samples: 4, max_samples: 2_000_000 }
+        HierarchicalParams { spacing: 0.35, epsilon: 0.05, env_samples: 32, light_samples: 4, max_samples: 2_000_000 }
     }
 }
 
@@ -236,16 +236,25 @@ impl Hierarchical {
     }
 }
 
-/// The sub-triangle centroids of every triangle of object `oi` as hits, with their areas.
+/// The irradiance samples of object `oi` as hits, with their areas: triangles larger than Δ²
+/// are cut into k² congruent sub-triangles (a sample at each centroid); smaller ones are visited
+/// in Morton order of their centroids and a sample is placed (at the centroid) each time the
+/// running area passes a multiple of Δ² (systematic sampling along a space-filling curve), so a
+/// finely tessellated mesh gets about area/Δ² evenly spread samples, not one per triangle.
 fn place_samples(scene: &Scene, oi: usize, delta: f64) -> Vec<(Hit, f64)> {
     let acc = &scene.accel;
     let mut out = vec![];
+    let mut small = vec![];
     for (gi, t) in acc.tris.iter().enumerate() {
         if t.object as usize != oi {
             continue;
         }
         let a = acc.area(gi);
         let k = ((a.sqrt() / delta).ceil() as usize).max(1);
+        if k == 1 {
+            small.push(gi);
+            continue;
+        }
         let sub_area = a / (k * k) as f64;
         let kf = k as f64;
         let mut push = |b1: f64, b2: f64| {
@@ -261,7 +270,47 @@ fn place_samples(scene: &Scene, oi: usize, delta: f64) -> Vec<(Hit, f64)> {
             }
         }
     }
+    let third = 1.0 / 3.0;
+    let key = |gi: usize| morton(acc, acc.point(gi, third, third));
+    small.sort_by_cached_key(|&gi| key(gi));
+    let cell = delta * delta;
+    let (mut run, mut next, mut placed) = (0.0, 0.5 * cell, 0usize);
+    let sample = |gi: usize, area: f64| {
+        let p = acc.point(gi, third, third);
+        (Hit { t: 0.0, tri: gi as u32, object: oi, b1: third, b2: third, p, n: acc.tris[gi].n }, area)
+    };
+    for &gi in &small {
+        run += acc.area(gi);
+        while run >= next {
+            out.push(sample(gi, cell));
+            placed += 1;
+            next += cell;
+        }
+    }
+    // The area not yet assigned (|·| ≤ Δ²/2) goes to the last sample, so the areas sum exactly.
+    if placed > 0 {
+        out.last_mut().expect("placed > 0").1 += run - placed as f64 * cell;
+    } else if let Some(&gi) = small.first() {
+        out.push(sample(gi, run));
+    }
     out
+}
+
+/// 63-bit Morton code of `p` in the scene's bounding box (21 bits per axis).
+fn morton(acc: &super::accel::Accel, p: V3) -> u64 {
+    let spread = |mut x: u64| {
+        x &= 0x1f_ffff;
+        x = (x | x << 32) & 0x1f00000000ffff;
+        x = (x | x << 16) & 0x1f0000ff0000ff;
+        x = (x | x << 8) & 0x100f00f00f00f00f;
+        x = (x | x << 4) & 0x10c30c30c30c30c3;
+        (x | x << 2) & 0x1249249249249249
+    };
+    let q = |k: usize| {
+        let f = (p[k] - acc.lo[k]) / (acc.hi[k] - acc.lo[k]).max(1e-300);
+        (f.clamp(0.0, 1.0) * 2_097_151.0) as u64
+    };
+    spread(q(0)) | spread(q(1)) << 1 | spread(q(2)) << 2
 }
 
 impl Translucency for Hierarchical {
