@@ -15,7 +15,7 @@ import subsurf
 import subsurf.render as R
 from subsurf.render import export
 
-EXAMPLES = os.path.join(os.path.dirname(__file__), "..", "examples")
+EXAMPLES = os.path.join(os.path.dirname(__file__), "..", "examples", "render")
 
 
 def small_scene(method_material=None, width=24):
@@ -192,3 +192,12 @@ def test_random_walk_render_matches_the_engine_brdf():
     f, fse = float(res.brdf.values[-1, 0]), float(res.brdf.stderr[-1, 0])
     assert res.brdf.edges[0][-2] >= 0.97  # top bin: cos θ in [0.98, 1]
     assert abs(mean - f) < 4 * np.hypot(se, fse), (mean, se, f, fse)
+
+
+def test_from_color_reproduces_the_colour():
+    color, mfp = [0.6, 0.4, 0.2], [0.5, 1.0, 2.0]
+    m = R.Translucent.from_color(color, mfp, eta=1.3, model="dipole")
+    for k in range(3):
+        p = subsurf.bssrdf.Profile.from_model("dipole", m.sigma_a[k], m.sigma_s[k], m.g, m.eta)
+        assert abs(float(p.total()) - color[k]) < 1e-6
+        assert abs(1 / (m.sigma_a[k] + m.sigma_s[k]) - mfp[k]) < 1e-9

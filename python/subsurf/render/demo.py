@@ -1,4 +1,4 @@
-"""The rendering part of ``subsurf demo``: examples/marble_sphere.toml's scene (a marble sphere
+"""The rendering part of ``subsurf demo``: examples/render/marble_sphere.toml's scene (a marble sphere
 under a rectangular area light and a constant environment), written to ``out/render.png``."""
 
 from __future__ import annotations

@@ -14,7 +14,6 @@ import os
 import numpy as np
 
 from .. import _core
-from ..materials import Material as _DiffMaterial
 from ..materials import get as _library
 from ..medium import Layer, Stack
 
@@ -112,10 +111,15 @@ class Translucent:
 
     @classmethod
     def from_color(cls, color, mean_free_path, eta=1.3, g=0.0, model="dipole", name=None, **kw):
-        """From a surface colour (total diffuse reflectance per channel) and a mean free path per
-        channel (mm), by the diffusion inversion of :meth:`subsurf.Material.from_color`."""
-        m = _DiffMaterial.from_color(_vec3("color", color), _vec3("mean_free_path", mean_free_path), eta=eta)
-        return cls(m.sigma_a, np.asarray(m.sigma_s_prime) / (1 - g), g=g, eta=eta, model=model, name=name, **kw)
+        """From a surface colour (total diffuse reflectance per channel under normal incidence) and
+        a mean free path 1/σt per channel (mm), inverted under ``model`` by
+        :func:`subsurf.bssrdf.material_from_appearance` (the profiles issue's inverse)."""
+        from .. import bssrdf
+
+        layers = bssrdf.material_from_appearance(
+            _vec3("color", color), _vec3("mean_free_path", mean_free_path), eta=eta, g=g, model=model
+        )
+        return cls([l.mua for l in layers], [l.mus for l in layers], g=g, eta=eta, model=model, name=name, **kw)
 
     def _to_core(self, name):
         return {

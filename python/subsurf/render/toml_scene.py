@@ -1,4 +1,4 @@
-"""Scenes from TOML files (``subsurf render SCENE.toml``); see examples/marble_sphere.toml.
+"""Scenes from TOML files (``subsurf render SCENE.toml``); see examples/render/marble_sphere.toml.
 
 Top-level ``environment`` (RGB radiance), tables ``[render]`` (method, spp, seed, output),
 ``[camera]``, ``[materials.NAME]`` (``library = "marble"``, or ``sigma_a``/``sigma_s``/``g``/``eta``,
