@@ -150,15 +150,45 @@ impl RadialProfile for TestProfile {
     }
 }
 
-/// A profile scaled by a constant: R_d → k R_d (total → k total; pdf, cdf and sampling unchanged).
-pub struct Scaled {
+/// A profile whose R_d is looked up in a log–log table (256 points per decade between the radii
+/// holding 10⁻⁶ and 1 − 10⁻⁶ of the energy; exact outside), for models whose R_d is costly to
+/// evaluate (photon beam diffusion integrates along the beam at every call). Linear
+/// interpolation of ln R_d in ln r: relative error ≲ 1.1·10⁻⁴ for smooth profiles (tested on the
+/// dipole). The table can also scale the profile by a constant `k` (R_d → k R_d, total →
+/// k total); `cdf` and `sample_r` are the wrapped profile's.
+pub struct RdTable {
     pub inner: Box<dyn RadialProfile>,
     pub k: f64,
+    ln_r0: f64,
+    inv_step: f64,
+    ln_rd: Vec<f64>,
 }
 
-impl RadialProfile for Scaled {
+impl RdTable {
+    const PER_DECADE: f64 = 256.0;
+
+    /// Tabulate `k` × `inner`.
+    pub fn new(inner: Box<dyn RadialProfile>, k: f64) -> RdTable {
+        let (lo, hi) = (inner.radius_for_fraction(1e-6), inner.radius_for_fraction(1.0 - 1e-6));
+        if !(inner.total() > 0.0 && lo > 0.0 && hi > lo && hi.is_finite()) {
+            return RdTable { inner, k, ln_r0: 0.0, inv_step: 0.0, ln_rd: vec![] };
+        }
+        let step = std::f64::consts::LN_10 / Self::PER_DECADE;
+        let n = ((hi / lo).ln() / step).ceil() as usize + 2;
+        let ln_rd: Vec<f64> = (0..n).map(|i| inner.rd(lo * (i as f64 * step).exp()).max(1e-300).ln()).collect();
+        RdTable { inner, k, ln_r0: lo.ln(), inv_step: 1.0 / step, ln_rd }
+    }
+}
+
+impl RadialProfile for RdTable {
     fn rd(&self, r: f64) -> f64 {
-        self.k * self.inner.rd(r)
+        let x = (r.ln() - self.ln_r0) * self.inv_step;
+        if self.ln_rd.len() < 2 || !(r > 0.0 && x >= 0.0 && x < (self.ln_rd.len() - 1) as f64) {
+            return self.k * self.inner.rd(r);
+        }
+        let i = x as usize;
+        let f = x - i as f64;
+        self.k * ((1.0 - f) * self.ln_rd[i] + f * self.ln_rd[i + 1]).exp()
     }
     fn total(&self) -> f64 {
         self.k * self.inner.total()
@@ -174,63 +204,9 @@ impl RadialProfile for Scaled {
     }
 }
 
-/// A profile whose R_d is looked up in a log–log table (256 points per decade between the radii
-/// holding 10⁻⁶ and 1 − 10⁻⁶ of the energy; exact outside), for models whose R_d is costly to
-/// evaluate (photon beam diffusion integrates along the beam at every call). Linear
-/// interpolation of ln R_d in ln r: relative error ≲ 1.1·10⁻⁴ for smooth profiles (tested on the
-/// dipole). `total`, `cdf` and `sample_r` are the wrapped profile's.
-pub struct RdTable {
-    pub inner: Box<dyn RadialProfile>,
-    ln_r0: f64,
-    inv_step: f64,
-    ln_rd: Vec<f64>,
-}
-
-impl RdTable {
-    const PER_DECADE: f64 = 256.0;
-
-    pub fn new(inner: Box<dyn RadialProfile>) -> RdTable {
-        let (lo, hi) = (inner.radius_for_fraction(1e-6), inner.radius_for_fraction(1.0 - 1e-6));
-        if !(inner.total() > 0.0 && lo > 0.0 && hi > lo && hi.is_finite()) {
-            return RdTable { inner, ln_r0: 0.0, inv_step: 0.0, ln_rd: vec![] };
-        }
-        let step = std::f64::consts::LN_10 / Self::PER_DECADE;
-        let n = ((hi / lo).ln() / step).ceil() as usize + 2;
-        let ln_rd: Vec<f64> = (0..n).map(|i| inner.rd(lo * (i as f64 * step).exp()).max(1e-300).ln()).collect();
-        RdTable { inner, ln_r0: lo.ln(), inv_step: 1.0 / step, ln_rd }
-    }
-}
-
-impl RadialProfile for RdTable {
-    fn rd(&self, r: f64) -> f64 {
-        if self.ln_rd.len() < 2 || !(r > 0.0) {
-            return self.inner.rd(r);
-        }
-        let x = (r.ln() - self.ln_r0) * self.inv_step;
-        if !(x >= 0.0 && x < (self.ln_rd.len() - 1) as f64) {
-            return self.inner.rd(r);
-        }
-        let i = x as usize;
-        let f = x - i as f64;
-        ((1.0 - f) * self.ln_rd[i] + f * self.ln_rd[i + 1]).exp()
-    }
-    fn total(&self) -> f64 {
-        self.inner.total()
-    }
-    fn cdf(&self, r: f64) -> f64 {
-        self.inner.cdf(r)
-    }
-    fn sample_r(&self, u: f64) -> f64 {
-        self.inner.sample_r(u)
-    }
-    fn radius_for_fraction(&self, q: f64) -> f64 {
-        self.inner.radius_for_fraction(q)
-    }
-}
-
 /// The profiles of `model` (a [`crate::bssrdf::Model`] name) for one stack per channel, as
 /// the renderer uses them, and whether the BSSRDF methods must add S⁽¹⁾:
-/// - R_d is looked up in an [`RdTable`];
+/// - R_d is looked up in an [`RdTable`] (which also applies the scale below);
 /// - profiles are per unit power *entering* the medium (the renderer applies F_t at entry):
 ///   `monte_carlo` profiles, simulated for a pencil beam of unit *incident* power, are divided
 ///   by the normal-incidence transmittance 1 − R_sp of the top interface;
@@ -247,13 +223,12 @@ pub fn channel_profiles(
     let profs = crate::bssrdf::channel_profiles(m, stacks, mc)?;
     let mut out: Vec<Arc<dyn RadialProfile>> = Vec::with_capacity(3);
     for (p, s) in profs.into_iter().zip(stacks) {
-        let p: Box<dyn RadialProfile> = Box::new(RdTable::new(p));
-        if m == Model::MonteCarlo {
-            let rsp = crate::optics::fr_dielectric(1.0, s.n_above, s.layers[0].n);
-            out.push(Arc::new(Scaled { inner: p, k: 1.0 / (1.0 - rsp) }));
+        let k = if m == Model::MonteCarlo {
+            1.0 / (1.0 - crate::optics::fr_dielectric(1.0, s.n_above, s.layers[0].n))
         } else {
-            out.push(Arc::from(p));
-        }
+            1.0
+        };
+        out.push(Arc::new(RdTable::new(p, k)));
     }
     let ss = matches!(m, Model::Dipole | Model::BetterDipole | Model::Multipole);
     let arr: [Arc<dyn RadialProfile>; 3] = [out[0].clone(), out[1].clone(), out[2].clone()];
@@ -269,7 +244,7 @@ mod table_tests {
     fn rd_table_matches_the_dipole() {
         let m = crate::bssrdf::Medium::new(0.01, 2.0, 0.0, 1.3).unwrap();
         let exact = crate::bssrdf::medium_profile(crate::bssrdf::Model::Dipole, &m).unwrap();
-        let t = RdTable::new(crate::bssrdf::medium_profile(crate::bssrdf::Model::Dipole, &m).unwrap());
+        let t = RdTable::new(crate::bssrdf::medium_profile(crate::bssrdf::Model::Dipole, &m).unwrap(), 1.0);
         let mut worst: f64 = 0.0;
         for i in 0..6000 {
             let r = 1e-3 * 10f64.powf(i as f64 / 1000.0);

@@ -11,6 +11,7 @@ use super::accel::Hit;
 use super::material::{Material, Translucent};
 use super::math::{add, dot, madd, mul, neg, scale, Frame, Rgb, V3};
 use super::scene::Scene;
+pub use crate::diffusion::bssrdf::ft;
 use crate::hk::single_scattering_brdf;
 use crate::optics::{fr_dielectric, reflect, sample_cosine_hemisphere};
 use crate::rng::PhotonRng;
@@ -23,16 +24,6 @@ pub const MAX_DEPTH: u32 = 6;
 /// towards `wo` (unit, on the outside), *not* counting the Fresnel-reflected part.
 pub trait Translucency: Send + Sync {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb;
-}
-
-/// F_t(η, cos θ) = 1 − F_r for light crossing from vacuum into the medium (0 for cos ≤ 0).
-#[inline]
-pub fn ft(eta: f64, cos: f64) -> f64 {
-    if cos <= 0.0 {
-        0.0
-    } else {
-        1.0 - fr_dielectric(cos, 1.0, eta)
-    }
 }
 
 /// Radiance arriving at `o` from direction `d` (unit), the first surface after skipping
