@@ -201,3 +201,28 @@ def test_from_color_reproduces_the_colour():
         p = subsurf.bssrdf.Profile.from_model("dipole", m.sigma_a[k], m.sigma_s[k], m.g, m.eta)
         assert abs(float(p.total()) - color[k]) < 1e-6
         assert abs(1 / (m.sigma_a[k] + m.sigma_s[k]) - mfp[k]) < 1e-9
+
+
+def test_ctrl_c_writes_the_partial_image(tmp_path):
+    """SIGINT during `subsurf render` ends it after cancelling the current pass: exit 130, and the
+    EXR holds the completed passes, marked partial."""
+    import signal
+    import time
+
+    body = BASE.format(obj='shape = "sphere"\nradius = 3', mat="skin1", power=1e4).replace("width = 8", "width = 16")
+    # random_walk: point lights behind a smooth boundary are caustic paths; the environment lights it
+    p = _toml(tmp_path, "environment = [0.2, 0.2, 0.2]\n" + body.replace("height = 8", "height = 16"))
+    out = tmp_path / "o.exr"
+    cmd = [sys.executable, "-m", "subsurf.cli", "render", p, "-o", str(out), "--method", "random_walk"]
+    proc = subprocess.Popen([*cmd, "--spp", "100000", "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < 60 and proc.poll() is None:
+        time.sleep(1.0)
+        if time.monotonic() - t0 > 8:
+            proc.send_signal(signal.SIGINT)
+            break
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, stdout + stderr
+    assert "partial" in stdout and "Traceback" not in stderr
+    arr, header = R.read_exr(str(out))
+    assert header["partial"] == "True" and 0 < int(header["spp"]) < 100000 and arr.max() > 0

@@ -9,8 +9,10 @@ use crate::medium::{stack_from_py, LayerTuple};
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, ToPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use std::sync::atomic::{AtomicBool, AtomicU64};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc;
 use std::sync::Arc;
+use std::time::Duration;
 use subsurf_core::bssrdf::monte_carlo::McSettings;
 use subsurf_core::render::material::channel_profiles;
 use subsurf_core::render::walk_sim::{simulate, BeamSource, VoxelGrid, WalkConfig};
@@ -188,19 +190,51 @@ impl RenderJob {
         Ok(RenderJob { renderer: Arc::new(r), accum: vec![0.0; w * h * 3], spp: 0, threads })
     }
 
-    /// Render `n` more samples per pixel (GIL released); returns the total so far.
+    /// Render `n` more samples per pixel; returns the total so far. The pass runs on a worker
+    /// thread while this one waits with the GIL released, waking every 50 ms to check for
+    /// Ctrl-C: a KeyboardInterrupt cancels the pass (its samples are discarded, the image keeps
+    /// every completed pass) and is re-raised.
     fn render_pass(&mut self, py: Python<'_>, n: u32) -> PyResult<u32> {
         let (s0, s1) = (self.spp, self.spp.saturating_add(n));
-        let r = self.renderer.clone();
+        let (r, threads) = (self.renderer.clone(), self.threads);
         let mut acc = std::mem::take(&mut self.accum);
-        let ok = py.detach(|| {
-            subsurf_core::render::with_threads(self.threads, || r.pass(s0, s1, &mut acc, &AtomicBool::new(false)))
-        });
+        let cancel = Arc::new(AtomicBool::new(false));
+        let (tx, mut rx) = mpsc::channel::<()>();
+        let handle = {
+            let cancel = cancel.clone();
+            std::thread::spawn(move || {
+                let ok = subsurf_core::render::with_threads(threads, || r.pass(s0, s1, &mut acc, &cancel));
+                let _ = tx.send(());
+                (ok, acc)
+            })
+        };
+        let mut interrupt = None;
+        loop {
+            let (finished, back) = py.detach(move || {
+                let got = rx.recv_timeout(Duration::from_millis(50));
+                (!matches!(got, Err(mpsc::RecvTimeoutError::Timeout)), rx)
+            });
+            rx = back;
+            if finished {
+                break;
+            }
+            if let Err(e) = py.check_signals() {
+                cancel.store(true, Ordering::Relaxed);
+                interrupt = Some(e);
+                break;
+            }
+        }
+        let (ok, acc) = py
+            .detach(move || handle.join())
+            .map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("subsurf: the render worker thread panicked"))?;
         self.accum = acc;
         if ok.py()? {
             self.spp = s1;
         }
-        Ok(self.spp)
+        match interrupt {
+            Some(e) => Err(e),
+            None => Ok(self.spp),
+        }
     }
 
     /// The mean radiance image (height, width, 3) of the samples so far.
@@ -219,7 +253,7 @@ impl RenderJob {
     /// Samples whose radiance was not finite (dropped).
     #[getter]
     fn dropped(&self) -> u64 {
-        self.renderer.dropped.load(std::sync::atomic::Ordering::Relaxed)
+        self.renderer.dropped.load(Ordering::Relaxed)
     }
 }
 

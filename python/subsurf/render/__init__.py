@@ -56,6 +56,15 @@ def render(scene, method="hierarchical", spp=16, seed=0, threads=None, progress=
             raise _core.ParameterError(f"hierarchical: unknown settings {sorted(unknown)} (allowed: {sorted(d)})")
         d.update(hierarchical)
         hp = (float(d["spacing"]), float(d["epsilon"]), int(d["env_samples"]), int(d["light_samples"]))
+    if method == "random_walk" and any(isinstance(light, PointLight) for light in scene.lights):
+        import warnings
+
+        warnings.warn(
+            "random_walk: point lights reach a translucent object's interior only through other surfaces "
+            "(through its smooth boundary they are caustic paths); use area or directional lights",
+            RuntimeWarning,
+            stacklevel=2,
+        )
     t0 = time.monotonic()
     job = _core.RenderJob(scene._to_core(method), method, int(seed), threads, hp)
     step = int(pass_spp) if pass_spp else max(1, spp // 16)

@@ -38,6 +38,10 @@ def cmd_render(a, exit_interrupted=130) -> int:
         img = render(scene, method=method, spp=spp, seed=seed, threads=a.threads, progress=bar)
     finally:
         bar.close()
+    if img.spp == 0:
+        from ..cli import UserError
+
+        raise UserError("interrupted before the first pass finished; nothing written")
     paths = img.save(out)
     tag = f" (partial: {img.spp} of {img.spp_requested} spp, interrupted)" if img.partial else ""
     print(f"wrote {', '.join(paths)}: {method}, {img.spp} spp, {img.elapsed_s:.1f} s{tag}")
