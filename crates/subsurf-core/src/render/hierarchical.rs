@@ -109,7 +109,19 @@ impl Tree {
             let nd = &self.nodes[i as usize];
             if nd.leaf {
                 for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
-                    acc = add(acc, scale(mul(rd(length(sub(x, s.p))), s.e), s.area));
+                    let r = length(sub(x, s.p));
+                    // Within a sample's own disc (radius a = √(A/π)) the point value R_d(r) is
+                    // replaced by R_d's mean over the disc about x, total·cdf(a)/(πa²): profiles
+                    // with single scattering diverge as r → 0, and a shading point landing on a
+                    // sample would otherwise get an arbitrarily large term.
+                    let a2 = s.area / PI;
+                    let w: Rgb = if r * r < a2 {
+                        let a = a2.sqrt();
+                        std::array::from_fn(|k| m.profiles[k].total() * m.profiles[k].cdf(a) / s.area)
+                    } else {
+                        rd(r)
+                    };
+                    acc = add(acc, scale(mul(w, s.e), s.area));
                 }
                 continue;
             }
