@@ -75,6 +75,11 @@ impl Renderer {
         self.scene.camera.as_ref().expect("checked in new")
     }
 
+    /// A renderer with a given translucent term (tests compare variants of a method with it).
+    pub fn from_parts(scene: Arc<Scene>, tr: Box<dyn Translucency>, seed: u64) -> Renderer {
+        Renderer { scene, tr, seed, dropped: AtomicU64::new(0) }
+    }
+
     /// One sample of pixel (x, y): the radiance through a jittered point of the pixel.
     pub fn sample(&self, x: usize, y: usize, s: u32) -> Rgb {
         let cam = self.camera();

@@ -131,6 +131,22 @@ impl Light {
         }
     }
 
+    /// A point on an area light's surface, uniform by area: (point, emitting unit normal there,
+    /// radiance, area pdf in mm⁻²); `None` for point and directional lights.
+    pub fn sample_point(&self, u1: f64, u2: f64) -> Option<(V3, V3, Rgb, f64)> {
+        match *self {
+            Light::Rect { center, u, v, n, radiance } => {
+                let y = madd(madd(center, u, 2.0 * u1 - 1.0), v, 2.0 * u2 - 1.0);
+                Some((y, n, radiance, 1.0 / (4.0 * length(cross(u, v)))))
+            }
+            Light::Sphere { center, radius, radiance } => {
+                let dir = crate::optics::sample_uniform_sphere(u1, u2);
+                Some((madd(center, dir, radius), dir, radiance, 1.0 / (4.0 * PI * radius * radius)))
+            }
+            _ => None,
+        }
+    }
+
     /// Where a ray (o, unit d) meets the light's emitting surface before `tmax`: the distance
     /// and the radiance seen; `None` for point and directional lights (zero measure).
     pub fn hit(&self, o: V3, d: V3, tmax: f64) -> Option<(f64, Rgb)> {

@@ -16,6 +16,7 @@
 pub mod accel;
 pub mod camera;
 pub mod driver;
+pub mod facet_nee;
 pub mod hierarchical;
 pub mod light;
 pub mod material;

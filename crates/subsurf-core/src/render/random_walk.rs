@@ -18,21 +18,22 @@
 //!   objects containing the path), so layered materials are nested meshes;
 //! - Russian roulette on max_k β_k.
 //!
-//! Light reaches the interior along the paths a path tracer can sample: once the walk has
-//! left the object the ray continues outside ([`super::shade::trace`]: environment, area
-//! lights, Lambertian surfaces with next-event estimation to every light). A directional
-//! light seen through a smooth facet is a delta–delta connection that no random direction
-//! hits, so it gets next-event estimation through the facet: from a collision in the
-//! outermost medium the refracted connection through a flat triangle is solved exactly (the
-//! refracted beam direction is fixed by the facet normal; the facet is found by at most four
-//! fixed-point steps) and the collimated irradiance inside is F_t E cos θ_i / cos θ_t.
-//! Point lights behind a smooth boundary are not sampled this way (their refracted connection
-//! has no closed form): with `random_walk` they light objects only via other surfaces.
+//! Light reaches the interior in two ways: the path leaves the object and the ray continues
+//! outside ([`super::shade::trace`]: environment, area lights, Lambertian surfaces with
+//! next-event estimation to every light); and next-event estimation from every collision in
+//! the outermost object to every light *through* the smooth boundary, solved exactly on a flat
+//! facet ([`super::facet_nee`]: directional beams, point lights and points sampled on area
+//! lights). A straight exit after such a collision that reaches an area light along the very
+//! connection the facet search finds counts nothing (see `exit_counted_by_nee`); other exits
+//! (through another facet, or after an internal reflection) count the light: the two
+//! estimators partition the paths, so nothing is counted twice or lost. Connections through two refractions (nested media) are not
+//! made: lights reach inner layers through the outer one by the random walk itself.
 
 use super::accel::Hit;
+use super::facet_nee;
 use super::light::Light;
 use super::material::{Material, Translucent};
-use super::math::{add, dot, madd, max3, mul, neg, scale, Rgb, V3};
+use super::math::{add, dot, madd, max3, mul, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{tint, trace, Translucency, MAX_DEPTH};
 use crate::optics::{fr_dielectric, reflect, refract, spin};
@@ -122,11 +123,14 @@ pub fn cross_boundary(scene: &Scene, media: &mut Media, hit: &Hit, d: V3, u: f64
 }
 
 /// The random-walk method.
-pub struct RandomWalk;
+pub struct RandomWalk {
+    /// Next-event estimation through facets (off only to test it against plain path tracing).
+    pub nee: bool,
+}
 
 impl RandomWalk {
     pub fn new(_scene: &Scene) -> RandomWalk {
-        RandomWalk
+        RandomWalk { nee: true }
     }
 
     /// Radiance carried back along a path that has just refracted into `hit.object` at `hit`
@@ -135,6 +139,8 @@ impl RandomWalk {
         let mut media = Media::inside(hit.object);
         let (mut beta, mut l) = ([1.0; 3], [0.0; 3]);
         let (mut p, mut d, mut skip) = (hit.p, d0, hit.tri);
+        let mut covered = false;
+        let mut last = (p, hit.object, 1.0);
         for _ in 0..MAX_EVENTS {
             let Some(top) = media.top() else { break };
             let Some(m) = scene.material(top).translucent() else { break };
@@ -166,8 +172,10 @@ impl RandomWalk {
                 beta = std::array::from_fn(|k| beta[k] * m.sigma_s[k] * tr[k] / pbar);
                 p = madd(p, d, s);
                 skip = u32::MAX;
-                if media.depth() == 1 {
-                    l = add(l, mul(beta, self.nee_directional(scene, m, top, p, d)));
+                covered = self.nee && media.depth() == 1;
+                if covered {
+                    l = add(l, mul(beta, self.nee(scene, m, top, p, d, rng)));
+                    last = (p, top, m.eta);
                 }
                 let cos = m.phase.sample(rng.uniform());
                 let phi = 2.0 * std::f64::consts::PI * rng.uniform();
@@ -190,15 +198,22 @@ impl RandomWalk {
                 skip = h.tri;
                 match cross_boundary(scene, &mut media, &h, d, rng.uniform()) {
                     Crossing::Opaque => break,
-                    Crossing::Reflected(r) => d = r,
+                    Crossing::Reflected(r) => {
+                        d = r;
+                        covered = false;
+                    }
                     Crossing::Transmitted(t) => {
                         d = t;
                         if media.is_empty() {
+                            if covered && self.exit_counted_by_nee(scene, last, &h, p, d) {
+                                break;
+                            }
                             if depth < MAX_DEPTH {
                                 l = add(l, mul(beta, trace(scene, p, d, h.tri, depth + 1, rng, self)));
                             }
                             break;
                         }
+                        covered = false;
                     }
                 }
             }
@@ -206,44 +221,45 @@ impl RandomWalk {
         l
     }
 
-    /// Next-event estimation of the directional lights from the collision at `p` (camera path
-    /// direction `d`) in the outermost object `obj`, through one flat facet (see module docs).
-    /// Returns the in-scattered radiance per unit β, times 1/η² (the radiance change at the
-    /// exit x_o, which the walk's paired entry/exit factors otherwise cancel).
-    fn nee_directional(&self, scene: &Scene, m: &Translucent, obj: usize, p: V3, d: V3) -> Rgb {
+    /// Whether a straight exit (from the collision `last` = (point, object, η) through the
+    /// boundary at `h`, leaving at `p` along `d`) reaches an area light along a connection that
+    /// next-event estimation at that collision already counted: the facet search from the
+    /// collision to the light point found this very facet. Those exits count nothing; every
+    /// other exit (other facets, failed searches) counts the light, so the two estimators
+    /// partition the paths exactly.
+    fn exit_counted_by_nee(&self, scene: &Scene, last: (V3, usize, f64), h: &Hit, p: V3, d: V3) -> bool {
+        let tmax = scene.accel.intersect(p, d, f64::INFINITY, h.tri).map_or(f64::INFINITY, |x| x.t);
+        let Some((tl, _)) = scene.light_hit(p, d, tmax) else { return false };
+        let y = madd(p, d, tl);
+        facet_nee::point(scene, last.1, last.2, last.0, y).is_some_and(|c| c.hit.tri == h.tri)
+    }
+
+    /// Next-event estimation of every light from the collision at `p` (camera path direction
+    /// `d`) in the outermost object `obj`, through one flat facet ([`super::facet_nee`]); area
+    /// lights by one uniformly sampled point each. Returns the in-scattered radiance per unit
+    /// β, times 1/η² (the radiance change at the exit x_o, which the walk's paired entry/exit
+    /// factors otherwise cancel).
+    fn nee(&self, scene: &Scene, m: &Translucent, obj: usize, p: V3, d: V3, rng: &mut PhotonRng) -> Rgb {
         let mut l = [0.0; 3];
         for light in &scene.lights {
-            let Light::Directional { to_light, irradiance } = *light else { continue };
-            let Some(mut h) = scene.accel.intersect(p, to_light, f64::INFINITY, u32::MAX) else { continue };
-            let mut found = None;
-            for _ in 0..4 {
-                if h.object != obj {
-                    break;
+            let (conn, power): (Option<facet_nee::Connection>, Rgb) = match *light {
+                Light::Directional { to_light, irradiance } => {
+                    (facet_nee::directional(scene, obj, m.eta, p, to_light), irradiance)
                 }
-                let n = h.n;
-                let cos_i = dot(to_light, n);
-                if cos_i <= 0.0 {
-                    break;
+                Light::Point { position, intensity } => (facet_nee::point(scene, obj, m.eta, p, position), intensity),
+                _ => {
+                    let Some((y, ny, le, pdf)) = light.sample_point(rng.uniform(), rng.uniform()) else { continue };
+                    let Some(c) = facet_nee::point(scene, obj, m.eta, p, y) else { continue };
+                    let cos_l = dot(ny, normalize(sub(c.hit.p, y)));
+                    if cos_l <= 0.0 {
+                        continue;
+                    }
+                    (Some(c), scale(le, cos_l / pdf))
                 }
-                let Some(d_in) = refract(neg(to_light), n, 1.0, m.eta) else { break };
-                let Some(h2) = scene.accel.intersect(p, neg(d_in), f64::INFINITY, u32::MAX) else { break };
-                if h2.tri == h.tri {
-                    found = Some((h2, d_in, cos_i));
-                    break;
-                }
-                h = h2;
-            }
-            let Some((hx, d_in, cos_i)) = found else { continue };
-            let cos_t = -dot(d_in, hx.n);
-            if cos_t <= 0.0
-                || scene.accel.occluded(scene.accel.offset(hx.p, hx.n, 1.0), to_light, f64::INFINITY, hx.tri)
-            {
-                continue;
-            }
-            let e_in = (1.0 - fr_dielectric(cos_i, 1.0, m.eta)) * cos_i / cos_t;
-            let ph = m.phase.eval(dot(d_in, neg(d)));
-            let w = e_in * ph / (m.eta * m.eta);
-            l = add(l, std::array::from_fn(|k| w * irradiance[k] * (-m.sigma_t[k] * hx.t).exp()));
+            };
+            let Some(c) = conn else { continue };
+            let w = c.factor * m.phase.eval(dot(c.d_in, neg(d))) / (m.eta * m.eta);
+            l = add(l, std::array::from_fn(|k| w * power[k] * (-m.sigma_t[k] * c.dist_in).exp()));
         }
         l
     }
