@@ -172,9 +172,10 @@ impl RandomWalk {
                 beta = std::array::from_fn(|k| beta[k] * m.sigma_s[k] * tr[k] / pbar);
                 p = madd(p, d, s);
                 skip = u32::MAX;
-                covered = self.nee && media.depth() == 1;
+                let q = if self.nee && media.depth() == 1 { self.nee_probability(scene, m, p) } else { 0.0 };
+                covered = q > 0.0 && rng.uniform() < q;
                 if covered {
-                    l = add(l, mul(beta, self.nee(scene, m, top, p, d, rng)));
+                    l = add(l, mul(beta, self.nee(scene, m, top, p, d, q, rng)));
                     last = (p, top, m.eta);
                 }
                 let cos = m.phase.sample(rng.uniform());
@@ -234,19 +235,51 @@ impl RandomWalk {
         facet_nee::point(scene, last.1, last.2, last.0, y).is_some_and(|c| c.hit.tri == h.tri)
     }
 
+    /// The probability q of making the connections at this collision: 1 within a few mean free
+    /// paths of the boundary towards the lights, 20 e^{−σt,min t} beyond (t: the straight
+    /// distance to the boundary towards the nearest light), so deep collisions, whose
+    /// connections are attenuated by e^{−σt t}, mostly skip the rays. Area lights are not
+    /// reweighted: a collision without connections leaves its exits to count them (`covered`
+    /// false), so each path is counted by exactly one estimator. Delta lights, which no exit
+    /// can reach, are weighted by 1/q. Both are unbiased.
+    fn nee_probability(&self, scene: &Scene, m: &Translucent, v: V3) -> f64 {
+        let st = m.sigma_t[0].min(m.sigma_t[1]).min(m.sigma_t[2]);
+        let mut t = f64::INFINITY;
+        for light in &scene.lights {
+            let dir = match *light {
+                Light::Directional { to_light, .. } => to_light,
+                Light::Point { position, .. } => normalize(sub(position, v)),
+                Light::Sphere { center, .. } => normalize(sub(center, v)),
+                Light::Rect { center, .. } => normalize(sub(center, v)),
+            };
+            if let Some(h) = scene.accel.intersect(v, dir, t, u32::MAX) {
+                t = t.min(h.t);
+            }
+        }
+        if t.is_finite() {
+            (20.0 * (-st * t).exp()).min(1.0)
+        } else {
+            0.0
+        }
+    }
+
     /// Next-event estimation of every light from the collision at `p` (camera path direction
     /// `d`) in the outermost object `obj`, through one flat facet ([`super::facet_nee`]); area
-    /// lights by one uniformly sampled point each. Returns the in-scattered radiance per unit
+    /// lights by one uniformly sampled point each; delta lights weighted by 1/`q` (the
+    /// probability the connections are made here). Returns the in-scattered radiance per unit
     /// β, times 1/η² (the radiance change at the exit x_o, which the walk's paired entry/exit
     /// factors otherwise cancel).
-    fn nee(&self, scene: &Scene, m: &Translucent, obj: usize, p: V3, d: V3, rng: &mut PhotonRng) -> Rgb {
+    #[allow(clippy::too_many_arguments)]
+    fn nee(&self, scene: &Scene, m: &Translucent, obj: usize, p: V3, d: V3, q: f64, rng: &mut PhotonRng) -> Rgb {
         let mut l = [0.0; 3];
         for light in &scene.lights {
             let (conn, power): (Option<facet_nee::Connection>, Rgb) = match *light {
                 Light::Directional { to_light, irradiance } => {
-                    (facet_nee::directional(scene, obj, m.eta, p, to_light), irradiance)
+                    (facet_nee::directional(scene, obj, m.eta, p, to_light), scale(irradiance, 1.0 / q))
                 }
-                Light::Point { position, intensity } => (facet_nee::point(scene, obj, m.eta, p, position), intensity),
+                Light::Point { position, intensity } => {
+                    (facet_nee::point(scene, obj, m.eta, p, position), scale(intensity, 1.0 / q))
+                }
                 _ => {
                     let Some((y, ny, le, pdf)) = light.sample_point(rng.uniform(), rng.uniform()) else { continue };
                     let Some(c) = facet_nee::point(scene, obj, m.eta, p, y) else { continue };
