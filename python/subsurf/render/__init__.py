@@ -36,7 +36,7 @@ METHODS = ("hierarchical", "probe", "random_walk")
 
 def render(scene, method="hierarchical", spp=16, seed=0, threads=None, progress=None, pass_spp=None, hierarchical=None):
     """Render ``scene`` with ``method`` at ``spp`` samples per pixel; progressive in passes of
-    ``pass_spp`` (default: about 1 % of the work per pass, at least 1 spp). ``progress(done,
+    ``pass_spp`` (default: from 1 spp, doubling while a pass takes under 0.5 s, at most spp/16). ``progress(done,
     total)`` is called after each pass. Ctrl-C (KeyboardInterrupt) ends the render after the
     current pass and returns the image so far with ``partial = True``. The same seed gives the
     same image for any ``threads``. ``hierarchical`` = dict(spacing=, epsilon=, env_samples=,
@@ -56,24 +56,19 @@ def render(scene, method="hierarchical", spp=16, seed=0, threads=None, progress=
             raise _core.ParameterError(f"hierarchical: unknown settings {sorted(unknown)} (allowed: {sorted(d)})")
         d.update(hierarchical)
         hp = (float(d["spacing"]), float(d["epsilon"]), int(d["env_samples"]), int(d["light_samples"]))
-    if method == "random_walk" and any(isinstance(light, PointLight) for light in scene.lights):
-        import warnings
-
-        warnings.warn(
-            "random_walk: point lights reach a translucent object's interior only through other surfaces "
-            "(through its smooth boundary they are caustic paths); use area or directional lights",
-            RuntimeWarning,
-            stacklevel=2,
-        )
     t0 = time.monotonic()
     job = _core.RenderJob(scene._to_core(method), method, int(seed), threads, hp)
-    step = int(pass_spp) if pass_spp else max(1, spp // 16)
+    cap = int(pass_spp) if pass_spp else max(1, spp // 16)
+    step = cap if pass_spp else 1  # passes grow from 1 spp while they take under half a second
     done = 0
     try:
         while done < spp:
+            t1 = time.monotonic()
             done = job.render_pass(min(step, spp - done))
             if progress is not None:
                 progress(done, spp)
+            if time.monotonic() - t1 < 0.5:
+                step = min(2 * step, cap)
     except KeyboardInterrupt:
         done = job.spp
     return Image(job.image(), job.spp, spp, method, seed, time.monotonic() - t0, job.dropped)

@@ -39,9 +39,10 @@ def cmd_render(a, exit_interrupted=130) -> int:
     finally:
         bar.close()
     if img.spp == 0:
-        from ..cli import UserError
+        import sys
 
-        raise UserError("interrupted before the first pass finished; nothing written")
+        sys.stderr.write("subsurf: interrupted before the first pass finished; nothing written\n")
+        return exit_interrupted
     paths = img.save(out)
     tag = f" (partial: {img.spp} of {img.spp_requested} spp, interrupted)" if img.partial else ""
     print(f"wrote {', '.join(paths)}: {method}, {img.spp} spp, {img.elapsed_s:.1f} s{tag}")
