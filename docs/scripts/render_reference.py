@@ -103,6 +103,18 @@ def main():
     ref = R.render(ref_scene, "random_walk", spp=a.spp_ref, seed=1)
     print(f"random_walk reference: {a.spp_ref} spp, {time.monotonic() - t0:.0f} s")
     rows, imgs = [], [("random_walk", ref.array)]
+
+    def stats(arr):
+        d = arr[mk] - ref.array[mk]
+        rel = np.mean(np.abs(d) / np.maximum(ref.array[mk], 1e-12), axis=0)
+        rmse = np.sqrt(np.mean(d**2, axis=0))
+        bias = arr[mk].sum(axis=0) / ref.array[mk].sum(axis=0) - 1
+        return rel, rmse, bias
+
+    # The noise floor: a second, independent random_walk image against the reference.
+    t1 = time.monotonic()
+    again = R.render(ref_scene, "random_walk", spp=a.spp_ref, seed=7)
+    rows.append(("random_walk, 2nd seed (noise floor)", *stats(again.array), time.monotonic() - t1))
     for model in R.MODELS:
         t1 = time.monotonic()
         if a.material == "skin":
@@ -110,10 +122,7 @@ def main():
         else:
             mat = R.Translucent.library(a.material, model=model, mc_photons=a.mc_photons)
         img = R.render(scene(mat, a.size), "hierarchical", spp=a.spp, seed=2)
-        d = img.array[mk] - ref.array[mk]
-        rel = np.mean(np.abs(d) / np.maximum(ref.array[mk], 1e-12), axis=0)
-        rmse = np.sqrt(np.mean(d**2, axis=0))
-        rows.append((model, rel, rmse, time.monotonic() - t1))
+        rows.append((model, *stats(img.array), time.monotonic() - t1))
         imgs.append((model, img.array))
     print(
         f"{a.material}: {a.size}x{a.size}, hierarchical {a.spp} spp vs random_walk {a.spp_ref} spp, {mk.sum()} pixels"

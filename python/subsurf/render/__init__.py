@@ -50,7 +50,7 @@ def render(scene, method="hierarchical", spp=16, seed=0, threads=None, progress=
         raise _core.ParameterError("camera: the scene has no camera")
     hp = None
     if hierarchical:
-        d = {"spacing": 0.35, "epsilon": 0.05, "env_samples": 32, "light_samples": 4}
+        d = {"spacing": 0.35, "epsilon": 0.05, "env_samples": 64, "light_samples": 16}
         unknown = set(hierarchical) - set(d)
         if unknown:
             raise _core.ParameterError(f"hierarchical: unknown settings {sorted(unknown)} (allowed: {sorted(d)})")

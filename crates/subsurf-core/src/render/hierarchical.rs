@@ -43,7 +43,7 @@ pub struct HierarchicalParams {
 
 impl Default for HierarchicalParams {
     fn default() -> Self {
-        HierarchicalParams { spacing: 0.35, epsilon: 0.05, env_samples: 32, light_samples: 4, max_samples: 2_000_000 }
+        HierarchicalParams { spacing: 0.35, epsilon: 0.05, env_samples: 64, light_samples: 16, max_samples: 2_000_000 }
     }
 }
 
