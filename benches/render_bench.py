@@ -1,8 +1,10 @@
 """Rendering benchmark (`make bench`): BVH rays/s; 512×512 marble sphere of ~10⁵ triangles
 (icosphere level 6: 81,920) under an area light and the environment: hierarchical time,
-random_walk seconds per spp, and the error of each against a long random_walk reference at
-(about) equal time, over the sphere's pixels. A benchmark, not a test: numbers depend on the
-machine and its load (printed). Usage: python benches/render_bench.py [--size 512] [--ref-spp 64]"""
+random_walk seconds per spp; and, at a smaller resolution (--error-size, default 64, so the long
+reference is affordable on 2 cores), the error of hierarchical and of random_walk at equal time
+against a long random_walk reference, over the sphere's pixels. A benchmark, not a test: numbers
+depend on the machine and its load (printed).
+Usage: python benches/render_bench.py [--size 512] [--error-size 64] [--ref-spp 128]"""
 
 from __future__ import annotations
 
@@ -28,7 +30,8 @@ def scene(size, level=6):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--size", type=int, default=512)
-    ap.add_argument("--ref-spp", type=int, default=64)
+    ap.add_argument("--ref-spp", type=int, default=128)
+    ap.add_argument("--error-size", type=int, default=64)
     a = ap.parse_args()
     print(f"render benchmark; {os.cpu_count()} cores; load average {os.getloadavg()[0]:.2f}")
     sc = scene(a.size)
@@ -42,20 +45,29 @@ def main():
     th = time.monotonic() - t0
     print(f"hierarchical {a.size}x{a.size}, 1 spp: {th:.1f} s (target <= 30 s)")
     t0 = time.monotonic()
-    w1 = R.render(sc, "random_walk", spp=1, seed=2)
+    R.render(sc, "random_walk", spp=1, seed=2)
     tw = time.monotonic() - t0
-    print(f"random_walk: {tw:.1f} s per spp")
+    print(f"random_walk {a.size}x{a.size}: {tw:.1f} s per spp")
+    small = scene(a.error_size)
+    t0 = time.monotonic()
+    h = R.render(small, "hierarchical", spp=1, seed=1)
+    th = time.monotonic() - t0
+    t0 = time.monotonic()
+    R.render(small, "random_walk", spp=1, seed=2)
+    tw = time.monotonic() - t0
     eq = max(1, int(round(th / tw)))
-    w_eq = R.render(sc, "random_walk", spp=eq, seed=3)
-    ref = R.render(sc, "random_walk", spp=a.ref_spp, seed=4)
+    w_eq = R.render(small, "random_walk", spp=eq, seed=3)
+    ref = R.render(small, "random_walk", spp=a.ref_spp, seed=4)
     m = ref.array.mean(axis=-1) > 0.2 * np.percentile(ref.array.mean(axis=-1), 99)
-    for name, img in (("hierarchical", h), (f"random_walk {eq} spp (equal time)", w_eq)):
+    print(f"at {a.error_size}x{a.error_size}, against random_walk {a.ref_spp} spp ({m.sum()} object pixels):")
+    for name, img, t in (("hierarchical 1 spp", h, th), (f"random_walk {eq} spp", w_eq, eq * tw)):
         d = img.array[m] - ref.array[m]
         print(
-            f"{name}: RMSE vs random_walk {a.ref_spp} spp = {np.sqrt(np.mean(d**2)):.3e}, "
-            f"mean rel. error {np.mean(np.abs(d) / np.maximum(ref.array[m], 1e-12)):.3%}"
+            f"  {name} ({t:.1f} s): RMSE {np.sqrt(np.mean(d**2)):.3e}, "
+            f"mean rel. error {np.mean(np.abs(d) / np.maximum(ref.array[m], 1e-12)):.2%}, "
+            f"object mean {img.array[m].sum() / ref.array[m].sum() - 1:+.2%}"
         )
-    del w1
+    print(f"load average now {os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":
