@@ -105,7 +105,7 @@ def run(out_dir: str = "out", photons: int | None = None, threads: int | None = 
     print(f"wrote {h5}, {h5d} and {png} ({time.monotonic() - t0:.1f} s)")
     from .render.demo import run as render_demo
 
-    img = render_demo(out_dir, threads=threads, quiet=quiet)
+    img = render_demo(out_dir, threads=threads, quiet=quiet, quick=photons < DEFAULT_PHOTONS)
     return 130 if (skin.partial or dermis.partial or img.partial) else 0
 
 

@@ -21,12 +21,15 @@ def marble_scene(width=320, height=240):
     )
 
 
-def run(out_dir="out", spp=8, threads=None, quiet=False):
+def run(out_dir="out", spp=8, threads=None, quiet=False, quick=False):
+    """Render the marble scene to ``out_dir/render.exr`` and ``render.png`` (``quick``: 80×60, 1 spp,
+    for a fast check of the pipeline)."""
     from ..progress import ProgressBar
 
     bar = ProgressBar(label="render marble", quiet=quiet)
+    scene = marble_scene(80, 60) if quick else marble_scene()
     try:
-        img = render(marble_scene(), "hierarchical", spp=spp, seed=1, threads=threads, progress=bar)
+        img = render(scene, "hierarchical", spp=1 if quick else spp, seed=1, threads=threads, progress=bar)
     finally:
         bar.close()
     paths = img.save(os.path.join(out_dir, "render.exr"))
