@@ -57,10 +57,13 @@ def test_figure_without_histograms(res, tmp_path):
 def test_overflow_bin_is_not_drawn(res):
     import copy
 
-    r = copy.deepcopy(res)
-    r.histograms["rd_r"].description += "; last bin also holds r > 1 mm"
-    ax = plot.reflectance_profile(r, models=())
-    x = ax.containers[0].lines[0].get_xdata()
-    assert len(x) == len(r.rd_r.values) - 1 and x.max() < r.rd_r.edges[0][-2]
+    # the histogram says its last r bin holds the overflow (structured data, not its description)
+    assert res.rd_r.overflow == (True,)
     ax = plot.reflectance_profile(res, models=())
-    assert len(ax.containers[0].lines[0].get_xdata()) == len(res.rd_r.values)
+    x = ax.containers[0].lines[0].get_xdata()
+    assert len(x) == len(res.rd_r.values) - 1 and x.max() < res.rd_r.edges[0][-2]
+    r = copy.deepcopy(res)
+    r.histograms["rd_r"].overflow = (False,)
+    r.histograms["rd_r"].description += "; last bin also holds r > 1 mm"  # prose is not read
+    ax = plot.reflectance_profile(r, models=())
+    assert len(ax.containers[0].lines[0].get_xdata()) == len(r.rd_r.values)

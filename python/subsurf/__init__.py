@@ -8,9 +8,10 @@ from __future__ import annotations
 from . import _core, bssrdf, diffusion, hk, materials, optics, testing
 from ._core import ParameterError
 from .materials import Material
-from .mc import DiffuseIllumination, PencilBeam, simulate
+from .mc import DiffuseIllumination, PencilBeam, simulate, simulate_range
 from .medium import Component, Layer, Stack, mix
 from .result import Histogram, Result
+from .state import TallyState
 from .tallies import Tallies
 
 __version__ = _core.__version__
@@ -26,6 +27,7 @@ __all__ = [
     "Result",
     "Stack",
     "Tallies",
+    "TallyState",
     "__version__",
     "bssrdf",
     "diffusion",
@@ -34,6 +36,7 @@ __all__ = [
     "mix",
     "optics",
     "simulate",
+    "simulate_range",
     "testing",
 ]
 

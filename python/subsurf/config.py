@@ -155,12 +155,14 @@ def _number(ctx: _Ctx, key: str, v, allow_inf: bool = False) -> float:
     return float(v)
 
 
-def _int(ctx: _Ctx, key: str, v, lo: int, hi: int | None = None) -> int:
+def _int(ctx: _Ctx, key: str, v, lo: int | None = None, hi: int | None = None) -> int:
+    """An integer; its range is checked here only when ``lo`` is given (the engine's limits are
+    the core's, which :mod:`subsurf` applies)."""
     if isinstance(v, float) and v.is_integer():
         v = int(v)
     if isinstance(v, bool) or not isinstance(v, int):
         raise ctx.error(key, f"expected an integer, got {v!r}")
-    if v < lo or (hi is not None and v > hi):
+    if lo is not None and (v < lo or (hi is not None and v > hi)):
         rng = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
         raise ctx.error(key, f"{v} is out of range: must be an integer {rng}")
     return v
@@ -231,12 +233,12 @@ def _source(ctx: _Ctx, data: dict):
                 raise ctx.error(
                     f"source.{k}", "only a pencil beam has a direction (diffuse light comes from all directions)"
                 )
-    if not (0.0 <= theta < 90.0):
-        raise ctx.error("source.theta_deg", f"{theta:g} is out of range: must be in [0, 90) degrees")
-    if not math.isfinite(phi):
-        raise ctx.error("source.phi_deg", f"{phi} is out of range: must be finite")
     spec = {"type": kind} if kind == "diffuse" else {"type": kind, "theta_deg": theta, "phi_deg": phi}
-    return spec, _make_source(spec)
+    try:
+        return spec, _make_source(spec)
+    except _core.ParameterError as e:  # the core's range, stated in radians
+        key, value = ("source.phi_deg", phi) if str(e).startswith("source.phi") else ("source.theta_deg", theta)
+        raise ctx.error(key, f"{value:g} is out of range (in radians: {e})") from None
 
 
 def _make_source(spec: dict):
@@ -260,17 +262,10 @@ def _tallies(ctx: _Ctx, data: dict):
     out: dict[str, Any] = {}
     for k, v in t.items():
         kind, key = TALLY_KEYS[k], f"tallies.{k}"
-        if kind == "count":
-            out[k] = _int(ctx, key, v, 1, 100_000)
-        elif kind == "count0":
-            out[k] = _int(ctx, key, v, 0, 100_000)
-        elif kind == "order":
-            out[k] = _int(ctx, key, v, 0, 1000)
+        if kind in ("count", "count0", "order"):
+            out[k] = _int(ctx, key, v)
         elif kind == "length":
-            x = _number(ctx, key, v)
-            if not (x > 0 and math.isfinite(x)):
-                raise ctx.error(key, f"{x:g} is out of range: must be a finite number > 0")
-            out[k] = x
+            out[k] = _number(ctx, key, v)
         elif kind == "bool":
             if not isinstance(v, bool):
                 raise ctx.error(key, f"expected true or false, got {v!r}")
@@ -281,7 +276,7 @@ def _tallies(ctx: _Ctx, data: dict):
                 continue
             if not (isinstance(v, list) and len(v) == 2):
                 raise ctx.error(key, f"expected [n_cos_theta, n_phi] (two integers) or false, got {v!r}")
-            out[k] = (_int(ctx, key, v[0], 1, 10_000), _int(ctx, key, v[1], 1, 10_000))
+            out[k] = (_int(ctx, key, v[0]), _int(ctx, key, v[1]))
     import subsurf
 
     cls = getattr(subsurf, "Tallies", None)
@@ -310,14 +305,15 @@ def parse_config(text: str, path: str = "<string>") -> RunConfig:
             raise ConfigError(f"{path}:{max(len(ctx.lines), 1)}: invalid TOML: {msg}") from None
         raise ConfigError(f"{path}: invalid TOML: {msg}") from None
     _check_keys(ctx, "", data, TOP_KEYS)
-    photons = _int(ctx, "photons", data.get("photons", 100_000), 1, 2**63 - 1)
-    seed = _int(ctx, "seed", data.get("seed", 0), 0, 2**64 - 1)
-    threads = _int(ctx, "threads", data["threads"], 1, 4096) if "threads" in data else None
+    photons = _int(ctx, "photons", data.get("photons", 100_000))
+    seed = _int(ctx, "seed", data.get("seed", 0))
+    threads = _int(ctx, "threads", data["threads"]) if "threads" in data else None
+    try:
+        _core.mc_validate_run(photons, seed, threads)
+    except _core.ParameterError as e:
+        raise _param_message(ctx, "", e) from None
     n_above = _number(ctx, "n_above", data.get("n_above", 1.0))
     n_below = _number(ctx, "n_below", data.get("n_below", 1.0))
-    for k, v in (("n_above", n_above), ("n_below", n_below)):
-        if not (v >= 1.0 and math.isfinite(v)):
-            raise ctx.error(k, f"{v:g} is out of range: must be a finite number >= 1")
     layers = _layers(ctx, data)
     try:
         stack = Stack(layers, n_above=n_above, n_below=n_below)

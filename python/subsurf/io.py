@@ -19,8 +19,12 @@ Layout (``format = "subsurf-result"``, ``format_version = 1``)::
                                   config (the full configuration as JSON)
     /totals/<name>         scalar datasets (specular_reflectance, …) and <name>_stderr, units "1"
     /totals/absorbed_per_layer, absorbed_per_layer_stderr
-    /histograms/<name>/values, stderr      attrs: units, description, axes, edge_units
+    /histograms/<name>/values, stderr      attrs: units, description, axes, edge_units, overflow
     /histograms/<name>/edges_<i>           attrs: axis, units
+    /histograms/<name>/measures_<i>        per-bin measure of axis i (see Histogram.measures)
+    /state/<key>           the exact raw state (subsurf.state.TallyState.to_dict(): arrays as
+                           datasets, scalars and names as attributes), so a partial run can be
+                           resumed from its file; absent for merged results
 
 Standard errors are recombined by :func:`merge` from per-photon moments: with N photons, mean m
 and standard error s (of the mean, from the unbiased sample variance), the sums are
@@ -125,7 +129,35 @@ def save(result: Result, path: str | os.PathLike) -> str:
                 ds = g.create_dataset(f"edges_{i}", data=np.asarray(e, dtype=float))
                 ds.attrs["axis"] = str(a)
                 ds.attrs["units"] = str(u)
+            if len(h.measures) == len(h.edges):
+                g.attrs["overflow"] = [bool(o) for o in h.overflow]
+                for i, m in enumerate(h.measures):
+                    g.create_dataset(f"measures_{i}", data=np.asarray(m, dtype=float))
+        for key in ("roulette", "roulette_stderr"):
+            t.create_dataset(key, data=float(getattr(result, key))).attrs["units"] = "1"
+        if result.state is not None:
+            _save_state(f.create_group("state"), result.state)
     return path
+
+
+def _save_state(g, state) -> None:
+    for k, v in state.to_dict().items():
+        if isinstance(v, np.ndarray):
+            g.create_dataset(k, data=v, **(dict(compression="gzip", compression_opts=4) if v.size > 4096 else {}))
+        elif isinstance(v, list):
+            g.attrs[k] = [str(x) for x in v] if k == "names" else np.asarray(v)
+        else:
+            g.attrs[k] = np.uint64(v) if isinstance(v, int) else v
+
+
+def _load_state(g):
+    from .state import TallyState
+
+    d = {k: g[k][()] for k in g}
+    d.update({k: (v.item() if isinstance(v, np.generic) else v) for k, v in g.attrs.items()})
+    d["names"] = [_str(n) for n in d["names"]]
+    d["scheme"] = _str(d["scheme"])
+    return TallyState(d)
 
 
 def _str(x) -> str:
@@ -162,6 +194,7 @@ def load(path: str | os.PathLike) -> Result:
         for name, g in f["histograms"].items():
             axes = tuple(_str(a) for a in g.attrs["axes"])
             edges = tuple(np.asarray(g[f"edges_{i}"][()], dtype=float) for i in range(len(axes)))
+            measured = all(f"measures_{i}" in g for i in range(len(axes)))
             hists[name] = Histogram(
                 values=np.asarray(g["values"][()]),
                 stderr=np.asarray(g["stderr"][()]),
@@ -170,7 +203,12 @@ def load(path: str | os.PathLike) -> Result:
                 edge_units=tuple(_str(u) for u in g.attrs["edge_units"]),
                 units=_str(g.attrs["units"]),
                 description=_str(g.attrs["description"]),
+                measures=tuple(np.asarray(g[f"measures_{i}"][()], dtype=float) for i in range(len(axes)))
+                if measured
+                else (),
+                overflow=tuple(bool(o) for o in g.attrs["overflow"]) if "overflow" in g.attrs else (),
             )
+        extra = {k: float(t[k][()]) for k in ("roulette", "roulette_stderr") if k in t}
         return Result(
             **kw,
             photons=int(f.attrs["photons"]),
@@ -182,6 +220,8 @@ def load(path: str | os.PathLike) -> Result:
             histograms=hists,
             config=json.loads(_str(f.attrs["config"])),
             version=_str(f.attrs["version"]),
+            state=_load_state(f["state"]) if "state" in f else None,
+            **extra,
         )
 
 
@@ -287,7 +327,7 @@ def merge(a: Result, b: Result) -> Result:
         raise err("merge: a result with no photons cannot be merged")
     na, nb = int(a.photons), int(b.photons)
     kw: dict[str, Any] = {}
-    for name in TOTALS + ("absorbed_per_layer",):
+    for name in TOTALS + ("roulette", "absorbed_per_layer"):
         ma, sa = getattr(a, name), getattr(a, name + "_stderr")
         mb, sb = getattr(b, name), getattr(b, name + "_stderr")
         if np.shape(ma) != np.shape(mb):
@@ -317,6 +357,8 @@ def merge(a: Result, b: Result) -> Result:
             edge_units=ha.edge_units,
             units=ha.units,
             description=ha.description,
+            measures=ha.measures,
+            overflow=ha.overflow,
         )
     config = dict(a.config) if isinstance(a.config, dict) else {}
     config["seeds"] = sorted(set(_seeds(a)) | set(_seeds(b)))

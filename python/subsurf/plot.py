@@ -49,8 +49,10 @@ def _u(units: str) -> str:
 
 def _visible(h) -> slice:
     """Bins to draw: all but an overflow bin (the tallies' last r/z bin holds everything beyond the
-    grid, as in MCML, so it is not a density at its centre and is left out of the plots)."""
-    return slice(0, -1) if "last bin also holds" in h.description and np.shape(h.values)[0] > 1 else slice(None)
+    grid, as in MCML — ``Histogram.overflow`` — so it is not a density at its centre and is left out
+    of the plots)."""
+    over = bool(h.overflow) and h.overflow[0]
+    return slice(0, -1) if over and np.shape(h.values)[0] > 1 else slice(None)
 
 
 def _new_axes(ax, **kw):
