@@ -260,3 +260,52 @@ def bssrdf_fit_slab_totals(
     initial: tuple[float, float],
     table: SlabTable | None = None,
 ) -> dict: ...
+
+# --- render (crates/subsurf-py/src/render.rs); scene dicts come from subsurf.render.Scene._to_core
+
+class RenderJob:
+    """A scene prepared for one method; render_pass adds samples (GIL released)."""
+
+    def __init__(
+        self,
+        scene: dict,
+        method: str,
+        seed: int,
+        threads: int | None = None,
+        hierarchical: tuple[float, float, int, int] | None = None,
+    ) -> None: ...
+    def render_pass(self, n: int) -> int:
+        """Render n more samples per pixel; returns the total so far."""
+    def image(self) -> np.ndarray:
+        """Mean radiance, shape (height, width, 3)."""
+    @property
+    def spp(self) -> int: ...
+    @property
+    def dropped(self) -> int: ...
+
+def render_shape(
+    kind: str,
+    a: Sequence[float],
+    b: Sequence[float] | None = None,
+    c: float = 0.0,
+    d: float = 0.0,
+    level: int = 4,
+    nu: int = 64,
+    nv: int = 32,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(positions (N, 3), triangles (M, 3)) of a built-in shape."""
+
+def render_mesh_info(mesh: dict, name: str) -> tuple[bool, int, float, float]:
+    """(closed, open_edges, area, volume) of a validated mesh."""
+
+def render_walk_simulate(
+    scene: dict,
+    source: tuple[str, Sequence[float], Sequence[float]],
+    photons: int,
+    seed: int,
+    channel: int = 0,
+    voxels: tuple[Sequence[float], Sequence[float], Sequence[int]] | None = None,
+    threads: int | None = None,
+) -> dict: ...
+def render_bvh_benchmark(scene: dict, n: int) -> tuple[float, float]:
+    """(incoherent, camera) closest-hit rays/s on one thread."""

@@ -2,7 +2,8 @@
 
 Sub-commands: ``simulate CONFIG.toml``, ``sweep SWEEP.toml`` (both also on a Dask cluster with
 ``--scheduler tcp://HOST:PORT``), ``mcml INPUT.mci``, ``profile MATERIAL``, ``fit FILE.csv``, ``materials``,
-``plot RESULT``, ``merge A B -o C`` and ``demo``; ``subsurf COMMAND --help`` explains each.
+``plot RESULT``, ``merge A B -o C``, ``demo`` and ``render SCENE.toml -o IMAGE.exr``;
+``subsurf COMMAND --help`` explains each.
 Bad input ends the program with exit status 2 and one line on stderr
 (``subsurf: error: FILE:LINE: KEY: problem``), never a traceback (set ``SUBSURF_DEBUG=1`` to see one).
 Ctrl-C during a simulation still writes the photons traced so far, marked partial (exit status 130).
@@ -282,6 +283,10 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--threads", type=int)
     d.add_argument("-q", "--quiet", action="store_true")
     d.set_defaults(func=cmd_demo)
+
+    from .render.cli import add_parser as add_render_parser
+
+    add_render_parser(sub, EXIT_INTERRUPTED)
     return p
 
 

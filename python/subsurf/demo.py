@@ -103,7 +103,10 @@ def run(out_dir: str = "out", photons: int | None = None, threads: int | None = 
         f"{dermis.diffuse_reflectance_stderr:.1g}" + _dipole_total(optics)
     )
     print(f"wrote {h5}, {h5d} and {png} ({time.monotonic() - t0:.1f} s)")
-    return 130 if (skin.partial or dermis.partial) else 0
+    from .render.demo import run as render_demo
+
+    img = render_demo(out_dir, threads=threads, quiet=quiet, quick=photons < DEFAULT_PHOTONS)
+    return 130 if (skin.partial or dermis.partial or img.partial) else 0
 
 
 def _dipole_total(optics) -> str:

@@ -175,7 +175,7 @@ fn bssrdf_stack_profile(
         let (out, stop) = interruptible(py, progress.as_ref(), photons, move |c, d| {
             MonteCarloProfile::simulate_with(&s, &cfg, c, d)
         })?;
-        if stop {
+        if stop.is_some() {
             return Err(interrupted("the Monte Carlo profile"));
         }
         let p = Arc::new(out.py()?.0);
@@ -258,7 +258,7 @@ fn bssrdf_table_point<'py>(
     let s = settings_from_py(&settings)?;
     let total = s.photons;
     let (out, stop) = interruptible(py, progress.as_ref(), total, move |c, d| build_point(&s, index, c, d))?;
-    if stop {
+    if stop.is_some() {
         return Err(interrupted(&format!("table point {index}")));
     }
     data_to_py(py, &out.py()?)
@@ -419,7 +419,7 @@ fn bssrdf_slab_point(
         SlabTable::point(g, n, n_above, n_below, a, tau, photons, seed, threads, c, d)
     })?;
     match out.py()? {
-        Some(p) if !stop => Ok(p),
+        Some(p) if stop.is_none() => Ok(p),
         _ => Err(interrupted(&format!("slab point (albedo {a}, tau {tau})"))),
     }
 }

@@ -267,7 +267,7 @@ fn mc_run<'py>(
     let t0 = Instant::now();
     let proto = su.tallies.as_ref().map(|t| TallySet::new(t, &su.stack)).transpose().py()?;
     let (stack, cfg, nl) = (su.stack.clone(), su.cfg, su.stack.layers.len());
-    let (out, interrupted) = interruptible(py, progress.as_ref(), total, move |cancel, done| {
+    let (out, stop) = interruptible(py, progress.as_ref(), total, move |cancel, done| {
         // Two monomorphisations: a run without histograms pays nothing for them.
         let out = match proto {
             None => extend(&stack, &cfg, &mut st, || Totals::new(nl), cancel, done),
@@ -278,7 +278,7 @@ fn mc_run<'py>(
     let st = out.py()?;
     let d = PyDict::new(py);
     d.set_item("state", state_to_py(py, &st)?)?;
-    d.set_item("interrupted", interrupted)?;
+    d.set_item("interrupted", stop.is_some())?;
     d.set_item("elapsed_s", t0.elapsed().as_secs_f64())?;
     Ok(d)
 }

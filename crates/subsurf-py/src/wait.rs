@@ -4,9 +4,9 @@
 //!
 //! A KeyboardInterrupt — from a signal or from `progress`, during the work, on `progress`'s final
 //! call, or pending when a short computation ends — sets the work's cancel flag and is answered
-//! by `interrupted = true` with whatever the work returned; any other exception from `progress`
-//! also cancels the work and propagates once the work has stopped. Used by every Monte Carlo
-//! entry point of the binding (`mc_run`, the BSSRDF profile, table points and slab points).
+//! by returning it (not raising it) with whatever the work returned; any other exception from `progress`
+//! also cancels the work and propagates once the work has stopped. Used by every long entry point
+//! of the binding (`mc_run`, the BSSRDF profile, table points, slab points, render passes).
 
 use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError};
 use pyo3::prelude::*;
@@ -18,8 +18,13 @@ use std::time::Duration;
 pub const POLL: Duration = Duration::from_millis(50);
 
 /// Run `work(cancel, done)` (it polls `cancel` and counts finished items in `done`) and wait for
-/// it interruptibly; returns its value and whether a KeyboardInterrupt stopped it.
-pub fn interruptible<T, W>(py: Python<'_>, progress: Option<&Py<PyAny>>, total: u64, work: W) -> PyResult<(T, bool)>
+/// it interruptibly; returns its value and the KeyboardInterrupt that stopped it, if one did.
+pub fn interruptible<T, W>(
+    py: Python<'_>,
+    progress: Option<&Py<PyAny>>,
+    total: u64,
+    work: W,
+) -> PyResult<(T, Option<PyErr>)>
 where
     T: Send + 'static,
     W: FnOnce(&AtomicBool, &AtomicU64) -> T + Send + 'static,
@@ -66,9 +71,8 @@ where
         None => report(py).err(),
     };
     match stop {
-        Some(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => Ok((out, true)),
-        Some(e) => Err(e),
-        None => Ok((out, false)),
+        Some(e) if !e.is_instance_of::<PyKeyboardInterrupt>(py) => Err(e),
+        stop => Ok((out, stop)),
     }
 }
 
