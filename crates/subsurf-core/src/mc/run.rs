@@ -3,18 +3,23 @@
 //! Photons are split into chunks of [`CHUNK_PHOTONS`] (chunk c holds photons [c·4096,
 //! (c+1)·4096), cut at the run's last photon). Worker threads take chunks in increasing order;
 //! each chunk is traced into a tally of its own (made by the caller's factory) in a fixed
-//! sequential order, and is then committed — its sums added exactly into the run's
-//! [`TallyState`] — strictly in chunk order: a chunk finished early waits (as a pending tally)
-//! until every chunk before it is committed. Hence:
+//! sequential order, and is then committed strictly in chunk order: a chunk finished early waits
+//! (as a pending tally) until every chunk before it is committed. Committing only counts the
+//! chunk into the run's prefix (under a lock); the worker that commits a chunk then adds its sums
+//! exactly into its own fixed-point accumulator, outside the lock, at the cost of the bins the
+//! chunk touched, and the workers' accumulators are added into the run's [`TallyState`] at the
+//! end (fixed-point addition is associative and commutative: who drained what does not matter).
+//! Hence:
 //! - results are bit-identical for any number of threads, and for any split of the photons into
 //!   ranges at chunk boundaries traced separately and appended (see [`crate::mc::state`]);
 //! - the committed photons are always a prefix: a cancelled run holds exactly photons
 //!   [start, N) for some chunk boundary N, so it can be resumed ([`extend`]) to the same bits.
 //!
-//! Memory: a worker starts chunk c only while c < (next chunk to commit) + 2·threads, so at most
-//! 2·threads chunk tallies exist; [`check_memory`] refuses, before anything is allocated, a
-//! tally configuration whose copies, exact sums and results would not fit in the available
-//! memory.
+//! Memory: a worker starts chunk c only while c < (next chunk to commit) + 2·threads and fewer
+//! than 3·threads chunk tallies are out (traced, pending or being drained), so at most 3·threads
+//! chunk tallies and `threads` exact accumulators exist; [`check_memory`] refuses, before
+//! anything is allocated, a tally configuration whose copies, exact sums and results would not
+//! fit in the available memory.
 //!
 //! Each chunk is traced by the lane kernel (`mc::lanes`): a photon's history does not depend on
 //! its lane or the instruction set, and the lanes' deposits into the chunk's tally are made in
@@ -28,7 +33,7 @@ use super::config::{RunConfig, BATCH_PHOTONS, CHUNK_PHOTONS};
 use super::kernel::Kernel;
 use super::lanes::{trace_range, Isa};
 use super::state::TallyState;
-use super::tally::{Channel, Tally};
+use super::tally::{Channel, ChannelState, Tally};
 use crate::error::{Error, Result};
 use crate::medium::Stack;
 use std::collections::BTreeMap;
@@ -51,6 +56,10 @@ pub struct RunOutput<T> {
 
 /// Bytes per bin of each chunk tally in flight (one `Accum` cell).
 pub const CHUNK_BYTES_PER_BIN: u64 = 32;
+/// Chunk tallies in flight per thread (being traced, waiting to be committed or being drained).
+pub const CHUNKS_PER_THREAD: u64 = 3;
+/// Bytes per bin of each thread's exact accumulator (S₁ and S₂ in fixed point).
+pub const THREAD_BYTES_PER_BIN: u64 = 72;
 /// Bytes per bin held once per run: exact sums (72), the tally they are loaded into (32), the
 /// finished histogram (16) and, in Python, its arrays and the exported state (16 + 72).
 pub const RUN_BYTES_PER_BIN: u64 = 208;
@@ -58,7 +67,8 @@ pub const RUN_BYTES_PER_BIN: u64 = 208;
 /// Bytes a run of `layout` on `threads` threads needs at most (see the module docs).
 pub fn memory_estimate(layout: &[Channel], threads: usize) -> u64 {
     let bins: u64 = layout.iter().map(|c| c.len as u64).sum();
-    bins.saturating_mul(CHUNK_BYTES_PER_BIN * 2 * threads as u64 + RUN_BYTES_PER_BIN)
+    let per_thread = CHUNK_BYTES_PER_BIN * CHUNKS_PER_THREAD + THREAD_BYTES_PER_BIN;
+    bins.saturating_mul(per_thread * threads as u64 + RUN_BYTES_PER_BIN)
 }
 
 /// Memory available to a new allocation, bytes (Linux: `MemAvailable` of /proc/meminfo);
@@ -86,12 +96,14 @@ pub fn check_memory(layout: &[Channel], threads: usize, available: Option<u64>) 
     big.sort_by_key(|c| std::cmp::Reverse(c.len));
     let names: Vec<String> = big.iter().take(4).map(|c| format!("{} {} bins", c.name, c.len)).collect();
     Err(Error::Invalid(format!(
-        "tallies: the histograms ({}, …) need about {} of memory ({} bytes per bin for each of the 2 × {threads} chunk \
-         copies of {threads} thread(s), {} for the exact sums and results) but {} is available: use coarser grids \
-         (tallies.nr, nz, na, nt, brdf, max_order) or fewer threads",
+        "tallies: the histograms ({}, …) need about {} of memory ({} bytes per bin for each of the {} × {threads} chunk \
+         copies and {} for the exact sums of each of {threads} thread(s), {} for the run's exact sums and results) but \
+         {} is available: use coarser grids (tallies.nr, nz, na, nt, brdf, max_order) or fewer threads",
         names.join(", "),
         gb(need),
         CHUNK_BYTES_PER_BIN,
+        CHUNKS_PER_THREAD,
+        THREAD_BYTES_PER_BIN,
         RUN_BYTES_PER_BIN,
         gb(have)
     )))
@@ -132,30 +144,31 @@ fn trace_chunk<T: Tally>(
     Some(events)
 }
 
-/// The committer shared by the workers (under a mutex).
+/// The committer shared by the workers (under a mutex). It only orders chunks: the sums of a
+/// committed chunk are drained by the worker that committed it, outside the lock, into that
+/// worker's own exact accumulator (fixed-point addition is associative and commutative, so the
+/// final sum of the workers' accumulators does not depend on which worker drained which chunk).
 struct Commit<'a, T> {
     state: &'a mut TallyState,
     /// The next chunk to commit.
     frontier: u64,
     /// Chunks traced but not yet committed: (tally, photons, events).
     pending: BTreeMap<u64, (T, u64, u64)>,
-    /// Committed tallies, cleared and ready for reuse.
+    /// Drained tallies, cleared and ready for reuse.
     spare: Vec<T>,
-    /// A sum fell outside the exact range.
-    failed: bool,
+    /// Tallies handed out (being traced, pending or being drained).
+    out: usize,
 }
 
 impl<T: Tally> Commit<'_, T> {
-    /// Commit every pending chunk that continues the prefix.
-    fn advance(&mut self) {
-        while let Some((mut t, photons, events)) = self.pending.remove(&self.frontier) {
-            if t.drain_into(&mut self.state.channels).is_none() {
-                self.failed = true;
-            }
+    /// Commit every pending chunk that continues the prefix (photon and event counts), moving
+    /// its tally to `ready` for the caller to drain.
+    fn advance(&mut self, ready: &mut Vec<T>) {
+        while let Some((t, photons, events)) = self.pending.remove(&self.frontier) {
             self.state.end += photons;
             self.state.events += events;
             self.frontier += 1;
-            self.spare.push(t);
+            ready.push(t);
         }
     }
 }
@@ -214,15 +227,15 @@ where
     let kernel = Kernel::new(stack, cfg.source);
     let isa = cfg.isa.unwrap_or_else(Isa::detect);
     let (c0, c1) = (state.end / CHUNK_PHOTONS, end.div_ceil(CHUNK_PHOTONS));
-    let window = 2 * threads as u64;
+    let (window, cap) = (2 * threads as u64, 3 * threads);
     let next = AtomicU64::new(c0);
-    let commit =
-        Mutex::new(Commit { state, frontier: c0, pending: BTreeMap::new(), spare: vec![first], failed: false });
+    let commit = Mutex::new(Commit { state, frontier: c0, pending: BTreeMap::new(), spare: vec![first], out: 0 });
     let turn = Condvar::new();
     let seed = cfg.seed;
 
-    // A worker that panics (a bug) raises `failed` as it unwinds, so that the others stop
-    // waiting for its chunk and the panic reaches the caller instead of a hang.
+    // `failed`: a sum left the exact range, or a worker panicked (a bug): it raises `failed` as
+    // it unwinds, so that the others stop waiting for its chunk and the panic reaches the
+    // caller instead of a hang.
     let failed = AtomicBool::new(false);
     struct OnPanic<'a>(&'a AtomicBool);
     impl Drop for OnPanic<'_> {
@@ -233,46 +246,76 @@ where
         }
     }
     let stop = || cancel.load(Ordering::Relaxed) || failed.load(Ordering::Relaxed);
-    let worker = || loop {
+    // Each worker returns its exact accumulator (empty if it drained nothing). Committed chunks
+    // are always drained, even after a cancel, so the union is exactly the committed prefix.
+    let worker = || {
         let _guard = OnPanic(&failed);
-        if stop() {
-            return;
-        }
-        let c = next.fetch_add(1, Ordering::Relaxed);
-        if c >= c1 {
-            return;
-        }
-        let mut tally = {
+        let mut acc: Vec<ChannelState> = Vec::new();
+        let mut ready = Vec::new();
+        loop {
+            if stop() {
+                break;
+            }
+            let c = next.fetch_add(1, Ordering::Relaxed);
+            if c >= c1 {
+                break;
+            }
+            let spare = {
+                let mut g = commit.lock().expect("no panics while committing");
+                while (c >= g.frontier + window || g.out >= cap) && !stop() {
+                    g = turn.wait_timeout(g, Duration::from_millis(20)).expect("no panics").0;
+                }
+                if stop() {
+                    break;
+                }
+                g.out += 1;
+                g.spare.pop()
+            };
+            let mut tally = spare.unwrap_or_else(&make_tally);
+            let range = c * CHUNK_PHOTONS..((c + 1) * CHUNK_PHOTONS).min(end);
+            let photons = range.end - range.start;
+            let ev = trace_chunk(isa, &kernel, seed, range, &mut tally, cancel, progress);
+            let Some(events) = ev else { break }; // cancelled midway: the chunk is dropped
+            {
+                let mut g = commit.lock().expect("no panics while committing");
+                g.pending.insert(c, (tally, photons, events));
+                g.advance(&mut ready);
+            }
+            turn.notify_all();
+            if ready.is_empty() {
+                continue;
+            }
+            if acc.is_empty() {
+                acc = layout.iter().map(ChannelState::new).collect();
+            }
+            for t in &mut ready {
+                if t.drain_into(&mut acc).is_none() {
+                    failed.store(true, Ordering::Relaxed);
+                }
+            }
             let mut g = commit.lock().expect("no panics while committing");
-            while c >= g.frontier + window && !g.failed && !stop() {
-                g = turn.wait_timeout(g, Duration::from_millis(20)).expect("no panics").0;
-            }
-            if g.failed || stop() {
-                return;
-            }
-            g.spare.pop()
+            g.out -= ready.len();
+            g.spare.append(&mut ready);
+            drop(g);
+            turn.notify_all();
         }
-        .unwrap_or_else(&make_tally);
-        let range = c * CHUNK_PHOTONS..((c + 1) * CHUNK_PHOTONS).min(end);
-        let photons = range.end - range.start;
-        let ev = trace_chunk(isa, &kernel, seed, range, &mut tally, cancel, progress);
-        let Some(events) = ev else { return }; // cancelled midway: the chunk is dropped
-        let mut g = commit.lock().expect("no panics while committing");
-        g.pending.insert(c, (tally, photons, events));
-        g.advance();
-        drop(g);
-        turn.notify_all();
+        acc
     };
     let spawn = threads.min((c1 - c0) as usize).max(1);
-    std::thread::scope(|s| {
-        for _ in 1..spawn {
-            s.spawn(worker);
-        }
-        worker();
+    let accs: Vec<Vec<ChannelState>> = std::thread::scope(|s| {
+        let handles: Vec<_> = (1..spawn).map(|_| s.spawn(worker)).collect();
+        let mut accs = vec![worker()];
+        accs.extend(handles.into_iter().map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))));
+        accs
     });
     let g = commit.into_inner().expect("no panics while committing");
-    if g.failed {
+    if failed.load(Ordering::Relaxed) {
         return Err(Error::Invalid("a tally sum left the range of the exact accumulators".into()));
+    }
+    for acc in accs.iter().filter(|a| !a.is_empty()) {
+        for (s, a) in g.state.channels.iter_mut().zip(acc) {
+            s.merge(a);
+        }
     }
     Ok(g.state.end < end)
 }

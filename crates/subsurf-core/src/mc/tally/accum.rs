@@ -35,6 +35,9 @@ pub struct Accum {
     cur: Vec<f64>,
     /// Bins deposited into in the current batch (may repeat; closing a batch zeroes `cur`).
     touched: Vec<u32>,
+    /// Bins whose sums may be non-zero since the last drain (may repeat): every bin not listed
+    /// has S₁ = Q = 0, so a drain walks the bins a chunk touched, not the whole grid.
+    dirty: Vec<u32>,
     /// At most one deposit per photon (escapes): Q = Σ x², no batches.
     single: bool,
 }
@@ -44,14 +47,28 @@ impl Accum {
     /// accumulator that must not be deposited into).
     pub fn new(n: usize, errors: bool) -> Self {
         let e = if errors { n } else { 0 };
-        Accum { s1: vec![0.0; n], q: vec![0.0; e], cur: vec![0.0; e], touched: Vec::new(), single: false }
+        Accum {
+            s1: vec![0.0; n],
+            q: vec![0.0; e],
+            cur: vec![0.0; e],
+            touched: Vec::new(),
+            dirty: Vec::new(),
+            single: false,
+        }
     }
 
     /// `n` empty bins that each photon deposits into at most once (escapes), with exact
     /// per-photon errors if `errors` (see the module docs).
     pub fn per_photon(n: usize, errors: bool) -> Self {
         let e = if errors { n } else { 0 };
-        Accum { s1: vec![0.0; n], q: vec![0.0; e], cur: Vec::new(), touched: Vec::new(), single: errors }
+        Accum {
+            s1: vec![0.0; n],
+            q: vec![0.0; e],
+            cur: Vec::new(),
+            touched: Vec::new(),
+            dirty: Vec::new(),
+            single: errors,
+        }
     }
 
     /// Number of bins.
@@ -76,9 +93,11 @@ impl Accum {
     #[inline]
     pub fn add(&mut self, bin: usize, x: f64) {
         if self.single {
+            self.mark(bin);
             self.s1[bin] += x;
             self.q[bin] += x * x;
         } else if self.cur.is_empty() {
+            self.mark(bin);
             self.s1[bin] += x;
         } else {
             let c = &mut self.cur[bin];
@@ -89,11 +108,23 @@ impl Accum {
         }
     }
 
+    /// List `bin` as dirty before its sums change, unless it is already listed (S₁ ≠ 0: only
+    /// listed bins are non-zero; Q changes only together with S₁, so S₁ = 0 covers it).
+    #[inline(always)]
+    fn mark(&mut self, bin: usize) {
+        if self.s1[bin] == 0.0 {
+            self.dirty.push(bin as u32);
+        }
+    }
+
     /// Close the current batch of `photons` photons (see the module docs).
     pub fn end_batch(&mut self, photons: u64) {
         let inv_n = 1.0 / photons.max(1) as f64;
         for &b in &self.touched {
             let b = b as usize;
+            if self.s1[b] == 0.0 {
+                self.dirty.push(b as u32);
+            }
             let t = std::mem::take(&mut self.cur[b]);
             self.s1[b] += t;
             self.q[b] += t * t * inv_n;
@@ -103,27 +134,35 @@ impl Accum {
 
     /// Add every bin's (S₁, Q) exactly into `state` (same length) and clear the bins for the
     /// next chunk (whose batches are all closed). `false` if a sum is outside the exact range.
+    /// Costs the bins deposited into since the last drain, not the whole grid.
     pub fn drain_into(&mut self, state: &mut super::ChannelState) -> bool {
         debug_assert_eq!(self.len(), state.s1.len());
         debug_assert!(self.touched.is_empty(), "drain with an open batch");
         let mut ok = true;
-        for i in 0..self.s1.len() {
+        for &i in &self.dirty {
+            let i = i as usize;
             let (s1, q) = (std::mem::take(&mut self.s1[i]), self.q.get_mut(i).map_or(0.0, std::mem::take));
             if s1 != 0.0 || q != 0.0 {
                 ok &= state.add(i, s1, q);
             }
         }
+        self.dirty.clear();
+        debug_assert!(self.s1.iter().chain(&self.q).all(|&x| x == 0.0), "a bin was not listed");
         ok
     }
 
     /// Set every bin to the exact sums of `state`, rounded to f64 (for normalisation).
     pub fn load_from(&mut self, state: &super::ChannelState) {
         debug_assert_eq!(self.len(), state.s1.len());
+        self.dirty.clear();
         for i in 0..self.s1.len() {
             let (s1, q) = state.get(i);
             self.s1[i] = s1;
             if let Some(x) = self.q.get_mut(i) {
                 *x = q;
+            }
+            if s1 != 0.0 || q != 0.0 {
+                self.dirty.push(i as u32);
             }
         }
     }

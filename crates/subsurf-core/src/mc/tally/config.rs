@@ -4,7 +4,7 @@
 use crate::error::{Error, Result};
 
 /// Largest number of bins allowed in one histogram (each bin costs 32 bytes per chunk tally in
-/// flight and 72 bytes of exact sums; see `mc::run::memory_estimate`).
+/// flight and 72 bytes of exact sums per thread and per run; see `mc::run::memory_estimate`).
 pub const MAX_BINS: usize = 10_000_000;
 /// Largest scattering order `K` of the per-order split.
 pub const MAX_ORDER: u32 = 10_000;
