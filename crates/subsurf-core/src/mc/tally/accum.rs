@@ -90,7 +90,7 @@ impl Accum {
     }
 
     /// Add `x` to bin `bin` (the caller guarantees `bin < len()`).
-    #[inline]
+    #[inline(always)]
     pub fn add(&mut self, bin: usize, x: f64) {
         if self.single {
             self.mark(bin);
@@ -113,8 +113,15 @@ impl Accum {
     #[inline(always)]
     fn mark(&mut self, bin: usize) {
         if self.s1[bin] == 0.0 {
-            self.dirty.push(bin as u32);
+            self.list(bin);
         }
+    }
+
+    /// Append `bin` to the dirty list (out of line: once per bin and chunk).
+    #[cold]
+    #[inline(never)]
+    fn list(&mut self, bin: usize) {
+        self.dirty.push(bin as u32);
     }
 
     /// Close the current batch of `photons` photons (see the module docs).

@@ -42,7 +42,7 @@ use std::f64::consts::PI;
 
 use super::accum::Accum;
 use super::config::TallyConfig;
-use super::histogram::{bin_clamped, histogram, Axis, AxisKind, HistogramOut};
+use super::histogram::{bin_clamped, histogram, Axis, AxisKind, HistogramOut, ThetaBins};
 use super::Deposits;
 use super::{Channel, ChannelState, Tally};
 use crate::error::Result;
@@ -201,7 +201,7 @@ pub struct TallySet {
     cfg: TallyConfig,
     inv_dr: f64,
     inv_dz: f64,
-    inv_da: f64,
+    theta: ThetaBins,
     inv_dt: f64,
     n_cos: usize,
     n_phi: usize,
@@ -255,7 +255,7 @@ impl TallySet {
             cfg: *cfg,
             inv_dr: 1.0 / cfg.dr,
             inv_dz: 1.0 / cfg.dz,
-            inv_da: 1.0 / cfg.da(),
+            theta: ThetaBins::new(cfg.na),
             inv_dt: 1.0 / cfg.dt,
             n_cos,
             n_phi,
@@ -523,7 +523,7 @@ impl Tally for TallySet {
             s[R].add(ir, w);
         }
         if !s[A].is_empty() {
-            let ia = bin_clamped(mu.acos(), self.inv_da, c.na);
+            let ia = self.theta.bin(mu);
             s[A].add(ia, w);
             if !s[RA].is_empty() {
                 s[RA].add(ir * c.na + ia, w);
