@@ -223,6 +223,8 @@ pub struct TallySet {
     /// read-modify-writes on that bin. Flushed when the lane moves to another bin, at each
     /// batch end and before draining.
     pend_bin: [usize; LANES],
+    /// The depth bin of `pend_bin` (saves a division per flush).
+    pend_iz: [usize; LANES],
     pend: [f64; LANES],
 }
 
@@ -266,6 +268,7 @@ impl TallySet {
             bin_mua: Vec::new(),
             acc: Vec::new(),
             pend_bin: [NO_BIN; LANES],
+            pend_iz: [0; LANES],
             pend: [0.0; LANES],
         };
         // Escape tallies (both sides) get exact per-photon errors, absorption grids batch means.
@@ -293,19 +296,14 @@ impl TallySet {
         Ok(t)
     }
 
-    /// Add `dw` to the absorption bin `irz` (= ir · nz + iz) of a_rz and to a_z.
-    #[inline]
-    fn add_rz(&mut self, irz: usize, dw: f64) {
-        let iz = irz % self.cfg.nz;
-        self.acc[A_Z].add(iz, dw);
-        self.acc[A_RZ].add(irz, dw);
-    }
-
-    /// Add lane `i`'s pending deposits to the grids.
+    /// Add lane `i`'s pending deposits to the grids: to bin `irz` (= ir · nz + iz) of a_rz and
+    /// to bin iz of a_z.
     #[inline]
     fn flush_lane(&mut self, i: usize) {
         if self.pend_bin[i] != NO_BIN {
-            self.add_rz(self.pend_bin[i], self.pend[i]);
+            let dw = self.pend[i];
+            self.acc[A_Z].add(self.pend_iz[i], dw);
+            self.acc[A_RZ].add(self.pend_bin[i], dw);
             self.pend_bin[i] = NO_BIN;
             self.pend[i] = 0.0;
         }
@@ -495,6 +493,7 @@ impl Tally for TallySet {
             } else {
                 self.flush_lane(i);
                 self.pend_bin[i] = irz[i];
+                self.pend_iz[i] = iz[i];
                 self.pend[i] = dw;
             }
             if self.bin_mua[iz[i]] < 0.0 {
