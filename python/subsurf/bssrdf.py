@@ -370,14 +370,17 @@ class Fit:
 
 def material_from_appearance(albedo, mfp, eta=1.0, g=0.0, model="monte_carlo", table=None) -> list[Layer]:
     """One semi-infinite :class:`subsurf.Layer` per channel whose total diffuse reflectance under
-    a normally incident beam (specular excluded) is ``albedo[i]`` and whose mean free path
-    1/σt is ``mfp[i]`` (mm), for HG ``g`` and relative index ``eta``, under ``model``.
-    ``monte_carlo`` inverts ρ_eff of a :class:`ProfileTable` (``table``; built for (g, eta) with
-    default settings and cached in memory if not given)."""
+    a normally incident beam, per unit incident power with the specular reflection excluded (what
+    :func:`subsurf.simulate` reports), is ``albedo[i]`` under ``model``, with mean free path 1/σt
+    ``mfp[i]`` (mm), for HG ``g`` and relative index ``eta``. Closed-form models predict the colour
+    as (1 − R_sp) × their total. ``monte_carlo`` and ``normalized_diffusion`` (whose total is its
+    surface albedo for any medium) invert ρ_eff of a :class:`ProfileTable` (``table``; built for
+    (g, eta) with default settings and cached in memory if not given): their materials, simulated,
+    reproduce the colour."""
     a = np.atleast_1d(_arr("albedo", albedo)).astype(float)
     m = np.broadcast_to(np.atleast_1d(_arr("mfp", mfp)), a.shape).astype(float)
     core_table = None
-    if _model(model) == "monte_carlo":
+    if _model(model) in ("monte_carlo", "normalized_diffusion"):
         core_table = (table if table is not None else _default_table(float(g), float(eta)))._t
     out = _core.bssrdf_material_from_appearance(list(a), list(m), float(eta), float(g), model, core_table)
     return [Layer(n, mua, mus, gg) for n, mua, mus, gg in out]

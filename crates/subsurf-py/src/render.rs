@@ -89,8 +89,9 @@ fn material_from_py(d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<M
                 threads,
                 ..McSettings::default()
             };
-            let (profiles, ss_default) =
-                channel_profiles(&model, &stacks, &mc).map_err(|e| to_py(Error::Invalid(format!("{ctx}: {e}"))))?;
+            let colour: Option<[f64; 3]> = get_any(d, "colour", &ctx)?;
+            let (profiles, ss_default) = channel_profiles(&model, &stacks, &mc, colour.as_ref())
+                .map_err(|e| to_py(Error::Invalid(format!("{ctx}: {e}"))))?;
             let single: Option<bool> = get_any(d, "single_scattering", &ctx)?;
             let t = Translucent::new(&ctx, sa, ss, g, eta, profiles, single.unwrap_or(ss_default)).py()?;
             Ok(Material::Translucent(Box::new(t)))
