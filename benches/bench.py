@@ -1,7 +1,7 @@
 """Monte Carlo engine benchmark (`make bench`): scattering events/s and photons/s on one thread
-and on all cores for the three cases of issue 3, compared with MCML's 1.1e7 events/s per core.
+and on all cores for three MCML test cases, compared with MCML's 1.1e7 events/s per core.
 
-Cases (the issue quotes cm; converted here: μ in cm⁻¹ × 0.1 → mm⁻¹, d in cm × 10 → mm):
+Cases (quoted in cm as MCML takes them; converted here: μ in cm⁻¹ × 0.1 → mm⁻¹, d in cm × 10 → mm):
   (a) slab n=1 in n=1, μa=10, μs=90 /cm, g=0.75, d=0.02 cm;
   (c) three layers n=1.4 in air: (μa, μs, g, d) = (1, 100, 0.9, 0.01), (0.5, 150, 0.85, 0.2),
       (0.2, 120, 0.9, 1.0);
@@ -21,7 +21,7 @@ import time
 import subsurf
 from subsurf import Layer, Stack
 
-MCML_EVENTS_PER_S = 1.1e7  # per core, as quoted in issue 3
+MCML_EVENTS_PER_S = 1.1e7  # per core: the MCML figure of the project's performance goal
 TARGET_PER_CORE = 3.3e7
 
 CASES = {

@@ -12,15 +12,22 @@ Format: HDF5 (via ``h5py``), one file per run. Why HDF5 rather than netCDF:
   dependency layer without giving us anything we need (our histograms have ragged per-axis edges,
   which netCDF's shared-dimension model fits less naturally than plain HDF5 datasets).
 
-Layout (``format = "subsurf-result"``, ``format_version = 1``)::
+Layout (``format = "subsurf-result"``, ``format_version = 2``)::
 
     /                      attrs: format, format_version, software, version, seed, photons,
                                   photons_requested, partial, events, elapsed_s, created,
-                                  config (the full configuration as JSON)
+                                  config (the full configuration as JSON), histograms (their names)
     /totals/<name>         scalar datasets (specular_reflectance, …) and <name>_stderr, units "1"
     /totals/absorbed_per_layer, absorbed_per_layer_stderr
     /histograms/<name>/values, stderr      attrs: units, description, axes, edge_units
     /histograms/<name>/edges_<i>           attrs: axis, units
+
+Integrity: every group and dataset, the root included, has a ``sha256`` attribute: the SHA-256 of
+its other attributes (as sorted JSON), and of its member names (a group) or its dtype, shape and
+array bytes (a dataset). :func:`load` recomputes each one, so a flipped byte anywhere in the numbers
+or the metadata is reported as a one-line :class:`ResultFileError` naming the dataset, never read
+as a silently different result. Version 1 files (before checksums) still load, with an
+:class:`UnverifiedResultWarning`. Files are written atomically (:func:`save`).
 
 Standard errors are recombined by :func:`merge` from per-photon moments: with N photons, mean m
 and standard error s (of the mean, from the unbiased sample variance), the sums are
@@ -30,29 +37,35 @@ S1 = N·m and S2 = N·(s²·(N − 1) + m²), which add across independent runs.
 from __future__ import annotations
 
 import datetime
+import hashlib
+import io
 import json
 import math
 import os
+import warnings
 from typing import Any
 
 import numpy as np
 
+from . import atomic
+from ._core import ParameterError
 from .result import TOTALS, Histogram, Result
 
 FORMAT = "subsurf-result"
-FORMAT_VERSION = 1
+#: 2: every group and dataset carries a SHA-256 ``sha256`` attribute; 1 (no checksums) still loads.
+FORMAT_VERSION = 2
+CHECKSUM = "sha256"
 
-__all__ = ["save", "load", "merge", "results_equal", "ResultFileError"]
-
-
-def _parameter_error():
-    from . import _core
-
-    return _core.ParameterError
+__all__ = ["save", "load", "merge", "to_bytes", "results_equal", "ResultFileError", "UnverifiedResultWarning"]
 
 
 class ResultFileError(ValueError):
-    """A file that is not a subsurf results file (or is damaged)."""
+    """A file that is not a subsurf results file, or is damaged; the message is one line naming the
+    file and the dataset or attribute."""
+
+
+class UnverifiedResultWarning(UserWarning):
+    """A results file without checksums (format version 1) was loaded: its integrity is unknown."""
 
 
 def _jsonable(obj: Any) -> Any:
@@ -79,15 +92,12 @@ def _config_json(config: dict) -> str:
     return json.dumps(_jsonable(config), sort_keys=True)
 
 
-def save(result: Result, path: str | os.PathLike) -> str:
-    """Write ``result`` to an HDF5 results file at ``path`` (overwritten if present); returns the path."""
+def to_bytes(result: Result) -> bytes:
+    """The bytes of the HDF5 results file of ``result`` (built in memory; see the module docstring)."""
     import h5py
 
-    path = os.fspath(path)
-    d = os.path.dirname(path)
-    if d:
-        os.makedirs(d, exist_ok=True)
-    with h5py.File(path, "w") as f:
+    buf = io.BytesIO()
+    with h5py.File(buf, "w") as f:
         f.attrs["format"] = FORMAT
         f.attrs["format_version"] = FORMAT_VERSION
         f.attrs["software"] = "subsurf"
@@ -101,6 +111,7 @@ def save(result: Result, path: str | os.PathLike) -> str:
         f.attrs["elapsed_s_units"] = "s"
         f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         f.attrs["config"] = _config_json(result.config)
+        f.attrs["histograms"] = [str(k) for k in result.histograms]
         t = f.create_group("totals")
         t.attrs["description"] = "fractions of the incident power, each with its standard error"
         for name in TOTALS:
@@ -125,64 +136,254 @@ def save(result: Result, path: str | os.PathLike) -> str:
                 ds = g.create_dataset(f"edges_{i}", data=np.asarray(e, dtype=float))
                 ds.attrs["axis"] = str(a)
                 ds.attrs["units"] = str(u)
-    return path
+        _seal(f)
+    return buf.getvalue()
+
+
+def save(result: Result, path: str | os.PathLike, force: bool = True) -> str:
+    """Write ``result`` to an HDF5 results file at ``path``; returns the path.
+
+    The file is built in memory and written atomically (:mod:`subsurf.atomic`): a crash, a kill
+    or a full disk leaves either the previous file or the complete new one. ``force=False``
+    refuses to replace an existing file (the command line's default). The directory must exist.
+    """
+    return atomic.write_bytes(path, to_bytes(result), force=force)
+
+
+# --- checksums --------------------------------------------------------------------------------
+
+
+def _plain(v):
+    """An HDF5 attribute value as plain JSON data (the same for the value written and read back)."""
+    if isinstance(v, bytes):
+        return v.decode("utf-8", "surrogateescape")
+    if isinstance(v, np.ndarray):
+        return [_plain(x) for x in v.tolist()]
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    if isinstance(v, np.generic):
+        return _plain(v.item())
+    return v
+
+
+def _digest(obj, data: np.ndarray | None = None) -> str:
+    """SHA-256 of an object's attributes (all but the checksum), its member names (a group) or its
+    dtype, shape and bytes (a dataset)."""
+    import h5py
+
+    h = hashlib.sha256(b"subsurf-result checksum 2\0")
+    attrs = {str(k): _plain(v) for k, v in obj.attrs.items() if k != CHECKSUM}
+    h.update(json.dumps(attrs, sort_keys=True).encode())
+    if isinstance(obj, h5py.Group):
+        h.update(json.dumps(sorted(obj.keys())).encode())
+    else:
+        a = np.ascontiguousarray(obj[()] if data is None else data)
+        h.update(f"{a.dtype.str} {a.shape}".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def _seal(f) -> None:
+    """Store the checksum of every group and dataset (root included) as its ``sha256`` attribute."""
+    objs = [f]
+    f.visititems(lambda name, obj: objs.append(obj))
+    for obj in objs:
+        obj.attrs[CHECKSUM] = _digest(obj)
+
+
+# --- loading ----------------------------------------------------------------------------------
 
 
 def _str(x) -> str:
     return x.decode() if isinstance(x, bytes) else str(x)
 
 
+class _Reader:
+    """Reads one results file, checking every checksum (format 2) and the shape of everything."""
+
+    def __init__(self, path: str, f):
+        self.path, self.f = path, f
+        self.checked = False
+
+    def fail(self, where: str, problem: str) -> ResultFileError:
+        return ResultFileError(f"{self.path}: {where}: {problem}")
+
+    def verify(self, obj, where: str, data=None) -> None:
+        if not self.checked:
+            return
+        want = obj.attrs.get(CHECKSUM)
+        if want is None:
+            raise self.fail(where, "has no checksum (the file is damaged or was edited)")
+        if _str(want) != _digest(obj, data):
+            raise self.fail(where, "fails its checksum (the file is damaged or was edited)")
+
+    def member(self, group, name: str, where: str, kind: str):
+        import h5py
+
+        obj = group.get(name)
+        cls = h5py.Group if kind == "group" else h5py.Dataset
+        if not isinstance(obj, cls):
+            raise self.fail(where, f"missing (expected a {kind})" if obj is None else f"is not a {kind}")
+        if kind == "group":
+            self.verify(obj, where)
+        return obj
+
+    def array(self, group, name: str, where: str, ndim: int | None = None) -> np.ndarray:
+        ds = self.member(group, name, where, "dataset")
+        try:
+            a = np.asarray(ds[()])
+        except _READ_ERRORS as e:
+            raise self.fail(where, f"cannot be read ({_one_line(e)})") from None
+        self.verify(ds, where, a)
+        if a.dtype.kind not in "fiu":
+            raise self.fail(where, f"expected numbers, found {a.dtype}")
+        if ndim is not None and a.ndim != ndim:
+            raise self.fail(where, f"expected {ndim} dimension(s), found shape {a.shape}")
+        return a.astype(float)
+
+    def attr(self, obj, name: str, where: str, kind: str):
+        if name not in obj.attrs:
+            raise self.fail(where, f"attribute {name!r} is missing")
+        v = _plain(obj.attrs[name])
+        ok = {
+            "str": isinstance(v, str),
+            "int": isinstance(v, int) and not isinstance(v, bool),
+            "bool": isinstance(v, bool),
+            "float": isinstance(v, (int, float)) and not isinstance(v, bool),
+            "strs": isinstance(v, list) and all(isinstance(x, str) for x in v),
+        }[kind]
+        if kind == "strs" and isinstance(v, str):
+            v, ok = [v], True  # one axis written as a scalar string
+        if not ok:
+            noun = {"str": "a string", "int": "an integer", "bool": "a boolean", "float": "a number"}.get(kind, "text")
+            raise self.fail(where, f"attribute {name!r} = {v!r:.60} is not {noun}")
+        return v
+
+    def count(self, name: str, hi: int = 2**64) -> int:
+        v = self.attr(self.f, name, "/", "int")
+        if not 0 <= v < hi:
+            raise self.fail("/", f"attribute {name!r} = {v} is out of range")
+        return v
+
+    def result(self) -> Result:
+        f = self.f
+        if _str(_plain(f.attrs.get("format", ""))) != FORMAT:
+            raise ResultFileError(f"{self.path}: not a subsurf results file (no format = {FORMAT!r} attribute)")
+        ver = self.attr(f, "format_version", "/", "int")
+        if ver > FORMAT_VERSION:
+            raise ResultFileError(
+                f"{self.path}: results format version {ver} is newer than this subsurf reads ({FORMAT_VERSION})"
+            )
+        if ver < 1:
+            raise self.fail("/", f"format_version = {ver} is not a results format version")
+        self.checked = ver >= 2
+        self.verify(f, "/ (the file's attributes)")
+        try:
+            config = json.loads(self.attr(f, "config", "/", "str"))
+        except ValueError as e:
+            raise self.fail("/", f"attribute 'config' is not valid JSON ({e})") from None
+        if not isinstance(config, dict):
+            raise self.fail("/", f"attribute 'config' is not a JSON object (found {type(config).__name__})")
+        t = self.member(f, "totals", "/totals", "group")
+        kw: dict[str, Any] = {}
+        for name in TOTALS:
+            for key in (name, name + "_stderr"):
+                kw[key] = float(self.array(t, key, f"/totals/{key}", ndim=0))
+        for key in ("absorbed_per_layer", "absorbed_per_layer_stderr"):
+            kw[key] = self.array(t, key, f"/totals/{key}", ndim=1)
+        if kw["absorbed_per_layer"].shape != kw["absorbed_per_layer_stderr"].shape:
+            raise self.fail("/totals/absorbed_per_layer_stderr", "has a different length than absorbed_per_layer")
+        return Result(
+            **kw,
+            photons=self.count("photons"),
+            seed=self.count("seed"),
+            elapsed_s=float(self.attr(f, "elapsed_s", "/", "float")),
+            events=self.count("events"),
+            photons_requested=self.count("photons_requested"),
+            partial=self.attr(f, "partial", "/", "bool"),
+            histograms=self.histograms(),
+            config=config,
+            version=self.attr(f, "version", "/", "str"),
+        )
+
+    def histograms(self) -> dict:
+        hg = self.member(self.f, "histograms", "/histograms", "group")
+        names = list(hg.keys())
+        if self.checked:
+            listed = self.attr(self.f, "histograms", "/", "strs")
+            if sorted(listed) != sorted(names):
+                raise self.fail("/histograms", f"holds {sorted(names)} but the file lists {sorted(listed)}")
+            names = listed
+        out = {}
+        for name in names:
+            where = f"/histograms/{name}"
+            g = self.member(hg, name, where, "group")
+            axes = tuple(self.attr(g, "axes", where, "strs"))
+            edge_units = tuple(self.attr(g, "edge_units", where, "strs"))
+            if len(edge_units) != len(axes):
+                raise self.fail(where, f"{len(axes)} axes but {len(edge_units)} edge units")
+            values = self.array(g, "values", where + "/values", ndim=len(axes))
+            stderr = self.array(g, "stderr", where + "/stderr", ndim=len(axes))
+            edges = tuple(self.array(g, f"edges_{i}", f"{where}/edges_{i}", ndim=1) for i in range(len(axes)))
+            shape = tuple(len(e) - 1 for e in edges)
+            if values.shape != shape or stderr.shape != shape:
+                raise self.fail(
+                    where, f"values {values.shape} and stderr {stderr.shape} do not match the edges {shape}"
+                )
+            out[name] = Histogram(
+                values=values,
+                stderr=stderr,
+                edges=edges,
+                axes=axes,
+                edge_units=edge_units,
+                units=self.attr(g, "units", where, "str"),
+                description=self.attr(g, "description", where, "str"),
+            )
+        return out
+
+
+#: What h5py raises on a damaged file, besides the checks above (caught only around reading a file).
+_READ_ERRORS = (OSError, KeyError, ValueError, TypeError, IndexError, AttributeError, RuntimeError, OverflowError)
+
+
 def load(path: str | os.PathLike) -> Result:
-    """Read a results file written by :func:`save` back into a :class:`~subsurf.result.Result`."""
+    """Read a results file written by :func:`save` back into a :class:`~subsurf.result.Result`.
+
+    Every dataset and attribute is checked against its stored SHA-256 checksum and for its shape;
+    a damaged, truncated or foreign file raises :class:`ResultFileError` naming the file and the
+    dataset. Files of format version 1 (before checksums) load with an
+    :class:`UnverifiedResultWarning`.
+    """
     import h5py
 
     path = os.fspath(path)
+    if os.path.isdir(path):
+        raise ResultFileError(f"{path}: is a directory, not a results file")
     try:
         f = h5py.File(path, "r")
     except FileNotFoundError:
         raise ResultFileError(f"{path}: no such file") from None
-    except OSError as e:
-        raise ResultFileError(f"{path}: not an HDF5 results file ({e})") from None
-    with f:
-        if _str(f.attrs.get("format", "")) != FORMAT:
-            raise ResultFileError(f"{path}: not a subsurf results file (no format = {FORMAT!r} attribute)")
-        ver = int(f.attrs["format_version"])
-        if ver > FORMAT_VERSION:
-            raise ResultFileError(
-                f"{path}: results format version {ver} is newer than this subsurf reads ({FORMAT_VERSION})"
-            )
-        t = f["totals"]
-        kw: dict[str, Any] = {}
-        for name in TOTALS:
-            kw[name] = float(t[name][()])
-            kw[name + "_stderr"] = float(t[name + "_stderr"][()])
-        kw["absorbed_per_layer"] = np.asarray(t["absorbed_per_layer"][()], dtype=float)
-        kw["absorbed_per_layer_stderr"] = np.asarray(t["absorbed_per_layer_stderr"][()], dtype=float)
-        hists = {}
-        for name, g in f["histograms"].items():
-            axes = tuple(_str(a) for a in g.attrs["axes"])
-            edges = tuple(np.asarray(g[f"edges_{i}"][()], dtype=float) for i in range(len(axes)))
-            hists[name] = Histogram(
-                values=np.asarray(g["values"][()]),
-                stderr=np.asarray(g["stderr"][()]),
-                edges=edges,
-                axes=axes,
-                edge_units=tuple(_str(u) for u in g.attrs["edge_units"]),
-                units=_str(g.attrs["units"]),
-                description=_str(g.attrs["description"]),
-            )
-        return Result(
-            **kw,
-            photons=int(f.attrs["photons"]),
-            seed=int(f.attrs["seed"]),
-            elapsed_s=float(f.attrs["elapsed_s"]),
-            events=int(f.attrs["events"]),
-            photons_requested=int(f.attrs["photons_requested"]),
-            partial=bool(f.attrs["partial"]),
-            histograms=hists,
-            config=json.loads(_str(f.attrs["config"])),
-            version=_str(f.attrs["version"]),
+    except _READ_ERRORS as e:
+        raise ResultFileError(f"{path}: not an HDF5 results file ({_one_line(e)})") from None
+    reader = _Reader(path, f)
+    try:
+        with f:
+            result = reader.result()
+    except ResultFileError:
+        raise
+    except _READ_ERRORS as e:
+        raise ResultFileError(f"{path}: damaged results file ({type(e).__name__}: {_one_line(e)})") from None
+    if not reader.checked:
+        warnings.warn(
+            f"{path}: results format version 1 has no checksums; its integrity cannot be verified",
+            UnverifiedResultWarning,
+            stacklevel=2,
         )
+    return result
+
+
+def _one_line(e: BaseException) -> str:
+    return " ".join(str(e).split())
 
 
 def _arr_equal(a, b) -> bool:
@@ -269,7 +470,7 @@ def merge(a: Result, b: Result) -> Result:
     Raises :class:`subsurf.ParameterError` when configurations, histograms or grids differ, or
     when a seed is used twice (the histories would be the same photons, not independent ones).
     """
-    err = _parameter_error()
+    err = ParameterError
     ca = {k: v for k, v in _jsonable(a.config).items() if k not in _RUN_KEYS}
     cb = {k: v for k, v in _jsonable(b.config).items() if k not in _RUN_KEYS}
     if ca != cb:

@@ -170,7 +170,7 @@ def simulate(stack, photons=10**6, seed=0, threads=None, source=None, tallies=No
             RuntimeWarning,
             stacklevel=2,
         )
-    from . import __version__
+    from ._core import __version__
 
     return Result(
         specular_reflectance=d["specular_reflectance"],
