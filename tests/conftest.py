@@ -6,6 +6,8 @@
 * ``make_result`` — hand-built, self-consistent :class:`subsurf.Result` objects (``synthetic.py``).
 * ``sample_mci`` — the text of a two-run MCML input file.
 * ``as_format_1`` — turn a saved results file into one of format version 1 (no checksums).
+* ``worker`` — a separate process running property-test cases (``fuzz_worker.py``), restarted
+  after a case that crashes it or outlives its time limit.
 * ``cli`` — run the ``subsurf`` command (``python -m subsurf``) in a subprocess; ``one_line_error``
   checks that it failed with exit status 2 and one line on stderr.
 
@@ -16,9 +18,14 @@ derandomised, for ``make test``) and ``campaign`` (long random exploration), cho
 
 from __future__ import annotations
 
+import io
 import os
+import pickle
+import select
+import struct
 import subprocess
 import sys
+import time
 import zlib
 
 import h5py
@@ -31,7 +38,11 @@ settings.register_profile(
     "ci", max_examples=60, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
 )
 settings.register_profile(
-    "campaign", max_examples=20_000, deadline=None, suppress_health_check=[HealthCheck.too_slow], print_blob=True
+    "campaign",
+    max_examples=int(os.environ.get("SUBSURF_CAMPAIGN_EXAMPLES", "20000")),
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+    print_blob=True,
 )
 settings.load_profile(os.environ.get("SUBSURF_HYPOTHESIS_PROFILE", "ci"))
 
@@ -92,13 +103,13 @@ def sample_mci() -> str:
 
 
 def _as_format_1(path) -> None:
-    with h5py.File(path, "r+") as f:
-        objs = [f]
-        f.visititems(lambda name, obj: objs.append(obj))
-        for obj in objs:
-            del obj.attrs["sha256"]
-        f.attrs["format_version"] = 1
-        del f.attrs["histograms"]
+    """Rewrite a results file as plain HDF5 without the checksum manifest, format version 1."""
+    with h5py.File(io.BytesIO(open(path, "rb").read()), "r") as src, h5py.File(path, "w") as dst:
+        for k, v in src.attrs.items():
+            dst.attrs[k] = v
+        for name in src:
+            src.copy(src[name], dst, name=name)
+        dst.attrs["format_version"] = 1
 
 
 @pytest.fixture(scope="session")
@@ -145,3 +156,62 @@ def one_line_error():
     """``one_line_error(completed_process, *fragments, status=2)``: the command failed with ``status`` and
     one line on stderr containing every fragment; returns the line."""
     return _one_line_error
+
+
+class CaseFailed(Exception):
+    """A property-test case crashed its process (a panic, a segfault) or outlived its time limit."""
+
+
+class Worker:
+    """Runs jobs of ``fuzz_worker.py`` in a child process with a time limit per job."""
+
+    SCRIPT = os.path.join(os.path.dirname(__file__), "fuzz_worker.py")
+
+    def __init__(self):
+        self.proc = None
+
+    def _start(self):
+        self.proc = subprocess.Popen(
+            [sys.executable, self.SCRIPT], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL
+        )
+
+    def stop(self):
+        if self.proc is not None:
+            self.proc.kill()
+            self.proc.wait()
+            self.proc = None
+
+    def _read(self, n, deadline):
+        buf = b""
+        while len(buf) < n:
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([self.proc.stdout], [], [], left)[0]:
+                self.stop()
+                raise CaseFailed("timed out: the case hangs (or is far too slow)")
+            chunk = os.read(self.proc.stdout.fileno(), n - len(buf))
+            if not chunk:
+                code = self.proc.wait()
+                self.proc = None
+                raise CaseFailed(f"the process died (exit status {code}): a crash, not an error")
+            buf += chunk
+        return buf
+
+    def __call__(self, job, payload, timeout=30.0):
+        """Run one job; returns its reply, or raises :class:`CaseFailed`."""
+        if self.proc is None:
+            self._start()
+            timeout += 30.0  # the first job also starts the process (numpy, h5py, the extension)
+        data = pickle.dumps((job, payload))
+        self.proc.stdin.write(struct.pack("<Q", len(data)) + data)
+        self.proc.stdin.flush()
+        deadline = time.monotonic() + timeout
+        n = struct.unpack("<Q", self._read(8, deadline))[0]
+        return pickle.loads(self._read(n, deadline))
+
+
+@pytest.fixture(scope="session")
+def worker():
+    """``worker(job, payload, timeout=30) -> reply`` (see ``tests/fuzz_worker.py``)."""
+    w = Worker()
+    yield w
+    w.stop()

@@ -241,7 +241,7 @@ def test_edited_v2_file_fails_its_checksum(tmp_path, capsys, make_result):
     p = subsurf.save(make_result(seed=1)[0], tmp_path / "a.h5")
     with h5py.File(p, "r+") as f:
         f.attrs["photons"] = 20_000
-    in_process_error(capsys, "plot", p, fragments=[f"{p}: / (the file's attributes): fails its checksum"])
+    in_process_error(capsys, "plot", p, fragments=[f"{p}: its structure or attributes fail their checksum"])
     p = subsurf.save(make_result(seed=1)[0], tmp_path / "a.h5")
     with h5py.File(p, "r+") as f:
         f["histograms/a_rz/values"][3, 4] *= 1.0 + 2**-40

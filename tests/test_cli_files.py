@@ -307,3 +307,11 @@ def test_mcml_runs_writing_the_same_file_are_refused(tmp_path, capsys, monkeypat
     assert not (tmp_path / "same.mco").exists() and not (tmp_path / "first.mco").exists()
     with pytest.raises(mcml.McmlInputError, match="same file"):
         mcml.plan_runs(tmp_path / "s.mci")
+
+
+def test_mcml_checks_every_run_before_simulating_any(tmp_path, capsys, monkeypatch, sample_mci):
+    """An invalid second run is reported before the first is simulated (nothing is written)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "s.mci").write_text(sample_mci.replace("10 10 5", "100000 100000 5"))
+    error_line(capsys, "mcml", "s.mci", fragments=["s.mci:24: run 2: tallies"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.mci"]

@@ -31,6 +31,18 @@ def diffusion_brdf(model_name: str, wi: _F, wo: _F, sigma_a: _F, sigma_s_prime: 
 def diffusion_ft(eta: _F, cos_theta: _F) -> _F: ...
 def diffusion_check_properties(sigma_a: _F, sigma_s_prime: _F, eta: _F) -> None: ...
 
+# --- medium (crates/subsurf-py/src/medium.rs): layers as (n, mua, mus, lobes [(weight, g)], thickness) ---
+def validate_layer(
+    n: float, mua: float, mus: float, lobes: Sequence[tuple[float, float]], thickness: float, prefix: str = ""
+) -> None: ...
+def validate_stack(
+    layers: list[tuple[float, float, float, list[tuple[float, float]], float]], n_above: float, n_below: float
+) -> None: ...
+def mix_components(
+    n: float, thickness: float, components: Sequence[tuple[float, float, float, float]]
+) -> tuple[float, float, float, list[tuple[float, float]], float]:
+    """(n, mua, mus, lobes, thickness) of the mixture of (fraction, mua, mus, g) components."""
+
 # --- mc ---
 def mc_validate_source(kind: str, theta: float, phi: float) -> None: ...
 def mc_simulate(

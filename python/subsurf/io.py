@@ -22,12 +22,14 @@ Layout (``format = "subsurf-result"``, ``format_version = 2``)::
     /histograms/<name>/values, stderr      attrs: units, description, axes, edge_units
     /histograms/<name>/edges_<i>           attrs: axis, units
 
-Integrity: every group and dataset, the root included, has a ``sha256`` attribute: the SHA-256 of
-its other attributes (as sorted JSON), and of its member names (a group) or its dtype, shape and
-array bytes (a dataset). :func:`load` recomputes each one, so a flipped byte anywhere in the numbers
-or the metadata is reported as a one-line :class:`ResultFileError` naming the dataset, never read
-as a silently different result. Version 1 files (before checksums) still load, with an
-:class:`UnverifiedResultWarning`. Files are written atomically (:func:`save`).
+Integrity (format 2): the file's first bytes — the HDF5 user block, which HDF5 reserves for the
+application — hold a checksum manifest: the SHA-256 of every dataset's stored bytes (of each chunk
+of a compressed one) and of all the remaining bytes (the structure and every attribute). :func:`load`
+checks the whole file against it before HDF5 reads a byte of it, so a damaged file can neither
+crash the HDF5 library nor load as a silently different result: it is refused in one line naming
+the dataset (or the structure and attributes). Files are written atomically (:func:`save`). A file
+edited afterwards (with h5py, say) no longer matches and is refused as such. Version 1 files
+(plain HDF5, no manifest) still load, with an :class:`UnverifiedResultWarning`.
 
 Standard errors are recombined by :func:`merge` from per-photon moments: with N photons, mean m
 and standard error s (of the mean, from the unbiased sample variance), the sums are
@@ -52,9 +54,10 @@ from ._core import ParameterError
 from .result import TOTALS, Histogram, Result
 
 FORMAT = "subsurf-result"
-#: 2: every group and dataset carries a SHA-256 ``sha256`` attribute; 1 (no checksums) still loads.
+#: 2: a checksum manifest in the HDF5 user block; 1 (plain HDF5, no checksums) still loads.
 FORMAT_VERSION = 2
-CHECKSUM = "sha256"
+MAGIC = b"subsurf-result manifest 1 "
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
 __all__ = ["save", "load", "merge", "to_bytes", "results_equal", "ResultFileError", "UnverifiedResultWarning"]
 
@@ -92,12 +95,12 @@ def _config_json(config: dict) -> str:
     return json.dumps(_jsonable(config), sort_keys=True)
 
 
-def to_bytes(result: Result) -> bytes:
-    """The bytes of the HDF5 results file of ``result`` (built in memory; see the module docstring)."""
+def _image(result: Result, userblock: int) -> bytes:
+    """The HDF5 file of ``result`` (built in memory), with ``userblock`` bytes reserved at its start."""
     import h5py
 
     buf = io.BytesIO()
-    with h5py.File(buf, "w") as f:
+    with h5py.File(buf, "w", userblock_size=userblock) as f:
         f.attrs["format"] = FORMAT
         f.attrs["format_version"] = FORMAT_VERSION
         f.attrs["software"] = "subsurf"
@@ -111,7 +114,6 @@ def to_bytes(result: Result) -> bytes:
         f.attrs["elapsed_s_units"] = "s"
         f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         f.attrs["config"] = _config_json(result.config)
-        f.attrs["histograms"] = [str(k) for k in result.histograms]
         t = f.create_group("totals")
         t.attrs["description"] = "fractions of the incident power, each with its standard error"
         for name in TOTALS:
@@ -136,8 +138,19 @@ def to_bytes(result: Result) -> bytes:
                 ds = g.create_dataset(f"edges_{i}", data=np.asarray(e, dtype=float))
                 ds.attrs["axis"] = str(a)
                 ds.attrs["units"] = str(u)
-        _seal(f)
     return buf.getvalue()
+
+
+def to_bytes(result: Result) -> bytes:
+    """The bytes of the results file of ``result``: the HDF5 file, its user block holding the
+    checksum manifest (see the module docstring)."""
+    userblock = 4096
+    while True:
+        image = _image(result, userblock)
+        manifest = _manifest(image, userblock)
+        if len(manifest) <= userblock:
+            return manifest.ljust(userblock, b"\n") + image[userblock:]
+        userblock *= 4
 
 
 def save(result: Result, path: str | os.PathLike, force: bool = True) -> str:
@@ -150,11 +163,91 @@ def save(result: Result, path: str | os.PathLike, force: bool = True) -> str:
     return atomic.write_bytes(path, to_bytes(result), force=force)
 
 
-# --- checksums --------------------------------------------------------------------------------
+# --- checksums ------------------------------------------------------------------------------
+
+
+def _sha(data) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def _regions(image: bytes) -> dict:
+    """Where each dataset's stored bytes lie in an HDF5 image: {path: [(offset, length)]} (one
+    range for a contiguous dataset, one per chunk of a compressed one)."""
+    import h5py
+
+    out = {}
+    with h5py.File(io.BytesIO(image), "r") as f:
+
+        def visit(name, obj):
+            if not isinstance(obj, h5py.Dataset):
+                return
+            if obj.chunks is None:
+                off = obj.id.get_offset()
+                if off is not None:
+                    out["/" + name] = [(off, obj.id.get_storage_size())]
+            else:
+                infos = (obj.id.get_chunk_info(i) for i in range(obj.id.get_num_chunks()))
+                out["/" + name] = [(c.byte_offset, c.size) for c in infos]
+
+        f.visititems(visit)
+    return out
+
+
+def _rest(data, userblock: int, regions: dict) -> str:
+    """SHA-256 of every byte after the user block that is not a dataset's data: the structure and
+    all attributes."""
+    h = hashlib.sha256()
+    pos = userblock
+    for off, n in sorted(r for rs in regions.values() for r in rs):
+        h.update(data[pos:off])
+        pos = max(pos, off + n)
+    h.update(data[pos:])
+    return h.hexdigest()
+
+
+def _manifest(image: bytes, userblock: int) -> bytes:
+    regions = _regions(image)
+    body = {
+        "size": len(image),
+        "userblock": userblock,
+        "datasets": {k: [[off, n, _sha(image[off : off + n])] for off, n in rs] for k, rs in regions.items()},
+        "rest": _rest(image, userblock, regions),
+    }
+    text = json.dumps(body, sort_keys=True, separators=(",", ":")).encode()
+    return MAGIC + _sha(text).encode() + b"\n" + text + b"\n"
+
+
+def _verify(path: str, data: bytes) -> bool:
+    """Check a file's bytes against its manifest before HDF5 reads any of them; False for a file of
+    format version 1 (plain HDF5, no manifest)."""
+    if data[:8] == HDF5_SIGNATURE:
+        return False
+    if not data.startswith(MAGIC):
+        raise ResultFileError(f"{path}: not an HDF5 results file")
+    head, _, rest = data[len(MAGIC) :].partition(b"\n")
+    text = rest.partition(b"\n")[0]
+    if _sha(text).encode() != head:
+        raise ResultFileError(f"{path}: its checksum manifest is damaged")
+    m = json.loads(text)
+    if len(data) != m["size"]:
+        raise ResultFileError(f"{path}: {len(data)} bytes where {m['size']} were written (truncated or extended)")
+    regions = {}
+    for name, rs in m["datasets"].items():
+        regions[name] = [(off, n) for off, n, _ in rs]
+        if any(_sha(data[off : off + n]) != want for off, n, want in rs):
+            raise ResultFileError(f"{path}: {name}: fails its checksum (the file is damaged or was edited)")
+    if _rest(data, m["userblock"], regions) != m["rest"]:
+        raise ResultFileError(
+            f"{path}: its structure or attributes fail their checksum (the file is damaged or was edited)"
+        )
+    return True
+
+
+# --- loading ----------------------------------------------------------------------------------
 
 
 def _plain(v):
-    """An HDF5 attribute value as plain JSON data (the same for the value written and read back)."""
+    """An HDF5 attribute value as plain Python data (str, int, float, bool, lists of them)."""
     if isinstance(v, bytes):
         return v.decode("utf-8", "surrogateescape")
     if isinstance(v, np.ndarray):
@@ -166,34 +259,6 @@ def _plain(v):
     return v
 
 
-def _digest(obj, data: np.ndarray | None = None) -> str:
-    """SHA-256 of an object's attributes (all but the checksum), its member names (a group) or its
-    dtype, shape and bytes (a dataset)."""
-    import h5py
-
-    h = hashlib.sha256(b"subsurf-result checksum 2\0")
-    attrs = {str(k): _plain(v) for k, v in obj.attrs.items() if k != CHECKSUM}
-    h.update(json.dumps(attrs, sort_keys=True).encode())
-    if isinstance(obj, h5py.Group):
-        h.update(json.dumps(sorted(obj.keys())).encode())
-    else:
-        a = np.ascontiguousarray(obj[()] if data is None else data)
-        h.update(f"{a.dtype.str} {a.shape}".encode())
-        h.update(a.tobytes())
-    return h.hexdigest()
-
-
-def _seal(f) -> None:
-    """Store the checksum of every group and dataset (root included) as its ``sha256`` attribute."""
-    objs = [f]
-    f.visititems(lambda name, obj: objs.append(obj))
-    for obj in objs:
-        obj.attrs[CHECKSUM] = _digest(obj)
-
-
-# --- loading ----------------------------------------------------------------------------------
-
-
 def _str(x) -> str:
     return x.decode() if isinstance(x, bytes) else str(x)
 
@@ -201,21 +266,11 @@ def _str(x) -> str:
 class _Reader:
     """Reads one results file, checking every checksum (format 2) and the shape of everything."""
 
-    def __init__(self, path: str, f):
-        self.path, self.f = path, f
-        self.checked = False
+    def __init__(self, path: str, f, verified: bool):
+        self.path, self.f, self.verified = path, f, verified
 
     def fail(self, where: str, problem: str) -> ResultFileError:
         return ResultFileError(f"{self.path}: {where}: {problem}")
-
-    def verify(self, obj, where: str, data=None) -> None:
-        if not self.checked:
-            return
-        want = obj.attrs.get(CHECKSUM)
-        if want is None:
-            raise self.fail(where, "has no checksum (the file is damaged or was edited)")
-        if _str(want) != _digest(obj, data):
-            raise self.fail(where, "fails its checksum (the file is damaged or was edited)")
 
     def member(self, group, name: str, where: str, kind: str):
         import h5py
@@ -224,8 +279,6 @@ class _Reader:
         cls = h5py.Group if kind == "group" else h5py.Dataset
         if not isinstance(obj, cls):
             raise self.fail(where, f"missing (expected a {kind})" if obj is None else f"is not a {kind}")
-        if kind == "group":
-            self.verify(obj, where)
         return obj
 
     def array(self, group, name: str, where: str, ndim: int | None = None) -> np.ndarray:
@@ -234,7 +287,6 @@ class _Reader:
             a = np.asarray(ds[()])
         except _READ_ERRORS as e:
             raise self.fail(where, f"cannot be read ({_one_line(e)})") from None
-        self.verify(ds, where, a)
         if a.dtype.kind not in "fiu":
             raise self.fail(where, f"expected numbers, found {a.dtype}")
         if ndim is not None and a.ndim != ndim:
@@ -276,8 +328,8 @@ class _Reader:
             )
         if ver < 1:
             raise self.fail("/", f"format_version = {ver} is not a results format version")
-        self.checked = ver >= 2
-        self.verify(f, "/ (the file's attributes)")
+        if ver >= 2 and not self.verified:
+            raise self.fail("/", f"format version {ver} without its checksum manifest (the file was rewritten)")
         try:
             config = json.loads(self.attr(f, "config", "/", "str"))
         except ValueError as e:
@@ -308,14 +360,8 @@ class _Reader:
 
     def histograms(self) -> dict:
         hg = self.member(self.f, "histograms", "/histograms", "group")
-        names = list(hg.keys())
-        if self.checked:
-            listed = self.attr(self.f, "histograms", "/", "strs")
-            if sorted(listed) != sorted(names):
-                raise self.fail("/histograms", f"holds {sorted(names)} but the file lists {sorted(listed)}")
-            names = listed
         out = {}
-        for name in names:
+        for name in hg:
             where = f"/histograms/{name}"
             g = self.member(hg, name, where, "group")
             axes = tuple(self.attr(g, "axes", where, "strs"))
@@ -349,23 +395,34 @@ _READ_ERRORS = (OSError, KeyError, ValueError, TypeError, IndexError, AttributeE
 def load(path: str | os.PathLike) -> Result:
     """Read a results file written by :func:`save` back into a :class:`~subsurf.result.Result`.
 
-    Every dataset and attribute is checked against its stored SHA-256 checksum and for its shape;
-    a damaged, truncated or foreign file raises :class:`ResultFileError` naming the file and the
-    dataset. Files of format version 1 (before checksums) load with an
-    :class:`UnverifiedResultWarning`.
+    The file's bytes are checked against its checksum manifest before HDF5 reads them, then every
+    piece is checked for presence, type and shape: a damaged, truncated or foreign file raises
+    :class:`ResultFileError`, one line naming the file and the dataset or attribute. Files of format
+    version 1 (before checksums) load with an :class:`UnverifiedResultWarning`.
     """
     import h5py
 
     path = os.fspath(path)
-    if os.path.isdir(path):
-        raise ResultFileError(f"{path}: is a directory, not a results file")
     try:
-        f = h5py.File(path, "r")
+        with open(path, "rb") as fh:
+            data = fh.read()
     except FileNotFoundError:
         raise ResultFileError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise ResultFileError(f"{path}: is a directory, not a results file") from None
+    except OSError as e:
+        raise ResultFileError(f"{path}: cannot read ({e.strerror})") from None
+    try:
+        verified = _verify(path, data)
+    except (ValueError, KeyError, TypeError) as e:  # a manifest that parses but is not ours
+        if isinstance(e, ResultFileError):
+            raise
+        raise ResultFileError(f"{path}: its checksum manifest is damaged ({_one_line(e)})") from None
+    try:
+        f = h5py.File(io.BytesIO(data), "r")
     except _READ_ERRORS as e:
         raise ResultFileError(f"{path}: not an HDF5 results file ({_one_line(e)})") from None
-    reader = _Reader(path, f)
+    reader = _Reader(path, f, verified)
     try:
         with f:
             result = reader.result()
@@ -373,7 +430,7 @@ def load(path: str | os.PathLike) -> Result:
         raise
     except _READ_ERRORS as e:
         raise ResultFileError(f"{path}: damaged results file ({type(e).__name__}: {_one_line(e)})") from None
-    if not reader.checked:
+    if not verified:
         warnings.warn(
             f"{path}: results format version 1 has no checksums; its integrity cannot be verified",
             UnverifiedResultWarning,

@@ -45,7 +45,6 @@ __all__ = [
     "mcml_arrays",
     "run_mci",
     "plan_runs",
-    "run_to_inputs",
     "write_run",
 ]
 
@@ -394,19 +393,26 @@ def read_mco(path: str | os.PathLike) -> dict:
 # --- running ------------------------------------------------------------------------------------
 
 
-def plan_runs(path: str | os.PathLike, force: bool = False, out_dir: str | None = None) -> list:
-    """The runs of an ``.mci`` file with their output paths, ``[(run, target)]``, all checked first.
+def plan_runs(
+    path: str | os.PathLike, force: bool = False, out_dir: str | None = None, photons: int | None = None
+) -> list:
+    """Every run of an ``.mci`` file, checked before any is simulated: ``[(run, stack, tallies, target)]``.
 
-    Output names are taken relative to ``out_dir`` (default: the current directory, as MCML). Two
-    runs writing the same file (``same.mco`` and ``./same.mco``), an output that is the input file,
-    a missing directory or (without ``force``) an existing output are refused before anything is
-    simulated, with one line naming the run.
+    Output names are taken relative to ``out_dir`` (default: the current directory, as MCML);
+    ``photons`` overrides every run's photon count. An invalid layer or grid, two runs writing the
+    same file (``same.mco`` and ``./same.mco``), an output that is the input file, a missing
+    directory or (without ``force``) an existing output raise an error naming the run.
     """
     path = os.fspath(path)
-    runs = read_mci(path)
-    targets = [os.path.join(out_dir, r.out_fname) if out_dir else r.out_fname for r in runs]
-    seen: dict[str, McmlRun] = {}
-    for run, target in zip(runs, targets):
+    plan, seen = [], {}
+    for i, run in enumerate(read_mci(path)):
+        if photons is not None:
+            run = dataclasses.replace(run, photons=int(photons))
+        try:
+            stack, tallies = run_to_stack(run), run_to_tallies(run)
+        except _core.ParameterError as e:
+            raise McmlInputError(f"{path}:{run.line}: run {i + 1}: {e}") from None
+        target = os.path.join(out_dir, run.out_fname) if out_dir else run.out_fname
         real = os.path.realpath(target)
         if real in seen:
             raise McmlInputError(
@@ -415,18 +421,8 @@ def plan_runs(path: str | os.PathLike, force: bool = False, out_dir: str | None 
             )
         seen[real] = run
         atomic.check_target(target, force=force, inputs=(path,))
-    return list(zip(runs, targets))
-
-
-def run_to_inputs(path: str | os.PathLike, i: int, run: McmlRun, photons: int | None = None):
-    """``(run, stack, tallies)`` for run ``i`` of the file at ``path`` (``photons`` overrides its
-    photon count); an invalid layer or grid raises :class:`McmlInputError` naming the run."""
-    if photons is not None:
-        run = dataclasses.replace(run, photons=int(photons))
-    try:
-        return run, run_to_stack(run), run_to_tallies(run)
-    except _core.ParameterError as e:
-        raise McmlInputError(f"{os.fspath(path)}:{run.line}: run {i + 1}: {e}") from None
+        plan.append((run, stack, tallies, target))
+    return plan
 
 
 def run_mci(
@@ -440,7 +436,7 @@ def run_mci(
 ) -> list:
     """Simulate every run of an ``.mci`` file and write each ``.mco``; returns [(path, result)].
 
-    Outputs are checked first (:func:`plan_runs`), so a refused overwrite costs nothing.
+    Every run and output is checked first (:func:`plan_runs`), so a refusal costs nothing.
     ``photons`` overrides the photon counts of the file (for quick checks);
     ``progress_factory(i, run)`` may return a ``progress(done, total)`` callback. An interrupted
     run (Ctrl-C) is written with the photons traced so far and ends the loop; it never replaces an
@@ -449,8 +445,7 @@ def run_mci(
     from .mc import simulate
 
     done = []
-    for i, (run, target) in enumerate(plan_runs(path, force=force, out_dir=out_dir)):
-        run, stack, tallies = run_to_inputs(path, i, run, photons)
+    for i, (run, stack, tallies, target) in enumerate(plan_runs(path, force, out_dir, photons)):
         cb = progress_factory(i, run) if progress_factory else None
         result = simulate(stack, photons=run.photons, seed=seed + i, threads=threads, tallies=tallies, progress=cb)
         done.append((write_run(target, run, result, force=force, inputs=(path,)), result))

@@ -21,8 +21,7 @@ def add_arguments(m) -> None:
 def run(a) -> int:
     from .. import atomic, mcml, runner
 
-    for i, (r, target) in enumerate(mcml.plan_runs(a.input, force=a.force)):
-        r, stack, tallies = mcml.run_to_inputs(a.input, i, r, a.photons)
+    for i, (r, stack, tallies, target) in enumerate(mcml.plan_runs(a.input, a.force, photons=a.photons)):
         res = runner.simulate(
             stack,
             label=f"run {i + 1} ({r.out_fname})",

@@ -1,0 +1,148 @@
+"""Runs the cases of ``tests/test_properties.py`` in a process of its own (started by the ``worker``
+fixture of ``conftest.py``), so that a case that crashes or hangs is seen as exactly that — the fixture
+kills and restarts this process — instead of taking the test session down.
+
+Protocol: length-prefixed pickles, ``(job, payload)`` on stdin, one reply each on stdout. Jobs:
+
+* ``("simulate", dict)`` — build Layers/Stack/source/Tallies from plain values and simulate;
+* ``("cli", (argv, files))`` — write ``files`` ({name: bytes}) to a fresh directory, run
+  ``subsurf.cli.main(argv)`` there, and report status, stdout, stderr and the files it wrote;
+* ``("load", (original, damaged))`` — load two results files given as bytes and compare them.
+
+Replies: ``("ok", summary)``, ``("parameter", message)`` for a ``subsurf.ParameterError`` (a
+``ValueError`` of subsurf's), ``("cli", …)``, or ``("exception", type, message, traceback)`` for
+anything else.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import os
+import pickle
+import struct
+import sys
+import tempfile
+import traceback
+import warnings
+
+import numpy as np
+
+
+def summary(res) -> dict:
+    """What the properties check about a result."""
+    totals = [getattr(res, n) for n in ("specular_reflectance", "diffuse_reflectance", "transmittance", "absorbed")]
+    errs = [getattr(res, n + "_stderr") for n in ("specular_reflectance", "diffuse_reflectance", "transmittance")]
+    hist_nan = sorted(
+        k
+        for k, h in res.histograms.items()
+        if not k.startswith("fluence") and not (np.isfinite(h.values).all() and np.isfinite(h.stderr).all())
+    )
+    return {
+        "totals": totals,
+        "balance": res.energy_balance,
+        "nan": [x for x in totals + errs + list(res.absorbed_per_layer) if not math.isfinite(x)],
+        "negative_stderr": [x for x in errs if x < 0],
+        "hist_nan": hist_nan,
+        "photons": res.photons,
+        "partial": res.partial,
+        "histograms": {k: np.shape(h.values) for k, h in res.histograms.items()},
+    }
+
+
+def simulate(p: dict):
+    import subsurf
+
+    layers = [subsurf.Layer(*l[:5], phase=l[5]) for l in p["layers"]]
+    stack = subsurf.Stack(layers, n_above=p["n_above"], n_below=p["n_below"])
+    src = p["source"]
+    source = subsurf.DiffuseIllumination() if src is None else subsurf.PencilBeam(*src)
+    tallies = None if p["tallies"] is None else subsurf.Tallies(**p["tallies"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = subsurf.simulate(stack, photons=p["photons"], seed=p["seed"], threads=1, source=source, tallies=tallies)
+    return ("ok", summary(res))
+
+
+def output_summary(path: str):
+    import subsurf
+    from subsurf import mcml
+
+    if path.endswith(".h5"):
+        return summary(subsurf.load(path))
+    if path.endswith(".mco"):
+        q = mcml.read_mco(path)
+        return {"balance": q["Rsp"] + q["Rd"] + q["A"] + q["Tt"], "photons": q["photons"]}
+    return os.path.getsize(path)
+
+
+def cli(payload):
+    from subsurf import cli as command
+
+    argv, files = payload
+    with tempfile.TemporaryDirectory() as d:
+        for name, data in files.items():
+            with open(os.path.join(d, name), "wb") as f:
+                f.write(data)
+        before = set(os.listdir(d))
+        out, err = io.StringIO(), io.StringIO()
+        cwd = os.getcwd()
+        os.chdir(d)
+        try:
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), warnings.catch_warnings():
+                warnings.simplefilter("ignore", ResourceWarning)
+                try:
+                    status = command.main(argv)
+                except SystemExit as e:  # argparse: --help or a usage error
+                    status = e.code
+            written = {n: output_summary(os.path.join(d, n)) for n in sorted(set(os.listdir(d)) - before)}
+        finally:
+            os.chdir(cwd)
+    return ("cli", status, out.getvalue(), err.getvalue(), written)
+
+
+def load(payload):
+    import subsurf
+    from subsurf import io as rio
+
+    original, damaged = payload
+    with tempfile.TemporaryDirectory() as d:
+        a, b = os.path.join(d, "a.h5"), os.path.join(d, "b.h5")
+        for path, data in ((a, original), (b, damaged)):
+            with open(path, "wb") as f:
+                f.write(data)
+        ref = subsurf.load(a)
+        try:
+            back = subsurf.load(b)
+        except rio.ResultFileError as e:
+            return ("file", str(e))
+        return ("ok", {"equal": rio.results_equal(ref, back)})
+
+
+JOBS = {"simulate": simulate, "cli": cli, "load": load}
+
+
+def main() -> None:
+    proto_in, proto_out = sys.stdin.buffer, sys.stdout.buffer
+    sys.stdout = sys.stderr  # stray prints must not corrupt the protocol
+    import subsurf
+
+    while True:
+        head = proto_in.read(8)
+        if len(head) < 8:
+            return
+        job, payload = pickle.loads(proto_in.read(struct.unpack("<Q", head)[0]))
+        try:
+            reply = JOBS[job](payload)
+        except subsurf.ParameterError as e:
+            reply = ("parameter", str(e))
+        except Exception as e:  # reported to the test, which decides
+            reply = ("exception", type(e).__name__, str(e), traceback.format_exc())
+        data = pickle.dumps(reply)
+        proto_out.write(struct.pack("<Q", len(data)) + data)
+        proto_out.flush()
+
+
+if __name__ == "__main__":
+    main()
