@@ -9,7 +9,8 @@
 * ``worker`` — a separate process running property-test cases (``fuzz_worker.py``), restarted
   after a case that crashes it or outlives its time limit.
 * ``cli`` — run the ``subsurf`` command (``python -m subsurf``) in a subprocess; ``one_line_error``
-  checks that it failed with exit status 2 and one line on stderr.
+  checks that it failed with exit status 2 and one line on stderr. ``cli_here`` runs it in this
+  process (faster) and ``error_here`` checks its one-line error.
 
 Hypothesis settings profiles (``tests/test_properties.py``): ``ci`` (the default: short and
 derandomised, for ``make test``) and ``campaign`` (long random exploration), chosen with
@@ -35,12 +36,13 @@ import synthetic
 from hypothesis import HealthCheck, settings
 
 settings.register_profile(
-    "ci", max_examples=60, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
+    "ci", max_examples=60, deadline=None, derandomize=True, database=None, suppress_health_check=[HealthCheck.too_slow]
 )
 settings.register_profile(
     "campaign",
     max_examples=int(os.environ.get("SUBSURF_CAMPAIGN_EXAMPLES", "20000")),
     deadline=None,
+    database=None,
     suppress_health_check=[HealthCheck.too_slow],
     print_blob=True,
 )
@@ -118,7 +120,7 @@ def as_format_1():
     return _as_format_1
 
 
-def _cli(*args, cwd=None, timeout=120, env=None, hook=None):
+def _cli(*args, cwd=None, timeout=120, env=None, hook=None, preexec_fn=None):
     e = dict(os.environ, PYTHONUNBUFFERED="1", **(env or {}))
     e.pop("SUBSURF_DEBUG", None)
     e.pop("SUBSURF_TEST_HOOK", None)
@@ -131,14 +133,45 @@ def _cli(*args, cwd=None, timeout=120, env=None, hook=None):
         cwd=cwd,
         timeout=timeout,
         env=e,
+        preexec_fn=preexec_fn,
     )
 
 
 @pytest.fixture(scope="session")
 def cli():
-    """``cli(*args, cwd=None, timeout=120, env=None, hook=None) -> CompletedProcess`` of ``python -m subsurf``;
-    ``hook`` sets ``SUBSURF_TEST_HOOK`` (see ``subsurf/_testhooks.py``)."""
+    """``cli(*args, cwd=None, timeout=120, env=None, hook=None, preexec_fn=None) -> CompletedProcess`` of
+    ``python -m subsurf``; ``hook`` sets ``SUBSURF_TEST_HOOK`` (see ``subsurf/_testhooks.py``)."""
     return _cli
+
+
+@pytest.fixture
+def cli_here(capsys):
+    """``cli_here(*args) -> (status, stdout, stderr)``: ``subsurf ARGS`` run in this process."""
+    from subsurf import cli as command
+
+    def run(*args):
+        status = command.main([str(a) for a in args])
+        out = capsys.readouterr()
+        return status, out.out, out.err
+
+    return run
+
+
+@pytest.fixture
+def error_here(cli_here):
+    """``error_here(*args, fragments=()) -> line``: ``subsurf ARGS`` (in this process) fails with exit
+    status 2 and one line ``subsurf: error: …`` holding every fragment."""
+
+    def run(*args, fragments=()):
+        status, _, err = cli_here(*args)
+        assert status == 2, err
+        lines = err.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("subsurf: error: "), err
+        for f in fragments:
+            assert f in lines[0], (f, lines[0])
+        return lines[0]
+
+    return run
 
 
 def _one_line_error(p, *fragments, status=2):
@@ -197,7 +230,13 @@ class Worker:
         return buf
 
     def __call__(self, job, payload, timeout=30.0):
-        """Run one job; returns its reply, or raises :class:`CaseFailed`."""
+        """Run one job; returns its reply, or ``("failed", why)`` when it crashed or hung."""
+        try:
+            return self._call(job, payload, timeout)
+        except CaseFailed as e:
+            return ("failed", str(e))
+
+    def _call(self, job, payload, timeout):
         if self.proc is None:
             self._start()
             timeout += 30.0  # the first job also starts the process (numpy, h5py, the extension)
@@ -211,7 +250,8 @@ class Worker:
 
 @pytest.fixture(scope="session")
 def worker():
-    """``worker(job, payload, timeout=30) -> reply`` (see ``tests/fuzz_worker.py``)."""
+    """``worker(job, payload, timeout=30) -> reply`` (see ``tests/fuzz_worker.py``); a case that crashes
+    the worker or outlives ``timeout`` seconds replies ``("failed", why)``."""
     w = Worker()
     yield w
     w.stop()

@@ -4,6 +4,7 @@ Files, signals and full disks: ``test_cli_files.py``.
 """
 
 import io
+import pathlib
 
 import h5py
 import numpy as np
@@ -12,56 +13,24 @@ import subsurf
 from matplotlib import image
 from subsurf import cli
 
-GOOD = """\
-photons = 3000
-seed = 5
-[[layers]]
-n = 1.4
-mua = 0.2
-mus = 5.0
-g = 0.8
-thickness = 1.0
-[tallies]  # TALLIES
-nr = 20
-dr = 0.1
-nz = 20
-dz = 0.05
-na = 6
-"""
-
-
-def run_here(capsys, *args):
-    """``subsurf ARGS`` in this process: (status, stdout, stderr)."""
-    status = cli.main([str(a) for a in args])
-    out = capsys.readouterr()
-    return status, out.out, out.err
-
-
-def in_process_error(capsys, *args, fragments=()):
-    status, _, err = run_here(capsys, *args)
-    assert status == 2, err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("subsurf: error: "), err
-    for f in fragments:
-        assert f in lines[0], (f, lines[0])
-    return lines[0]
+GOOD = (pathlib.Path(__file__).parent / "data" / "slab.toml").read_text()
 
 
 @pytest.mark.parametrize(
     "text, fragments",
     [
-        (GOOD.replace("g = 0.8", "g = 1.8"), ["bad.toml:7: layers[0].g: 1.8 is out of range"]),
+        (GOOD.replace("g = 0.8", "g = 1.8"), ["bad.toml:8: layers[0].g: 1.8 is out of range"]),
         (GOOD + "colour = 3\n", ["bad.toml:", "tallies.colour: unknown key"]),
-        (GOOD.replace("photons = 3000", "photons = 3000 3"), ["bad.toml:1: invalid TOML"]),
-        (GOOD.replace("nr = 20", "nr = -2"), ["bad.toml:10: tallies.nr: -2 is out of range"]),
-        (GOOD.replace("photons = 3000", "photons = 18446744073709551616"), ["bad.toml:1: photons:", "out of range"]),
+        (GOOD.replace("photons = 3000", "photons = 3000 3"), ["bad.toml:2: invalid TOML"]),
+        (GOOD.replace("nr = 20", "nr = -2"), ["bad.toml:11: tallies.nr: -2 is out of range"]),
+        (GOOD.replace("photons = 3000", "photons = 18446744073709551616"), ["bad.toml:2: photons:", "out of range"]),
         (GOOD.replace("photons = 3000", "photons = " + "[" * 20_000 + "]" * 20_000), ["bad.toml", "nested"]),
     ],
 )
-def test_bad_config_is_one_line(tmp_path, capsys, text, fragments):
+def test_bad_config_is_one_line(tmp_path, error_here, text, fragments):
     p = tmp_path / "bad.toml"
     p.write_text(text)
-    in_process_error(capsys, "simulate", p, fragments=fragments)
+    error_here("simulate", p, fragments=fragments)
 
 
 def test_bad_arguments_are_one_line(tmp_path, cli, one_line_error):
@@ -84,9 +53,9 @@ def test_bad_arguments_are_one_line(tmp_path, cli, one_line_error):
     one_line_error(cli("profile", "--sigma-a", "-1", "--sigma-s-prime", "1"), "--sigma-a = -1 is out of range")
 
 
-def test_mci_photons_beyond_64_bits(tmp_path, capsys, sample_mci):
+def test_mci_photons_beyond_64_bits(tmp_path, error_here, sample_mci):
     (tmp_path / "s.mci").write_text(sample_mci.replace("1000                     # No.", "18446744073709551616 #"))
-    line = in_process_error(capsys, "mcml", tmp_path / "s.mci", fragments=["s.mci:12: number of photons"])
+    line = error_here("mcml", tmp_path / "s.mci", fragments=["s.mci:12: number of photons"])
     assert "must be < 2^64" in line
     assert not (tmp_path / "first.mco").exists()
 
@@ -220,7 +189,7 @@ def test_every_command_is_registered():
         (lambda f: f["histograms/rd_r/values"].attrs.__setitem__("units", 3), None),  # harmless
     ],
 )
-def test_plot_and_merge_of_incomplete_files(tmp_path, capsys, make_result, as_format_1, edit, fragment):
+def test_plot_and_merge_of_incomplete_files(tmp_path, error_here, make_result, as_format_1, edit, fragment):
     """Files without checksums (format 1, or written by hand) are checked for every piece."""
     res, _ = make_result(seed=1)
     p = subsurf.save(res, tmp_path / "a.h5")
@@ -233,19 +202,19 @@ def test_plot_and_merge_of_incomplete_files(tmp_path, capsys, make_result, as_fo
             assert subsurf.io.results_equal(subsurf.load(p), res)
         return
     for args in (("plot", p, "-o", tmp_path / "a.png"), ("merge", tmp_path / "b.h5", p, "-o", tmp_path / "m.h5")):
-        line = in_process_error(capsys, *args, fragments=[str(p), fragment])
+        line = error_here(*args, fragments=[str(p), fragment])
         assert not (tmp_path / "a.png").exists() and not (tmp_path / "m.h5").exists(), line
 
 
-def test_edited_v2_file_fails_its_checksum(tmp_path, capsys, make_result):
+def test_edited_v2_file_fails_its_checksum(tmp_path, error_here, make_result):
     p = subsurf.save(make_result(seed=1)[0], tmp_path / "a.h5")
     with h5py.File(p, "r+") as f:
         f.attrs["photons"] = 20_000
-    in_process_error(capsys, "plot", p, fragments=[f"{p}: its structure or attributes fail their checksum"])
+    error_here("plot", p, fragments=[f"{p}: its structure or attributes fail their checksum"])
     p = subsurf.save(make_result(seed=1)[0], tmp_path / "a.h5")
     with h5py.File(p, "r+") as f:
         f["histograms/a_rz/values"][3, 4] *= 1.0 + 2**-40
-    in_process_error(capsys, "merge", p, p, "-o", tmp_path / "m.h5", fragments=["/histograms/a_rz/values", "fails"])
+    error_here("merge", p, p, "-o", tmp_path / "m.h5", fragments=["/histograms/a_rz/values", "fails"])
 
 
 def test_version_is_printed(capsys):

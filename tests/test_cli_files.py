@@ -6,6 +6,7 @@ progress callback at a given photon count, or pause a save half-way until the te
 """
 
 import os
+import pathlib
 import resource
 import signal
 import subprocess
@@ -14,24 +15,12 @@ import time
 
 import pytest
 import subsurf
-from subsurf import cli, mcml
+from subsurf import mcml
 
-FAST = """\
-photons = {photons}
-seed = 5
-[[layers]]
-n = 1.4
-mua = 0.2
-mus = 5.0
-g = 0.8
-thickness = 1.0
-[tallies]
-nr = 20
-dr = 0.1
-nz = 20
-dz = 0.05
-na = 6
-"""
+#: a small slab (tests/data/slab.toml); FAST.format(photons=N)
+FAST = (
+    (pathlib.Path(__file__).parent / "data" / "slab.toml").read_text().replace("photons = 3000", "photons = {photons}")
+)
 #: σa/σs = 1e-5 under a strongly reflecting surface: ~15 000 events a photon, seconds per chunk
 SLOW = """\
 photons = 1000000
@@ -46,22 +35,6 @@ SLOW_MCI = "1.0\n1\nslow.mco A\n1000000\n0.01 0.01\n10 10 5\n1\n1.0\n2.5 0.01 10
 def leftovers(d):
     """Temporary files of atomic writes left in a directory."""
     return sorted(p.name for p in d.iterdir() if p.name.endswith(".subsurf-tmp"))
-
-
-def in_process(capsys, *args):
-    status = cli.main([str(a) for a in args])
-    out = capsys.readouterr()
-    return status, out.out, out.err
-
-
-def error_line(capsys, *args, fragments=()):
-    status, _, err = in_process(capsys, *args)
-    assert status == 2, err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("subsurf: error: "), err
-    for f in fragments:
-        assert f in lines[0], (f, lines[0])
-    return lines[0]
 
 
 def popen(args, hook, cwd=None):
@@ -209,30 +182,23 @@ def test_killed_during_a_save_keeps_the_previous_file(tmp_path, make_result, sam
 # --- full disk ---------------------------------------------------------------------------------
 
 
-def _limited(args, limit, cwd):
-    """Run the command with files limited to ``limit`` bytes (RLIMIT_FSIZE): writes fail with EFBIG."""
+def limit_files(limit):
+    """A ``preexec_fn`` limiting files to ``limit`` bytes (RLIMIT_FSIZE): writes beyond fail with EFBIG."""
 
     def limit_files():
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
 
-    return subprocess.run(
-        [sys.executable, "-m", "subsurf", *map(str, args)],
-        capture_output=True,
-        text=True,
-        cwd=cwd,
-        preexec_fn=limit_files,
-        timeout=120,
-    )
+    return limit_files
 
 
 @pytest.mark.parametrize("command", ["simulate", "merge", "mcml"])
-def test_full_disk_is_one_line_and_leaves_nothing(tmp_path, make_result, sample_mci, one_line_error, command):
+def test_full_disk_is_one_line_and_leaves_nothing(tmp_path, cli, make_result, sample_mci, one_line_error, command):
     args, target = _command_writing(tmp_path, command, make_result, sample_mci)
-    p = _limited(args, 4096, tmp_path)
+    p = cli(*args, cwd=tmp_path, preexec_fn=limit_files(4096))
     one_line_error(p, f"{target.name}: cannot write (File too large); nothing was written")
     assert not target.exists() and leftovers(tmp_path) == []
-    p = _limited(args, 2**30, tmp_path)  # room again: the next run is not refused
+    p = cli(*args, cwd=tmp_path, preexec_fn=limit_files(2**30))  # room again: the next run is not refused
     assert p.returncode == 0, p.stderr
     assert target.stat().st_size > 4096
 
@@ -241,19 +207,19 @@ def test_full_disk_is_one_line_and_leaves_nothing(tmp_path, make_result, sample_
 
 
 @pytest.mark.parametrize("command", ["simulate", "merge", "plot", "mcml"])
-def test_existing_output_needs_force(tmp_path, capsys, monkeypatch, make_result, sample_mci, command):
+def test_existing_output_needs_force(tmp_path, error_here, cli_here, monkeypatch, make_result, sample_mci, command):
     args, target = _command_writing(tmp_path, command, make_result, sample_mci)
     monkeypatch.chdir(tmp_path)
     target.write_text("precious")
-    error_line(capsys, *args, fragments=[f"{target.name}: exists; use --force"])
+    error_here(*args, fragments=[f"{target.name}: exists; use --force"])
     assert target.read_text() == "precious"
-    status, _, err = in_process(capsys, *args, "--force")
+    status, _, err = cli_here(*args, "--force")
     assert status == 0, err
     assert target.read_bytes()[:8] != b"precious"
 
 
 @pytest.mark.parametrize("command", ["simulate", "merge", "plot"])
-def test_output_paths_are_checked(tmp_path, capsys, make_result, sample_mci, command):
+def test_output_paths_are_checked(tmp_path, error_here, make_result, sample_mci, command):
     args, target = _command_writing(tmp_path, command, make_result, sample_mci)
     args = [str(a) for a in args]
     i = args.index(str(target))
@@ -264,54 +230,54 @@ def test_output_paths_are_checked(tmp_path, capsys, make_result, sample_mci, com
         (tmp_path / "adir", "adir: is a directory; give a file name"),
         (tmp_path / "afile" / "r.out", f"{tmp_path / 'afile'} is not a directory"),
     ):
-        error_line(capsys, *args[:i], out, *args[i + 1 :], fragments=[str(out), fragment])
+        error_here(*args[:i], out, *args[i + 1 :], fragments=[str(out), fragment])
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("a")) == ["adir", "afile"]
 
 
-def test_mcml_output_in_a_missing_directory(tmp_path, capsys, monkeypatch, sample_mci):
+def test_mcml_output_in_a_missing_directory(tmp_path, error_here, monkeypatch, sample_mci):
     (tmp_path / "s.mci").write_text(sample_mci.replace("second.mco A", "nowhere/second.mco A"))
     monkeypatch.chdir(tmp_path)
-    error_line(capsys, "mcml", "s.mci", fragments=["nowhere/second.mco: directory", "does not exist"])
+    error_here("mcml", "s.mci", fragments=["nowhere/second.mco: directory", "does not exist"])
     assert not (tmp_path / "first.mco").exists()  # checked before anything ran
 
 
 # --- outputs that are inputs ------------------------------------------------------------------
 
 
-def test_simulate_does_not_overwrite_its_configuration(tmp_path, capsys):
+def test_simulate_does_not_overwrite_its_configuration(tmp_path, error_here):
     cfg = tmp_path / "a.toml"
     text = FAST.format(photons=100)
     cfg.write_text(text)
     for extra in ([], ["--force"]):
-        error_line(capsys, "simulate", cfg, "-o", cfg, *extra, fragments=["a.toml: is also an input"])
-    error_line(capsys, "simulate", cfg, "-o", tmp_path / "." / "a.toml", "--force", fragments=["is also an input"])
+        error_here("simulate", cfg, "-o", cfg, *extra, fragments=["a.toml: is also an input"])
+    error_here("simulate", cfg, "-o", tmp_path / "." / "a.toml", "--force", fragments=["is also an input"])
     cfg.write_text('output = "a.toml"\n' + text)
-    error_line(capsys, "simulate", cfg, "--force", fragments=["a.toml: is also an input"])
+    error_here("simulate", cfg, "--force", fragments=["a.toml: is also an input"])
     assert cfg.read_text() == 'output = "a.toml"\n' + text
 
 
-def test_merge_and_plot_do_not_overwrite_an_input(tmp_path, capsys, make_result):
+def test_merge_and_plot_do_not_overwrite_an_input(tmp_path, error_here, make_result):
     a, b = (subsurf.save(make_result(seed=s)[0], tmp_path / f"{s}.h5") for s in (1, 2))
     before = open(a, "rb").read()
-    error_line(capsys, "merge", a, b, "-o", a, "--force", fragments=["is also an input"])
-    error_line(capsys, "plot", a, "-o", a, "--force", fragments=["is also an input"])
+    error_here("merge", a, b, "-o", a, "--force", fragments=["is also an input"])
+    error_here("plot", a, "-o", a, "--force", fragments=["is also an input"])
     assert open(a, "rb").read() == before
 
 
-def test_mcml_runs_writing_the_same_file_are_refused(tmp_path, capsys, monkeypatch, sample_mci):
+def test_mcml_runs_writing_the_same_file_are_refused(tmp_path, error_here, monkeypatch, sample_mci):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "s.mci").write_text(sample_mci.replace("first.mco", "same.mco").replace("second.mco", "./same.mco"))
-    error_line(capsys, "mcml", "s.mci", fragments=["s.mci:24: output file ./same.mco is the same file as", "same.mco"])
+    error_here("mcml", "s.mci", fragments=["s.mci:24: output file ./same.mco is the same file as", "same.mco"])
     (tmp_path / "t.mci").write_text(sample_mci.replace("second.mco", "t.mci"))
-    error_line(capsys, "mcml", "t.mci", "--force", fragments=["t.mci: is also an input"])
+    error_here("mcml", "t.mci", "--force", fragments=["t.mci: is also an input"])
     assert not (tmp_path / "same.mco").exists() and not (tmp_path / "first.mco").exists()
     with pytest.raises(mcml.McmlInputError, match="same file"):
         mcml.plan_runs(tmp_path / "s.mci")
 
 
-def test_mcml_checks_every_run_before_simulating_any(tmp_path, capsys, monkeypatch, sample_mci):
+def test_mcml_checks_every_run_before_simulating_any(tmp_path, error_here, monkeypatch, sample_mci):
     """An invalid second run is reported before the first is simulated (nothing is written)."""
     monkeypatch.chdir(tmp_path)
     (tmp_path / "s.mci").write_text(sample_mci.replace("10 10 5", "100000 100000 5"))
-    error_line(capsys, "mcml", "s.mci", fragments=["s.mci:24: run 2: tallies"])
+    error_here("mcml", "s.mci", fragments=["s.mci:24: run 2: tallies"])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.mci"]
