@@ -20,7 +20,7 @@ import os
 
 import h5py
 import pytest
-from hypothesis import assume, given
+from hypothesis import assume, event, given
 from hypothesis import strategies as st
 
 CAMPAIGN = os.environ.get("SUBSURF_HYPOTHESIS_PROFILE", "ci") == "campaign"
@@ -40,8 +40,11 @@ def check(ok: bool, what: str, case) -> None:
 
 
 def run(worker, job, payload):
-    """The worker's reply, or ("failed", why) for a crash or a hang."""
-    return worker(job, payload, timeout=TIME_LIMIT)
+    """The worker's reply, or ("failed", why) for a crash or a hang; its kind is counted in the
+    statistics (``pytest --hypothesis-show-statistics``)."""
+    reply = worker(job, payload, timeout=TIME_LIMIT)
+    event(f"{reply[0]}" + (f" (exit status {reply[1]})" if reply[0] == "cli" else ""))
+    return reply
 
 
 def check_result(s: dict, case, photons: int) -> None:
@@ -279,6 +282,8 @@ def test_mcml_command_on_any_input(worker, sample_mci, edits):
     lines = sample_mci.splitlines()
     for pos, kind, token in edits:
         data = [i for i, l in enumerate(lines) if l.split("#")[0].strip()]
+        if not data:
+            break
         i = data[pos % len(data)]
         fields = lines[i].split("#")[0].split()
         if kind == 0:  # replace a field
@@ -326,7 +331,10 @@ def test_damaged_results_files_are_refused_or_identical(worker, h5_file, flips, 
 
 EDITS = st.sampled_from(["delete", "set_attr", "del_attr"])
 ATTR_VALUES = st.one_of(
-    st.integers(-(2**63), 2**63 - 1), st.floats(), st.text(max_size=6), st.sampled_from(["[1,2]", "{}", "null"])
+    st.integers(-(2**63), 2**63 - 1),
+    st.floats(),
+    st.text(st.characters(blacklist_characters="\x00"), max_size=6),  # HDF5 strings hold no NUL
+    st.sampled_from(["[1,2]", "{}", "null"]),
 )
 
 
