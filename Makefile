@@ -41,6 +41,7 @@ demo: build
 
 bench: build
 	$(PY) benches/bench.py
+	$(PY) benches/bench_profiles.py
 
 clean:
 	rm -rf target $(VENV)

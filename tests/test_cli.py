@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import subsurf
 from matplotlib import image
-from subsurf import cli
+from subsurf import bssrdf, cli
 
 GOOD = (pathlib.Path(__file__).parent / "data" / "slab.toml").read_text()
 
@@ -133,18 +133,16 @@ def test_profile_and_materials(cli, one_line_error):
     p = cli("materials")
     assert p.returncode == 0, p.stderr
     assert "marble" in p.stdout and "skin1" in p.stdout
-    p = cli("profile", "marble")
+    p = cli("profile", "marble", "--photons", "3000")
     assert p.returncode == 0, p.stderr
-    assert "Rd dipole" in p.stdout and "R_d(r)" in p.stdout
-    p = cli("profile", "--sigma-a", "0.01", "--sigma-s-prime", "1.0", "--eta", "1.3")
+    for m in bssrdf.MODELS:
+        assert m in p.stdout
+    p = cli("profile", "--sigma-a", "0.01", "--sigma-s-prime", "1.0", "--eta", "1.3", "--model", "dipole")
     assert p.returncode == 0, p.stderr
-    row = p.stdout.splitlines()[2].split()
-    # dipole total: the closed form; better dipole: the printed quadrature of its R_d(r)
-    assert float(row[6]) == pytest.approx(float(diffusion.total_diffuse_reflectance(1 / 1.01, 1.3)), abs=6e-5)
-    r = np.geomspace(1e-5, 400.0, 20000)
-    y = diffusion.better_dipole_rd(r, 0.01, 1.0, 1.3) * 2 * np.pi * r
-    assert float(row[7]) == pytest.approx(float(np.sum(0.5 * (y[1:] + y[:-1]) * np.diff(r))), abs=6e-5)
-    assert "3.0312e-02" in p.stdout  # dipole R_d(1 mm), the library's own value, tabulated
+    row = next(line for line in p.stdout.splitlines() if line.startswith("dipole"))
+    # the dipole's total and R_d(1 mm): the library's own values, printed
+    assert float(row.split()[1]) == pytest.approx(float(diffusion.total_diffuse_reflectance(1 / 1.01, 1.3)), abs=6e-5)
+    assert "3.0312e-02" in row
     one_line_error(cli("profile", "unobtainium"), "unknown material 'unobtainium'")
 
 
@@ -164,10 +162,29 @@ def test_demo_small(tmp_path, cli, one_line_error):
 
 
 def test_every_command_is_registered():
-    names = [c.name for c in cli.COMMANDS]
-    assert names == ["simulate", "mcml", "profile", "materials", "plot", "merge", "demo"]
     sub = next(a for a in cli.build_parser()._actions if a.dest == "command")
-    assert list(sub.choices) == names
+    assert list(sub.choices) == ["simulate", "mcml", "profile", "fit", "materials", "plot", "merge", "demo"]
+    assert [m.__name__.rpartition(".")[2] for m in cli.COMMANDS] == list(sub.choices)
+
+
+def test_profile_plot_and_fit(tmp_path, cli, one_line_error):
+    out = tmp_path / "p.png"
+    p = cli("profile", "skin1", "--model", "dipole", "--model", "normalized_diffusion", "-o", out)
+    assert p.returncode == 0, p.stderr
+    assert out.exists() and "wrote" in p.stdout
+    prof = bssrdf.Profile.from_model("dipole", 0.02, 1.0, 0.0, 1.4)
+    r = np.geomspace(0.2, 5, 12)
+    rows = "\n".join(f"{x},{y},{0.02 * y}" for x, y in zip(r, prof.rd(r)))
+    (tmp_path / "m.csv").write_text("r,rd,sigma\n" + rows + "\n")
+    p = cli("fit", tmp_path / "m.csv", "--model", "dipole", "--eta", "1.4")
+    assert p.returncode == 0, p.stderr
+    assert "sigma_a" in p.stdout and "0.02 ±" in p.stdout
+    (tmp_path / "s.csv").write_text("rd,tt,sigma_rd,sigma_tt\n0.2,0.4,0.005,0.005\n")
+    p = cli("fit", tmp_path / "s.csv", "--kind", "slab", "--thickness", "1.0")
+    assert p.returncode == 0, p.stderr
+    assert "mus_prime" in p.stdout
+    one_line_error(cli("fit", tmp_path / "s.csv", "--kind", "slab"), "--thickness")
+    one_line_error(cli("fit", tmp_path / "none.csv"), "none.csv: no such file")
 
 
 # --- result files that are damaged or incomplete -------------------------------------------------

@@ -14,8 +14,6 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 PACKAGE = pathlib.Path(subsurf.__file__).resolve().parent
 SOURCES = sorted(PACKAGE.rglob("*.py"))
 TESTS = sorted((ROOT / "tests").glob("*.py"))
-#: Functions being rewritten by the profile work (``subsurf profile``): checked once that lands.
-PENDING_REWRITE = {("cli.py", "cmd_profile"), ("cli.py", "_single_scattering_total")}
 
 
 def module_name(path: pathlib.Path) -> str:
@@ -30,11 +28,6 @@ def nodes(path):
         owner = top.name if isinstance(top, (ast.FunctionDef, ast.ClassDef)) else None
         for node in ast.walk(top):
             yield node, owner
-
-
-def checked(path):
-    rel = str(path.relative_to(PACKAGE))
-    return ((n, o) for n, o in nodes(path) if (rel, o) not in PENDING_REWRITE)
 
 
 def test_import_is_lazy_and_every_public_name_loads():
@@ -80,7 +73,7 @@ def test_no_import_cycles_and_no_imports_of_the_package_root():
     known = {module_name(p): p for p in SOURCES} | {"subsurf._core": PACKAGE / "_core.pyi"}  # the extension
     graph = {m: {d for d in imports_of(p, known) if d in known and d != m} for m, p in known.items() if m != "subsurf"}
     for m, deps in graph.items():
-        assert "subsurf" not in deps or m == "subsurf.cli", f"{m} imports the package root"  # cli: profile, see top
+        assert "subsurf" not in deps, f"{m} imports the package root"
     # depth-first search for a cycle
     state = {}
 
@@ -102,7 +95,7 @@ def test_no_package_root_imports_or_broad_excepts_in_the_package():
     bad = []
     for path in SOURCES:
         rel = path.relative_to(PACKAGE)
-        for node, _ in checked(path):
+        for node, _ in nodes(path):
             where = f"{rel}:{getattr(node, 'lineno', '?')}"
             if isinstance(node, ast.Import) and any(a.name == "subsurf" for a in node.names):
                 bad.append(f"{where}: import subsurf")

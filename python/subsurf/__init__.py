@@ -33,9 +33,9 @@ _EXPORTS = {
     "save": "io",
 }
 #: Submodules reachable as attributes (``subsurf.diffusion``) without importing them first.
-_SUBMODULES = ("diffusion", "hk", "materials", "optics", "testing", "io", "plot", "mcml", "config")
+_SUBMODULES = ("bssrdf", "diffusion", "hk", "materials", "optics", "testing", "io", "plot", "mcml", "config")
 
-__all__ = sorted(set(_EXPORTS) | {"diffusion", "hk", "materials", "optics", "testing"})
+__all__ = sorted(set(_EXPORTS) | {"bssrdf", "diffusion", "hk", "materials", "optics", "testing"})
 
 
 def __getattr__(name: str) -> Any:
@@ -54,7 +54,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
-    from . import diffusion, hk, materials, optics, testing  # noqa: F401
+    from . import bssrdf, diffusion, hk, materials, optics, testing  # noqa: F401
     from ._core import ParameterError, __version__  # noqa: F401
     from .io import load, merge, save  # noqa: F401
     from .materials import Material  # noqa: F401

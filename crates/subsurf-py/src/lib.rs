@@ -5,6 +5,7 @@
 
 use pyo3::prelude::*;
 
+mod bssrdf;
 mod diffusion;
 mod errors;
 mod hk;
@@ -21,5 +22,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     mc::register(m)?;
     hk::register(m)?;
     diffusion::register(m)?;
+    bssrdf::register(m)?;
     Ok(())
 }

@@ -1,31 +1,25 @@
-"""The sub-commands of ``subsurf``: one module each, registered in :data:`subsurf.cli.COMMANDS`.
+"""The sub-commands of ``subsurf``: one module each, listed in :data:`subsurf.cli.COMMANDS`.
 
-A sub-command module defines ``COMMAND = Command(name, help, add_arguments, run)``:
-``add_arguments(parser)`` declares its arguments on an ``argparse`` sub-parser and ``run(args)``
-does the work and returns the exit status. It reports bad input by raising
-:class:`subsurf.runner.UserError`, ``ValueError`` (``subsurf.ParameterError`` …) or ``OSError``
-with a one-line message; :func:`subsurf.cli.main` prints it as ``subsurf: error: …`` (status 2).
-Shared run/report helpers live in :mod:`subsurf.runner`, argument helpers here. Modules import
-only the standard library at the top, and the rest inside ``run``, so ``subsurf --help`` is fast.
+A sub-command module defines ``add_parser(sub)``, which registers the command on the ``argparse``
+sub-parsers (its name, help and arguments, and ``set_defaults(func=run)``), and ``run(args)``, which
+does the work and returns the exit status. It reports bad input by raising :class:`CommandError`
+(or ``subsurf.ParameterError`` and other ``ValueError``/``OSError``) with a one-line message;
+:func:`subsurf.cli.main` prints it as ``subsurf: error: …`` (exit status 2). Shared run/report
+helpers live in :mod:`subsurf.runner`, argument helpers here. Modules import the standard library
+at the top and the rest inside their functions, so ``subsurf --help`` stays quick.
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from typing import Callable
 
-__all__ = ["Command", "integer", "add_force", "add_quiet"]
+from ..runner import UserError as CommandError
 
+__all__ = ["CommandError", "integer", "add_force", "add_quiet", "U64_MAX"]
 
-@dataclasses.dataclass(frozen=True)
-class Command:
-    """A sub-command: its name, one-line help, argument declaration and implementation."""
-
-    name: str
-    help: str
-    add_arguments: Callable[[argparse.ArgumentParser], None]
-    run: Callable[[argparse.Namespace], int]
+#: The engine counts photons, seeds and threads in 64-bit integers.
+U64_MAX = 2**64 - 1
 
 
 def integer(flag: str, lo: int, hi: int) -> Callable[[str], int]:
@@ -37,15 +31,11 @@ def integer(flag: str, lo: int, hi: int) -> Callable[[str], int]:
         except ValueError:
             raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
         if not lo <= v <= hi:
-            top = "2^64 - 1" if hi == 2**64 - 1 else str(hi)
+            top = "2^64 - 1" if hi == U64_MAX else str(hi)
             raise argparse.ArgumentTypeError(f"{flag} = {v} is out of range: must be an integer in [{lo}, {top}]")
         return v
 
     return parse
-
-
-#: The engine counts photons, seeds and threads in 64-bit integers.
-U64_MAX = 2**64 - 1
 
 
 def add_force(p: argparse.ArgumentParser, what: str) -> None:

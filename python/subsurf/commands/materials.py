@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from . import Command
 
-
-def add_arguments(p) -> None:
-    pass
+def add_parser(sub) -> None:
+    p = sub.add_parser("materials", help="list the material library")
+    p.set_defaults(func=run)
 
 
 def run(a) -> int:
@@ -22,6 +21,3 @@ def run(a) -> int:
         print(f"{n:<12} {sp:>30}   {sa:>30}   {m.eta:>5.3g}")
     print("(Jensen, Marschner, Levoy & Hanrahan, SIGGRAPH 2001, Fig. 5)")
     return 0
-
-
-COMMAND = Command("materials", "list the material library", add_arguments, run)

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from . import U64_MAX, Command, add_force, add_quiet, integer
+from . import U64_MAX, add_force, add_quiet, integer
 
 
-def add_arguments(m) -> None:
+def add_parser(sub) -> None:
+    m = sub.add_parser("mcml", help="MCML drop-in: simulate every run of an .mci file, write .mco files")
     m.add_argument("input", metavar="INPUT.mci")
     add_force(m, ".mco file")
     m.add_argument(
@@ -16,6 +17,7 @@ def add_arguments(m) -> None:
         "--photons", type=integer("--photons", 1, U64_MAX), help="override every run's photon count (quick checks)"
     )
     add_quiet(m)
+    m.set_defaults(func=run)
 
 
 def run(a) -> int:
@@ -41,6 +43,3 @@ def run(a) -> int:
         if res.partial or held.received:
             return runner.EXIT_INTERRUPTED
     return 0
-
-
-COMMAND = Command("mcml", "MCML drop-in: simulate every run of an .mci file, write .mco files", add_arguments, run)

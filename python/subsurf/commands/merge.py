@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
-from . import Command, add_force
+from . import add_force
 
 
-def add_arguments(p) -> None:
+def add_parser(sub) -> None:
+    p = sub.add_parser("merge", help="merge results of the same configuration with different seeds")
     p.add_argument("inputs", nargs="+", metavar="RESULT.h5")
     p.add_argument("-o", "--output", required=True, metavar="MERGED.h5")
     add_force(p, "results file")
+    p.set_defaults(func=run)
 
 
 def run(a) -> int:
@@ -21,6 +23,3 @@ def run(a) -> int:
     path = io.save(res, a.output, force=a.force)
     print(f"wrote {path}: {res.photons:,} photons from seeds {res.config.get('seeds')}")
     return 0
-
-
-COMMAND = Command("merge", "merge results of the same configuration with different seeds", add_arguments, run)

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import os
 
-from . import Command, add_force
+from . import add_force
 
 
-def add_arguments(p) -> None:
+def add_parser(sub) -> None:
+    p = sub.add_parser("plot", help="plot a results file to a PNG")
     p.add_argument("result", metavar="RESULT.h5")
     p.add_argument("-o", "--output", metavar="FIGURE.png", help="figure file (default: RESULT.png)")
     p.add_argument("--no-models", action="store_true", help="do not draw the diffusion curves")
     add_force(p, "figure")
+    p.set_defaults(func=run)
 
 
 def run(a) -> int:
@@ -23,6 +25,3 @@ def run(a) -> int:
     fig = plot.figure(res, models=() if a.no_models else ("dipole", "better_dipole"))
     print(f"wrote {plot.save_figure(fig, out, force=a.force)}")
     return 0
-
-
-COMMAND = Command("plot", "plot a results file to a PNG", add_arguments, run)

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import os
 
-from . import U64_MAX, Command, add_force, add_quiet, integer
+from . import U64_MAX, add_force, add_quiet, integer
 
 
-def add_arguments(s) -> None:
+def add_parser(sub) -> None:
+    s = sub.add_parser("simulate", help="run a Monte Carlo simulation described by a TOML file")
     s.add_argument("config", metavar="CONFIG.toml")
     s.add_argument("--photons", type=integer("--photons", 1, U64_MAX), help="override the number of photons")
     s.add_argument("--seed", type=integer("--seed", 0, U64_MAX), help="override the seed")
@@ -15,6 +16,7 @@ def add_arguments(s) -> None:
     s.add_argument("-o", "--output", metavar="RESULT.h5", help="results file (default: CONFIG.h5)")
     add_force(s, "results file")
     add_quiet(s)
+    s.set_defaults(func=run)
 
 
 def run(a) -> int:
@@ -35,6 +37,3 @@ def run(a) -> int:
         print(result.summary())
     print(f"wrote {path}" + (" (partial: interrupted)" if result.partial else ""))
     return runner.EXIT_INTERRUPTED if (result.partial or held) else 0
-
-
-COMMAND = Command("simulate", "run a Monte Carlo simulation described by a TOML file", add_arguments, run)

@@ -1,8 +1,36 @@
 //! Radial BSSRDF profiles R_d(r): the diffuse reflectance per unit area (mm⁻²) at distance r
 //! (mm) from a normally incident pencil beam of unit power, for one colour channel.
 //!
-//! Every model (dipole, better dipole, multipole, photon beam diffusion, normalized diffusion,
-//! Monte Carlo) implements [`RadialProfile`]; renderers and fits use profiles only through it.
+//! Every model implements [`RadialProfile`]; renderers and fits use profiles only through it.
+//! One model per file, each citing its paper and equations:
+//! - [`dipole`]: Jensen et al. 2001 (the classical dipole);
+//! - [`better_dipole`]: d'Eon 2012;
+//! - [`multipole`]: Donner & Jensen 2005 (finite slabs, layered stacks by convolution);
+//! - [`photon_beam_diffusion`]: Habel, Christensen & Jarosz 2013 (single + multiple scattering);
+//! - [`normalized_diffusion`]: Christensen & Burley 2015;
+//! - [`monte_carlo`]: the engine's R(r) on a log grid, energy-exact, for any [`Stack`].
+//!
+//! Support: [`cdf`] (the monotone radial CDF every model samples from), [`chandrasekhar`] (exact
+//! semi-infinite reflectance, the reference of the Monte Carlo tests), [`table`] (Monte Carlo
+//! profile tables in optical units), [`inverse`] (material from appearance, fits to measurements).
+
+pub mod better_dipole;
+pub mod cdf;
+pub mod chandrasekhar;
+pub mod dipole;
+pub mod inverse;
+pub mod monte_carlo;
+pub mod multipole;
+pub mod normalized_diffusion;
+pub mod photon_beam_diffusion;
+pub mod table;
+
+#[cfg(test)]
+mod contract_tests;
+
+use crate::error::{check_g, check_index, check_nonneg, Error, Result};
+use crate::medium::{Layer, Stack};
+use cdf::RadialCdf;
 
 /// A radial diffuse-reflectance profile and the sampling routines a renderer needs.
 ///
@@ -35,5 +63,228 @@ pub trait RadialProfile: Send + Sync {
     /// searches with it, e.g. q = 0.999).
     fn radius_for_fraction(&self, q: f64) -> f64 {
         self.sample_r(q)
+    }
+    /// The single-scattering part of the profile as a profile of its own (included in
+    /// [`rd`](Self::rd)), for models that separate it (photon beam diffusion, Monte Carlo);
+    /// `None` for pure diffusion models.
+    fn single_scattering(&self) -> Option<&dyn RadialProfile> {
+        None
+    }
+}
+
+/// A closed-form R_d(r) with a characteristic length; [`Tabulated`] adds its CDF and sampler.
+pub trait ClosedForm: Send + Sync {
+    /// R_d(r), mm⁻².
+    fn rd(&self, r: f64) -> f64;
+    /// A length (mm) on which the profile varies near the origin (e.g. 1/σt').
+    fn scale(&self) -> f64;
+    /// The single-scattering part, if the model separates it.
+    fn single(&self) -> Option<&dyn RadialProfile> {
+        None
+    }
+}
+
+/// A closed-form profile with its CDF tabulated once ([`RadialCdf::from_rd`]): `rd` and `pdf`
+/// are the model's exact values; `total` is the quadrature of rd (agrees with the closed-form
+/// totals to ~1e-12 where they exist).
+pub struct Tabulated<M: ClosedForm> {
+    /// The model.
+    pub model: M,
+    cdf: RadialCdf,
+    total: f64,
+}
+
+impl<M: ClosedForm> Tabulated<M> {
+    /// Tabulate the CDF of `model`.
+    pub fn new(model: M) -> Self {
+        let (cdf, total) = RadialCdf::from_rd(&|r| model.rd(r), model.scale());
+        Tabulated { model, cdf, total }
+    }
+}
+
+impl<M: ClosedForm> RadialProfile for Tabulated<M> {
+    fn rd(&self, r: f64) -> f64 {
+        if r >= 0.0 {
+            self.model.rd(r)
+        } else {
+            0.0
+        }
+    }
+    fn total(&self) -> f64 {
+        self.total
+    }
+    fn cdf(&self, r: f64) -> f64 {
+        self.cdf.cdf(r)
+    }
+    fn sample_r(&self, u: f64) -> f64 {
+        self.cdf.sample(u)
+    }
+    fn single_scattering(&self) -> Option<&dyn RadialProfile> {
+        self.model.single()
+    }
+}
+
+/// A homogeneous semi-infinite medium in air-like surroundings: σa, σs (mm⁻¹), HG mean cosine g
+/// and relative index η = n_medium/n_outside.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Medium {
+    /// Absorption coefficient σa, mm⁻¹.
+    pub sigma_a: f64,
+    /// Scattering coefficient σs, mm⁻¹.
+    pub sigma_s: f64,
+    /// Henyey–Greenstein mean cosine g (|g| < 1).
+    pub g: f64,
+    /// Relative refractive index η = n_medium / n_outside (≥ 1 for the diffusion models).
+    pub eta: f64,
+}
+
+impl Medium {
+    /// Validated medium.
+    pub fn new(sigma_a: f64, sigma_s: f64, g: f64, eta: f64) -> Result<Medium> {
+        check_nonneg("sigma_a", sigma_a)?;
+        check_nonneg("sigma_s", sigma_s)?;
+        check_g("g", g)?;
+        check_index("eta", eta)?;
+        if !(sigma_a + sigma_s > 0.0) {
+            return Err(Error::param(
+                "sigma_a + sigma_s",
+                sigma_a + sigma_s,
+                "a finite number > 0 (a non-empty medium)",
+            ));
+        }
+        Ok(Medium { sigma_a, sigma_s, g, eta })
+    }
+
+    /// The medium of a stack made of one semi-infinite layer (η = n / n_above); other stacks
+    /// are refused (only `multipole` and `monte_carlo` take layered or finite stacks).
+    pub fn from_stack(stack: &Stack, model: &str) -> Result<Medium> {
+        match stack.layers.as_slice() {
+            [l] if l.thickness.is_infinite() && l.phase.lobes().len() == 1 => {
+                Medium::new(l.mua, l.mus, l.g(), l.n / stack.n_above)
+            }
+            _ => Err(Error::Invalid(format!(
+                "model {model:?} needs one semi-infinite layer with an HG phase function; use \"multipole\" \
+                 or \"monte_carlo\" for layered, finite or mixture stacks"
+            ))),
+        }
+    }
+
+    /// σs' = σs (1 − g), mm⁻¹.
+    pub fn sigma_s_prime(&self) -> f64 {
+        self.sigma_s * (1.0 - self.g)
+    }
+    /// σt = σa + σs, mm⁻¹.
+    pub fn sigma_t(&self) -> f64 {
+        self.sigma_a + self.sigma_s
+    }
+    /// Single-scattering albedo σs/σt.
+    pub fn albedo(&self) -> f64 {
+        self.sigma_s / self.sigma_t()
+    }
+    /// This medium as a stack: one semi-infinite layer of index η under index 1.
+    pub fn to_stack(&self) -> Result<Stack> {
+        Stack::new(vec![Layer::new(self.eta, self.sigma_a, self.sigma_s, self.g, f64::INFINITY)?], 1.0, 1.0)
+    }
+}
+
+/// The profile models, selectable by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Model {
+    /// Jensen et al. 2001.
+    Dipole,
+    /// d'Eon 2012.
+    BetterDipole,
+    /// Donner & Jensen 2005.
+    Multipole,
+    /// Habel, Christensen & Jarosz 2013.
+    PhotonBeamDiffusion,
+    /// Christensen & Burley 2015.
+    NormalizedDiffusion,
+    /// The Monte Carlo engine.
+    MonteCarlo,
+}
+
+impl Model {
+    /// Every model, in the order the CLI and the docs list them.
+    pub const ALL: [Model; 6] = [
+        Model::Dipole,
+        Model::BetterDipole,
+        Model::Multipole,
+        Model::PhotonBeamDiffusion,
+        Model::NormalizedDiffusion,
+        Model::MonteCarlo,
+    ];
+
+    /// The model's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::Dipole => "dipole",
+            Model::BetterDipole => "better_dipole",
+            Model::Multipole => "multipole",
+            Model::PhotonBeamDiffusion => "photon_beam_diffusion",
+            Model::NormalizedDiffusion => "normalized_diffusion",
+            Model::MonteCarlo => "monte_carlo",
+        }
+    }
+
+    /// The model called `name`; anything else is an error listing the names.
+    pub fn from_name(name: &str) -> Result<Model> {
+        Model::ALL.iter().copied().find(|m| m.name() == name).ok_or_else(|| {
+            let names: Vec<&str> = Model::ALL.iter().map(|m| m.name()).collect();
+            Error::Invalid(format!("model = {name:?} is not a profile model: must be one of {names:?}"))
+        })
+    }
+}
+
+/// The profile of `model` for `stack` (Monte Carlo settings from `mc`; ignored by the others).
+pub fn profile(model: Model, stack: &Stack, mc: &monte_carlo::McSettings) -> Result<Box<dyn RadialProfile>> {
+    Ok(match model {
+        Model::MonteCarlo => Box::new(monte_carlo::MonteCarloProfile::simulate(stack, mc)?),
+        Model::Multipole => multipole::profile(stack)?,
+        _ => medium_profile(model, &Medium::from_stack(stack, model.name())?)?,
+    })
+}
+
+/// The profile of a closed-form `model` for a homogeneous semi-infinite medium (Monte Carlo
+/// needs [`profile`] with its settings).
+pub fn medium_profile(model: Model, m: &Medium) -> Result<Box<dyn RadialProfile>> {
+    Ok(match model {
+        Model::Dipole => Box::new(dipole::profile(m)?),
+        Model::BetterDipole => Box::new(better_dipole::profile(m)?),
+        Model::Multipole => multipole::profile(&m.to_stack()?)?,
+        Model::PhotonBeamDiffusion => Box::new(photon_beam_diffusion::profile(m)?),
+        Model::NormalizedDiffusion => Box::new(normalized_diffusion::from_medium(m)?),
+        Model::MonteCarlo => {
+            return Err(Error::Invalid("model \"monte_carlo\" needs Monte Carlo settings: use bssrdf::profile".into()))
+        }
+    })
+}
+
+/// One profile per channel (a list of stacks for RGB or a spectrum), in channel order.
+pub fn channel_profiles(
+    model: Model,
+    stacks: &[Stack],
+    mc: &monte_carlo::McSettings,
+) -> Result<Vec<Box<dyn RadialProfile>>> {
+    if stacks.is_empty() {
+        return Err(Error::Invalid("stacks: give at least one stack (one per channel)".into()));
+    }
+    stacks
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let mut cfg = *mc;
+            cfg.seed = mc.seed.wrapping_add(i as u64);
+            profile(model, s, &cfg).map_err(|e| channel_error(e, i))
+        })
+        .collect()
+}
+
+fn channel_error(e: Error, i: usize) -> Error {
+    match e {
+        Error::Parameter { field, value, allowed } => {
+            Error::Parameter { field: format!("channels[{i}].{field}"), value, allowed }
+        }
+        Error::Invalid(m) => Error::Invalid(format!("channels[{i}]: {m}")),
     }
 }

@@ -71,9 +71,16 @@ impl Dipole {
         let dr = (r2 + self.z_r * self.z_r).sqrt();
         let dv = (r2 + self.z_v * self.z_v).sqrt();
         let s = self.sigma_tr;
-        let term = |z: f64, d: f64| z * (s * d + 1.0) * (-s * d).exp() / (d * d * d);
-        self.alpha_prime / (4.0 * PI) * (term(self.z_r, dr) + term(self.z_v, dv))
+        self.alpha_prime / (4.0 * PI) * (flux_term(self.z_r, dr, s) + flux_term(self.z_v, dv, s))
     }
+}
+
+/// The normal flux of a point source at signed depth `z` (mm) seen at distance `d` (mm):
+/// z (σtr d + 1) e^{−σtr d} / d³ = −∂/∂z (e^{−σtr d}/d) (Farrell et al. 1992); the dipole is the
+/// sum of two of these, the multipole (Donner & Jensen 2005) of many.
+#[inline]
+pub fn flux_term(z: f64, d: f64, sigma_tr: f64) -> f64 {
+    z * (sigma_tr * d + 1.0) * (-sigma_tr * d).exp() / (d * d * d)
 }
 
 /// R_d(r) of the Jensen dipole in mm⁻² (r in mm, σa and σs' in mm⁻¹), validated.

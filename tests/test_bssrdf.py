@@ -1,0 +1,111 @@
+"""subsurf.bssrdf: the Python contract (arrays and floats in/out, models by name, tables saved
+atomically with a checksum, inverse round trips, ParameterError naming the field). The physics
+is tested next to the Rust code (crates/subsurf-core/src/bssrdf/*tests*.rs)."""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+import subsurf
+from subsurf import ParameterError, bssrdf, testing
+
+
+def test_every_model_by_name_arrays_and_floats():
+    assert set(bssrdf.MODELS) == {
+        "dipole",
+        "better_dipole",
+        "multipole",
+        "photon_beam_diffusion",
+        "normalized_diffusion",
+        "monte_carlo",
+    }
+    for m in bssrdf.MODELS:
+        kw = {"photons": 5000} if m == "monte_carlo" else {}
+        p = bssrdf.Profile.from_stack(subsurf.Stack([subsurf.Layer(1.33, 0.05, 1.2, 0.3)]), model=m, **kw)
+        assert isinstance(p.rd(1.0), float) and isinstance(p.pdf(0.5), float)
+        r = np.array([[0.1, 1.0], [2.0, 5.0]])
+        assert p.rd(r).shape == (2, 2) and p.cdf(r).shape == (2, 2)
+        u = np.linspace(0.01, 0.99, 7)
+        assert np.allclose(p.cdf(p.sample_r(u)), u, atol=1e-9), m
+        assert 0 < p.total() < 1 and p.radius_for_fraction(0.99) > p.radius_for_fraction(0.5)
+
+
+def test_sampling_chi2_python_kit():
+    p = bssrdf.Profile.from_model("photon_beam_diffusion", 0.02, 1.0, 0.0, 1.4)
+    edges = np.concatenate([[0.0], p.sample_r(np.linspace(0.02, 0.98, 30))])
+    res = testing.chi2_test_1d(
+        lambda n, rng: p.sample_r(rng.random(n)), p.pdf, edges=edges, n_samples=50_000, seed=3, max_subdivisions=64
+    )
+    assert res.passed, res
+
+
+def test_monte_carlo_contract_and_channels():
+    stack = subsurf.Stack(
+        [subsurf.Layer(1.4, 0.3, 10.0, 0.8, 0.1), subsurf.Layer(1.4, 0.02, 12.0, 0.9)], n_above=1.0, n_below=1.0
+    )
+    p = bssrdf.Profile.from_monte_carlo(stack, photons=5000, seed=2)
+    d = p.mc_data()
+    assert p.total() == pytest.approx(d["weight"].sum(), abs=1e-12)
+    f, ss_total = p.single_scattering()
+    assert 0 < ss_total < p.total() and f(0.5) >= 0
+    chans = bssrdf.profiles([stack, stack], photons=3000, seed=5)
+    assert len(chans) == 2 and chans[0].total() != chans[1].total()
+    with pytest.raises(ParameterError, match=r"channels\[1\]"):
+        bssrdf.profiles([stack, subsurf.Stack([subsurf.Layer(1.4, 0.0, 0.0, 0.0)])], photons=100)
+
+
+def test_chandrasekhar_and_normalized_diffusion_values():
+    # van de Hulst's published plane albedos (the engine's tests use the same numbers)
+    assert bssrdf.chandrasekhar_reflectance(0.8) == pytest.approx(0.28525, abs=1e-5)
+    assert bssrdf.chandrasekhar_reflectance(0.99) == pytest.approx(0.75272, abs=1e-5)
+    p = bssrdf.Profile.normalized_diffusion(0.5, 1.0)  # s = 1.539 (eq. 5)
+    assert p.total() == 0.5
+    assert p.rd(1.0) == pytest.approx(0.5 * 1.539 * (np.exp(-1.539) + np.exp(-0.513)) / (8 * np.pi), rel=1e-12)
+
+
+@pytest.fixture(scope="module")
+def table():
+    s = bssrdf.ProfileTable.default_settings(0.0, 1.33, albedos=[0.8, 0.9, 0.95, 0.99, 0.995], photons=4000)
+    return bssrdf.ProfileTable.build(**{k: v for k, v in s.items() if k not in ("g", "eta")}, g=0.0, eta=1.33)
+
+
+def test_table_roundtrip_and_corruption(table, tmp_path):
+    path = table.save(tmp_path / "t.h5")
+    back = bssrdf.ProfileTable.load(path)
+    assert back.rho_eff(0.93) == table.rho_eff(0.93)
+    assert not list(tmp_path.glob("*.tmp"))
+    a = table.albedo_for(0.5)
+    assert table.rho_eff(a) == pytest.approx(0.5, abs=1e-12)
+    prof = table.profile(0.01, 0.99)
+    assert prof.total() == pytest.approx(table.rho_eff(0.99), abs=1e-12)
+    with h5py.File(path, "r+") as f:
+        f["points/0002/weight"][5] += 1e-3
+    with pytest.raises(ParameterError, match="checksum"):
+        bssrdf.ProfileTable.load(path)
+    (tmp_path / "junk.h5").write_bytes(b"not hdf5")
+    with pytest.raises(ParameterError, match="corrupted"):
+        bssrdf.ProfileTable.load(tmp_path / "junk.h5")
+    with pytest.raises(ParameterError, match="empty"):
+        bssrdf.ProfileTable.assemble(table.settings, [])
+
+
+def test_inverse_and_bad_input(table):
+    layers = bssrdf.material_from_appearance([0.5, 0.4], [1.0, 2.0], eta=1.33, g=0.0, model="monte_carlo", table=table)
+    assert [round(1 / l.sigma_t, 12) for l in layers] == [1.0, 2.0]
+    for lay, c in zip(layers, [0.5, 0.4]):
+        assert table.rho_eff(lay.albedo) == pytest.approx(c, abs=1e-9)
+    layers = bssrdf.material_from_appearance([0.3], [1.0], eta=1.3, model="dipole")
+    assert subsurf.diffusion.total_diffuse_reflectance(layers[0].albedo, 1.3) == pytest.approx(0.3, abs=1e-9)
+    with pytest.raises(ParameterError, match=r"albedo\[0\] = 1.5"):
+        bssrdf.material_from_appearance([1.5], [1.0], model="dipole")
+    with pytest.raises(ParameterError, match=r"albedo\[0\] = 0.99 is out of range"):
+        bssrdf.material_from_appearance([0.99], [1.0], eta=1.33, model="monte_carlo", table=table)
+    with pytest.raises(ParameterError, match="model"):
+        bssrdf.Profile.from_model("tripole", 0.1, 1.0)
+    prof = bssrdf.Profile.from_model("dipole", 0.02, 1.0, 0.0, 1.4)
+    r = np.geomspace(0.2, 5, 15)
+    fit = bssrdf.fit_profile(r, prof.rd(r), 0.01 * prof.rd(r), model="dipole", eta=1.4)
+    assert fit.params == pytest.approx([0.02, 1.0], rel=1e-5) and fit.cov.shape == (2, 2) and fit.dof == 13
+    with pytest.raises(ParameterError, match=r"sigma\[0\]"):
+        bssrdf.fit_profile(r, prof.rd(r), 0.0 * r, model="dipole")
