@@ -221,7 +221,7 @@ MUTATIONS = st.lists(
 )
 
 
-def check_cli(reply, case, photons, outputs):
+def check_cli(reply, case, photons):
     """A command's reply: exit 0 with outputs that are sound results, or one error line and status 2."""
     if reply[0] != "cli":
         check(False, f"the command did not return: {reply}", case)
@@ -239,7 +239,7 @@ def check_cli(reply, case, photons, outputs):
             check_result(s, case, s["photons"] if photons is None else photons)
         elif name.endswith(".mco"):
             check(abs(s["balance"] - 1) < 1e-5 and s["photons"] == photons, f"{name}: {s}", case)
-    check(any(n.endswith(outputs) for n in written), f"exit 0 but no output: {written}", case)
+    check(bool(written), f"exit 0 but no output: {written}", case)
 
 
 @given(doc=config_docs(), ops=MUTATIONS, override=st.booleans())
@@ -247,7 +247,7 @@ def test_simulate_command_on_any_configuration(worker, doc, ops, override):
     text = mutate(toml_text(doc), ops)
     argv = ["simulate", "c.toml", "--photons", "20", "--threads", "1", "-q"] + (["-o", "r.h5"] if override else [])
     case = {"c.toml": text, "argv": argv}
-    check_cli(run(worker, "cli", (argv, {"c.toml": text.encode()})), case, 20, (".h5",))
+    check_cli(run(worker, "cli", (argv, {"c.toml": text.encode()})), case, 20)
 
 
 MCI_TOKENS = st.sampled_from(
@@ -297,10 +297,17 @@ def test_mcml_command_on_any_input(worker, sample_mci, edits):
             lines = lines[: i + 1]
     text = "\n".join(lines) + "\n"
     argv = ["mcml", "c.mci", "--photons", "20", "--threads", "1", "-q"]
-    check_cli(run(worker, "cli", (argv, {"c.mci": text.encode()})), {"c.mci": text}, 20, (".mco",))
+    check_cli(run(worker, "cli", (argv, {"c.mci": text.encode()})), {"c.mci": text}, 20)
 
 
 # --- results files: random corruption and missing pieces --------------------------------------------
+
+
+class Blob(bytes):
+    """File contents that print as their length (hypothesis prints the arguments of a failing case)."""
+
+    def __repr__(self):
+        return f"<{len(self)} bytes>"
 
 
 @pytest.fixture(scope="module")
@@ -308,7 +315,7 @@ def h5_file(make_result):
     from subsurf import io as rio
 
     res, _ = make_result(seed=3, nr=4, nz=3, na=2, brdf=(2, 3), max_order=1)
-    return rio.to_bytes(res)
+    return Blob(rio.to_bytes(res))
 
 
 @given(
@@ -333,7 +340,9 @@ EDITS = st.sampled_from(["delete", "set_attr", "del_attr"])
 ATTR_VALUES = st.one_of(
     st.integers(-(2**63), 2**63 - 1),
     st.floats(),
-    st.text(st.characters(blacklist_characters="\x00"), max_size=6),  # HDF5 strings hold no NUL
+    st.text(
+        st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"), max_size=6
+    ),  # HDF5: UTF-8, no NUL
     st.sampled_from(["[1,2]", "{}", "null"]),
 )
 
@@ -359,4 +368,4 @@ def test_edited_results_files_merge_cleanly(worker, h5_file, as_format_1, tmp_pa
             elif kind == "set_attr" and keys:
                 obj.attrs[keys[k % len(keys)]] = value
     argv = ["merge", "a.h5", "-o", "m.h5"]
-    check_cli(run(worker, "cli", (argv, {"a.h5": path.read_bytes()})), {"edits": edits, "v1": v1}, None, (".h5",))
+    check_cli(run(worker, "cli", (argv, {"a.h5": path.read_bytes()})), {"edits": edits, "v1": v1}, None)
