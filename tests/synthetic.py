@@ -1,7 +1,8 @@
 """Hand-built :class:`subsurf.result.Result` objects for the I/O, MCML, CLI and plot tests.
 
 Histogram values are bin weights (fractions of N photons) divided by the exact bin measures the
-tallies use (annulus area, ring solid angle, area × projected solid angle for R(r, θ), depth).
+tallies use (annulus area, ring solid angle, area × projected solid angle for R(r, θ), depth),
+computed by the core (``_core.mc_axis_measures``), which the histograms carry as ``measures``.
 """
 
 from __future__ import annotations
@@ -9,19 +10,24 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from subsurf import _core
 from subsurf.result import Histogram, Result
 
 
+def _measure(kind, edges):
+    return _core.mc_axis_measures(kind, np.asarray(edges, dtype=float))
+
+
 def _area(e):
-    return math.pi * (e[1:] ** 2 - e[:-1] ** 2)
+    return _measure("r", e)
 
 
 def _solid(a):
-    return 2 * math.pi * (np.cos(a[:-1]) - np.cos(a[1:]))
+    return _measure("theta", a)
 
 
 def _proj(a):
-    return math.pi * (np.sin(a[1:]) ** 2 - np.sin(a[:-1]) ** 2)
+    return _measure("theta_projected", a)
 
 
 def make_result(
@@ -51,9 +57,13 @@ def make_result(
     raw["a_rz"] = rng.dirichlet(np.ones(nr * nz)).reshape(nr, nz) * ab
     hist = {}
 
-    def h(name, raw_vals, measure, edges, axes, eu, units, desc):
+    def h(name, raw_vals, measure, edges, axes, eu, units, desc, kinds):
         v = raw_vals / measure
-        hist[name] = Histogram(v, v * 0.05 + 1e-6, tuple(edges), tuple(axes), tuple(eu), units, desc)
+        measures = tuple(_measure(k, e) for k, e in zip(kinds, edges))
+        overflow = tuple(k in ("r", "z") for k in kinds)
+        hist[name] = Histogram(
+            v, v * 0.05 + 1e-6, tuple(edges), tuple(axes), tuple(eu), units, desc, measures, overflow
+        )
 
     for side in ("rd", "tt"):
         ra = raw[f"{side}_ra"]
@@ -66,12 +76,33 @@ def make_result(
             ("mm", "rad"),
             "mm^-2 sr^-1",
             f"{side} per area and solid angle",
+            ("r", "theta_projected"),
         )
-        h(f"{side}_r", ra.sum(1), _area(re_), (re_,), ("r",), ("mm",), "mm^-2", f"{side} per unit area")
-        h(f"{side}_a", ra.sum(0), _solid(ae), (ae,), ("theta",), ("rad",), "sr^-1", f"{side} per solid angle")
+        h(f"{side}_r", ra.sum(1), _area(re_), (re_,), ("r",), ("mm",), "mm^-2", f"{side} per unit area", ("r",))
+        h(
+            f"{side}_a",
+            ra.sum(0),
+            _solid(ae),
+            (ae,),
+            ("theta",),
+            ("rad",),
+            "sr^-1",
+            f"{side} per solid angle",
+            ("theta",),
+        )
         raw[f"{side}_r"], raw[f"{side}_a"] = ra.sum(1), ra.sum(0)
-    h("a_rz", raw["a_rz"], _area(re_)[:, None] * dz, (re_, ze), ("r", "z"), ("mm", "mm"), "mm^-3", "absorbed/volume")
-    h("a_z", raw["a_rz"].sum(0), dz, (ze,), ("z",), ("mm",), "mm^-1", "absorbed per unit depth")
+    h(
+        "a_rz",
+        raw["a_rz"],
+        _area(re_)[:, None] * dz,
+        (re_, ze),
+        ("r", "z"),
+        ("mm", "mm"),
+        "mm^-3",
+        "absorbed/volume",
+        ("r", "z"),
+    )
+    h("a_z", raw["a_rz"].sum(0), dz, (ze,), ("z",), ("mm",), "mm^-1", "absorbed per unit depth", ("z",))
     raw["a_z"] = raw["a_rz"].sum(0)
     if brdf:
         nc, nphi = brdf

@@ -375,12 +375,14 @@ def test_validation(call, match):
 
 
 def test_core_rejects_bad_directions_without_panicking():
-    """The binding validates again (bypassing the Python checks)."""
+    """The core validates every direction (the binding names it by its index in `shape`)."""
     s = stack1(d=1.0)._to_core()
     with pytest.raises(ParameterError, match=r"^wo\[0\].z"):
-        subsurf._core.hk_brdf(s, np.array([0, 0, 1.0]), np.array([0, 0, -1.0]))
+        subsurf._core.hk_brdf(s, np.array([0, 0, 1.0]), np.array([0, 0, -1.0]), [1])
     with pytest.raises(ParameterError, match=r"^\|wi\[1\]\|"):
-        subsurf._core.hk_btdf(s, np.array([0, 0, 1.0, 0, 0, 2.0]), np.array([0, 0, -1.0, 0, 0, -1.0]))
+        subsurf._core.hk_btdf(s, np.array([0, 0, 1.0, 0, 0, 2.0]), np.array([0, 0, -1.0, 0, 0, -1.0]), [2])
+    with pytest.raises(ParameterError, match=r"^wo.z"):
+        subsurf._core.hk_brdf(s, np.array([0, 0, 1.0]), np.array([0, 0, -1.0]))
     with pytest.raises(ParameterError, match="multiple of 3"):
         subsurf._core.hk_brdf(s, np.array([0, 0, 1.0, 0]), np.array([0, 0, 1.0, 0]))
 

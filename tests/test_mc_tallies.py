@@ -108,9 +108,16 @@ def test_histograms_integrate_to_totals(slab_run):
     assert close(float(np.sum(r.rd_a.values * ring)), rd)
     proj = np.pi * (np.sin(th[1:]) ** 2 - np.sin(th[:-1]) ** 2)
     assert close(float(np.sum(r.rd_ra.values * np.outer(_area(r.rd_ra.edges[0]), proj))), rd)
-    # absorption: ∫A(z) dz (last bin holds z > 0.3 mm, i.e. the rest of the 0.4 mm slab) = absorbed
-    assert close(float(np.sum(r.a_z.values) * 0.03), ab)
-    assert close(float(np.sum(r.a_rz.values * _area(r.a_rz.edges[0])[:, None]) * 0.03), ab)
+    # absorption: ∫A(z) dz (last bin holds z > 0.3 mm, i.e. the rest of the 0.4 mm slab) = the
+    # physical absorption Σ absorbed_per_layer; `absorbed` adds the zero-mean roulette term exactly
+    phys = float(np.sum(r.absorbed_per_layer))
+    assert close(float(np.sum(r.a_z.values) * 0.03), phys)
+    assert close(float(np.sum(r.a_rz.values * _area(r.a_rz.edges[0])[:, None]) * 0.03), phys)
+    assert close(phys + r.roulette, ab)
+    assert abs(r.roulette) <= 4 * r.roulette_stderr
+    # every histogram carries its bin measures: values × bin_measure() sum to the totals
+    for name, total in (("rd_r", rd), ("rd_a", rd), ("rd_ra", rd), ("brdf", rd), ("tt_r", tt), ("a_rz", phys)):
+        assert close(float(np.sum(r.histograms[name].values * r.histograms[name].bin_measure())), total), name
     # one layer: fluence = A/μa bin by bin
     np.testing.assert_allclose(r.fluence_z.values, r.a_z.values / 0.5, rtol=1e-12)
     np.testing.assert_allclose(r.fluence_rz.values, r.a_rz.values / 0.5, rtol=1e-12, atol=1e-300)

@@ -177,7 +177,10 @@ def test_run_mci_end_to_end(tmp_path, sample_mci):
             np.testing.assert_allclose(
                 (q[key + "_ra"] * scale).sum(1), q[key + "_r"] * 2 * math.pi * ir * dr * dr, rtol=1e-9, atol=1e-15
             )
-        assert np.sum(q["A_z"] * dz) == pytest.approx(res.absorbed, rel=1e-9)
+        # MCML's A, A_l and A_z hold the physical absorption (without subsurf's roulette term)
+        assert np.sum(q["A_z"] * dz) == pytest.approx(q["A"], rel=1e-9)
+        assert np.sum(q["A_l"]) == pytest.approx(q["A"], rel=1e-12)
+        assert q["A"] + res.roulette == pytest.approx(res.absorbed, abs=1e-12)
         np.testing.assert_allclose(
             (q["A_rz"] * 2 * math.pi * ir[:, None] * dr * dr * dz).sum(0), q["A_z"] * dz, rtol=1e-9, atol=1e-15
         )

@@ -81,36 +81,43 @@ def test_figure_without_histograms(res, tmp_path):
 
 
 def test_overflow_bin_is_not_drawn(res):
-    r = copy.deepcopy(res)
-    r.histograms["rd_r"].description += "; last bin also holds r > 1 mm"
-    ax = plot.reflectance_profile(r, models=())
-    x = ax.containers[0].lines[0].get_xdata()
-    assert len(x) == len(r.rd_r.values) - 1 and x.max() < r.rd_r.edges[0][-2]
+    # the histogram says its last r bin holds the overflow (structured data, not its description)
+    assert res.rd_r.overflow == (True,)
     ax = plot.reflectance_profile(res, models=())
-    assert len(ax.containers[0].lines[0].get_xdata()) == len(res.rd_r.values)
+    x = ax.containers[0].lines[0].get_xdata()
+    assert len(x) == len(res.rd_r.values) - 1 and x.max() < res.rd_r.edges[0][-2]
+    r = copy.deepcopy(res)
+    r.histograms["rd_r"].overflow = (False,)
+    r.histograms["rd_r"].description += "; last bin also holds r > 1 mm"  # prose is not read
+    ax = plot.reflectance_profile(r, models=())
+    assert len(ax.containers[0].lines[0].get_xdata()) == len(r.rd_r.values)
 
 
 # --- Histogram.plot: one tally, one call ---------------------------------------------------------
 
 
 def test_plot_of_a_1d_histogram(res):
-    h = res.rd_r
+    h = res.rd_r  # its last r bin holds everything beyond the grid: not drawn
+    assert h.overflow == (True,)
     ax = h.plot()
     assert ax.get_xlabel() == "r (mm)" and ax.get_ylabel() == f"{h.description} (mm$^{{-2}}$)"
     line, band = ax.patches[:2]  # the values as steps, the ±1σ band between v − s and v + s
-    np.testing.assert_array_equal(line.get_data().values, h.values)
-    np.testing.assert_array_equal(line.get_data().edges, h.edges[0])
-    np.testing.assert_allclose(band.get_data().values, h.values + h.stderr)
-    np.testing.assert_allclose(band.get_data().baseline, h.values - h.stderr)
+    np.testing.assert_array_equal(line.get_data().values, h.values[:-1])
+    np.testing.assert_array_equal(line.get_data().edges, h.edges[0][:-1])
+    np.testing.assert_allclose(band.get_data().values, (h.values + h.stderr)[:-1])
+    np.testing.assert_allclose(band.get_data().baseline, (h.values - h.stderr)[:-1])
     assert ax.get_yscale() == "linear"
     assert h.plot(log=True).get_yscale() == "log"
+    a = res.rd_a  # no overflow on an angle axis: every bin
+    assert len(a.plot().patches[0].get_data().values) == len(a.values)
 
 
 def test_plot_of_a_2d_histogram(res):
-    h = res.a_rz
+    h = res.a_rz  # overflow bins in r and z: not drawn
     ax = h.plot()
     mesh = next(c for c in ax.collections if isinstance(c, QuadMesh))
-    np.testing.assert_array_equal(np.asarray(mesh.get_array()).reshape(h.values.T.shape), h.values.T)
+    inner = h.values[:-1, :-1].T
+    np.testing.assert_array_equal(np.asarray(mesh.get_array()).reshape(inner.shape), inner)
     assert ax.get_xlabel() == "r (mm)" and ax.get_ylabel() == "z (mm)"
     assert ax.yaxis_inverted()  # depth grows downwards
     cbar = ax.figure.axes[-1]

@@ -25,6 +25,8 @@ _EXPORTS = {
     "DiffuseIllumination": "mc",
     "PencilBeam": "mc",
     "simulate": "mc",
+    "simulate_range": "mc",
+    "TallyState": "state",
     "Histogram": "result",
     "Result": "result",
     "Tallies": "tallies",
@@ -33,7 +35,7 @@ _EXPORTS = {
     "save": "io",
 }
 #: Submodules reachable as attributes (``subsurf.diffusion``) without importing them first.
-_SUBMODULES = ("bssrdf", "diffusion", "hk", "materials", "optics", "testing", "io", "plot", "mcml", "config")
+_SUBMODULES = ("bssrdf", "diffusion", "hk", "materials", "optics", "testing", "io", "plot", "mcml", "config", "state")
 
 __all__ = sorted(set(_EXPORTS) | {"bssrdf", "diffusion", "hk", "materials", "optics", "testing"})
 
@@ -58,7 +60,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from ._core import ParameterError, __version__  # noqa: F401
     from .io import load, merge, save  # noqa: F401
     from .materials import Material  # noqa: F401
-    from .mc import DiffuseIllumination, PencilBeam, simulate  # noqa: F401
+    from .mc import DiffuseIllumination, PencilBeam, simulate, simulate_range  # noqa: F401
     from .medium import Component, Layer, Stack, mix  # noqa: F401
     from .result import Histogram, Result  # noqa: F401
+    from .state import TallyState  # noqa: F401
     from .tallies import Tallies  # noqa: F401

@@ -31,34 +31,79 @@ def diffusion_brdf(model_name: str, wi: _F, wo: _F, sigma_a: _F, sigma_s_prime: 
 def diffusion_ft(eta: _F, cos_theta: _F) -> _F: ...
 def diffusion_check_properties(sigma_a: _F, sigma_s_prime: _F, eta: _F) -> None: ...
 
-# --- medium (crates/subsurf-py/src/medium.rs): layers as (n, mua, mus, lobes [(weight, g)], thickness) ---
-def validate_layer(
-    n: float, mua: float, mus: float, lobes: Sequence[tuple[float, float]], thickness: float, prefix: str = ""
-) -> None: ...
-def validate_stack(
-    layers: list[tuple[float, float, float, list[tuple[float, float]], float]], n_above: float, n_below: float
-) -> None: ...
-def mix_components(
-    n: float, thickness: float, components: Sequence[tuple[float, float, float, float]]
-) -> tuple[float, float, float, list[tuple[float, float]], float]:
-    """(n, mua, mus, lobes, thickness) of the mixture of (fraction, mua, mus, g) components."""
+# --- mc (crates/subsurf-py/src/mc.rs) ---
+# Layers as (n, mua, mus, lobes [(weight, g)], thickness); source as ("pencil", theta, phi) or
+# ("diffuse", 0, 0); tallies as subsurf.Tallies.to_dict() with brdf a tuple or None.
+# A state dict (flat, see subsurf.state.TallyState): {"scheme": str, "start": int, "end": int,
+# "events": int, "fingerprint": int, "names": list[str], "lengths": list[int],
+# "extremes": list[bool], "s1": uint64 array (4 limbs per bin), "s2": uint64 array (5 per bin),
+# "min": float64 array, "max": float64 array}.
+_Layers = list[tuple[float, float, float, list[tuple[float, float]], float]]
+_Source = tuple[str, float, float]
 
-# --- mc ---
+MC_CHUNK_PHOTONS: int
+MC_MAX_THREADS: int
+MC_MAX_BINS: int
+MC_MAX_ORDER: int
+MC_MAX_PENCIL_THETA: float
+MC_MAX_EVENTS_PER_PHOTON: float
+MC_STATE_SCHEME: str
+
 def mc_validate_source(kind: str, theta: float, phi: float) -> None: ...
-def mc_simulate(
-    layers: list[tuple[float, float, float, list[tuple[float, float]], float]],
+def mc_validate_run(photons: int, seed: int, threads: int | None = None) -> None: ...
+def mc_validate_tallies(tallies: dict) -> None: ...
+def mc_expected_events(layers: _Layers, n_above: float, n_below: float) -> float:
+    """Estimated scattering events per photon; raises ParameterError for endless histories."""
+
+def mc_run(
+    layers: _Layers,
     n_above: float,
     n_below: float,
     photons: int,
     seed: int,
     threads: int | None,
-    source: tuple[str, float, float],
+    source: _Source,
     progress: object | None = None,
     tallies: dict | None = None,
+    state: dict | None = None,
+    start: int | None = None,
 ) -> dict:
-    """Totals, and under "histograms" a list of dicts (name, values, stderr: flat float64 arrays
-    in C order; shape, edges, axes, edge_units, units, description) when ``tallies`` (a
-    ``subsurf.Tallies.to_dict()``) is given."""
+    """Trace photons [start (or state["end"]), photons): {"state": state dict,
+    "interrupted": bool, "elapsed_s": float}."""
+
+def mc_finish(
+    layers: _Layers,
+    n_above: float,
+    n_below: float,
+    seed: int,
+    source: _Source,
+    state: dict,
+    tallies: dict | None = None,
+) -> dict:
+    """Totals (+ "_stderr"; specular_reflectance, diffuse_reflectance, transmittance,
+    unscattered_transmittance, absorbed, roulette), absorbed_per_layer (+ stderr), photons,
+    events, and "histograms": a list of dicts (name, values, stderr, measures: flat float64
+    arrays in C order / per axis; shape, edges, axes, edge_units, overflow, units, description)."""
+
+def mc_merge_states(states: list[dict]) -> dict:
+    """States of consecutive photon ranges, in range order, appended exactly into one."""
+
+def mc_axis_measures(kind: str, edges: _F) -> _F:
+    """Exact bin measures of an axis kind ("r", "z", "t", "theta", "theta_projected",
+    "cos_theta", "phi", "order", "order_one")."""
+
+# --- medium (crates/subsurf-py/src/medium.rs) ---
+def validate_layer(
+    n: float, mua: float, mus: float, lobes: list[tuple[float, float]], thickness: float, prefix: str = ""
+) -> None: ...
+def validate_stack(layers: _Layers, n_above: float, n_below: float) -> None: ...
+def layer_properties(layer: tuple[float, float, float, list[tuple[float, float]], float]) -> dict[str, float]:
+    """g, sigma_t, albedo, mus_prime, sigma_t_prime, transport_mfp, optical_thickness."""
+
+def stack_boundaries(layers: _Layers, n_above: float, n_below: float) -> list[float]: ...
+def mix_components(
+    n: float, thickness: float, components: list[tuple[float, float, float, float]]
+) -> tuple[float, float, float, list[tuple[float, float]], float]: ...
 
 # --- optics (crates/subsurf-py/src/optics.rs): 1-D contiguous float64 arrays in and out -----
 F64 = _F
@@ -71,11 +116,14 @@ def diffuse_fresnel_reflectance_fit_v(eta: F64) -> F64: ...
 def fresnel_moment_v(eta: F64, i: int) -> F64: ...
 def hg_phase_v(cos_theta: F64, g: F64) -> F64: ...
 def sample_hg_v(u: F64, g: F64) -> F64: ...
+def isotropic_phase_v(cos_theta: F64) -> F64: ...
 def mixture_phase_v(cos_theta: F64, lobes: Sequence[tuple[float, float]]) -> F64: ...
 def sample_mixture_v(u: F64, lobes: Sequence[tuple[float, float]]) -> F64: ...
 def beer_lambert_v(mu_t: F64, distance: F64) -> F64: ...
 def sample_free_path_v(u: F64, sigma_t: F64) -> F64: ...
+def free_path_pdf_v(s: F64, sigma_t: F64) -> F64: ...
 def sample_cosine_hemisphere_v(u1: F64, u2: F64) -> F64: ...
+def cosine_hemisphere_pdf_v(cos_theta: F64) -> F64: ...
 def chi2_sf(statistic: float, dof: float) -> float: ...
 def gamma_q(a: float, x: float) -> float: ...
 def sidak_alpha(significance: float, tests: int) -> float: ...
@@ -85,12 +133,15 @@ def graded_cos_edges(n_end: int, n_mid: int, min_gap: float) -> F64: ...
 # (layers [(n, mua, mus, lobes [(weight, g)], thickness)], n_above, n_below)
 _StackTuple = tuple[list[tuple[float, float, float, list[tuple[float, float]], float]], float, float]
 
-# --- hk (Hanrahan–Krueger first order); directions are flat float64 arrays of 3N ---
-def hk_brdf(stack: _StackTuple, wi: _F, wo: _F) -> _F: ...
-def hk_btdf(stack: _StackTuple, wi: _F, wo: _F) -> _F: ...
-def hk_layer_terms(stack: _StackTuple, wi: _F, wo: _F, transmission: bool = False) -> _F: ...
-def hk_unscattered(stack: _StackTuple, wi: _F) -> tuple[_F, _F]: ...
-def hk_albedo(stack: _StackTuple, wi: _F, n_theta: int, n_phi: int, transmission: bool = False) -> _F: ...
+# --- hk (Hanrahan–Krueger first order); directions are flat float64 arrays of 3N; `shape` is
+# the numpy shape of the N directions (errors name elements by their index in it) ---
+def hk_brdf(stack: _StackTuple, wi: _F, wo: _F, shape: Sequence[int] = ()) -> _F: ...
+def hk_btdf(stack: _StackTuple, wi: _F, wo: _F, shape: Sequence[int] = ()) -> _F: ...
+def hk_layer_terms(stack: _StackTuple, wi: _F, wo: _F, transmission: bool = False, shape: Sequence[int] = ()) -> _F: ...
+def hk_unscattered(stack: _StackTuple, wi: _F, shape: Sequence[int] = ()) -> tuple[_F, _F]: ...
+def hk_albedo(
+    stack: _StackTuple, wi: _F, n_theta: int, n_phi: int, transmission: bool = False, shape: Sequence[int] = ()
+) -> _F: ...
 
 # --- bssrdf (crates/subsurf-py/src/bssrdf.rs); python/subsurf/bssrdf.py wraps these -------------
 class Profile:

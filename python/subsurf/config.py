@@ -158,6 +158,7 @@ def _number(ctx: _Ctx, key: str, v, allow_inf: bool = False) -> float:
 
 
 def _int(ctx: _Ctx, key: str, v, lo: int | None = None, hi: int | None = None) -> int:
+    """An integer, within [lo, hi] where they are given (the engine's limits are the core's)."""
     if isinstance(v, float) and v.is_integer():
         v = int(v)
     if isinstance(v, bool) or not isinstance(v, int):
@@ -236,9 +237,9 @@ def _source(ctx: _Ctx, data: dict):
     spec = {"type": kind} if kind == "diffuse" else {"type": kind, "theta_deg": theta, "phi_deg": phi}
     try:
         return spec, _make_source(spec)
-    except _core.ParameterError as e:  # the core's rule, quoted in radians
-        key = "source.phi_deg" if "phi" in str(e).split("=")[0] else "source.theta_deg"
-        raise ctx.error(key, f"{spec[key[7:]]:g} is out of range (in radians: {e})") from None
+    except _core.ParameterError as e:  # the core's range, stated in radians
+        key, value = ("source.phi_deg", phi) if str(e).startswith("source.phi") else ("source.theta_deg", theta)
+        raise ctx.error(key, f"{value:g} is out of range (in radians: {e})") from None
 
 
 def _make_source(spec: dict):
@@ -294,15 +295,15 @@ def parse_config(text: str, path: str = "<string>") -> RunConfig:
             raise ConfigError(f"{path}:{max(len(ctx.lines), 1)}: invalid TOML: {msg}") from None
         raise ConfigError(f"{path}: invalid TOML: {msg}") from None
     _check_keys(ctx, "", data, TOP_KEYS)
-    # the engine's integers are 64-bit: larger values are refused here, with the key and line
-    photons = _int(ctx, "photons", data.get("photons", 100_000), 1, 2**64 - 1)
-    seed = _int(ctx, "seed", data.get("seed", 0), 0, 2**64 - 1)
-    threads = _int(ctx, "threads", data["threads"], 1, 2**64 - 1) if "threads" in data else None
+    photons = _int(ctx, "photons", data.get("photons", 100_000))
+    seed = _int(ctx, "seed", data.get("seed", 0))
+    threads = _int(ctx, "threads", data["threads"]) if "threads" in data else None
+    try:
+        _core.mc_validate_run(photons, seed, threads)
+    except _core.ParameterError as e:
+        raise _param_message(ctx, "", e) from None
     n_above = _number(ctx, "n_above", data.get("n_above", 1.0))
     n_below = _number(ctx, "n_below", data.get("n_below", 1.0))
-    for k, v in (("n_above", n_above), ("n_below", n_below)):
-        if not (v >= 1.0 and math.isfinite(v)):
-            raise ctx.error(k, f"{v:g} is out of range: must be a finite number >= 1")
     layers = _layers(ctx, data)
     try:
         stack = Stack(layers, n_above=n_above, n_below=n_below)

@@ -19,8 +19,12 @@ Layout (``format = "subsurf-result"``, ``format_version = 2``)::
                                   config (the full configuration as JSON), histograms (their names)
     /totals/<name>         scalar datasets (specular_reflectance, …) and <name>_stderr, units "1"
     /totals/absorbed_per_layer, absorbed_per_layer_stderr
-    /histograms/<name>/values, stderr      attrs: units, description, axes, edge_units
+    /histograms/<name>/values, stderr      attrs: units, description, axes, edge_units, overflow
     /histograms/<name>/edges_<i>           attrs: axis, units
+    /histograms/<name>/measures_<i>        per-bin measure of axis i (see Histogram.measures)
+    /state/<key>           the exact raw state (subsurf.state.TallyState.to_dict(): arrays as
+                           datasets, scalars and names as attributes), so a partial run can be
+                           resumed from its file; absent for merged results
 
 Integrity (format 2): the file's first bytes — the HDF5 user block, which HDF5 reserves for the
 application — hold a checksum manifest: the SHA-256 of every dataset's stored bytes (of each chunk
@@ -138,7 +142,25 @@ def _image(result: Result, userblock: int) -> bytes:
                 ds = g.create_dataset(f"edges_{i}", data=np.asarray(e, dtype=float))
                 ds.attrs["axis"] = str(a)
                 ds.attrs["units"] = str(u)
+            if len(h.measures) == len(h.edges):
+                g.attrs["overflow"] = [bool(o) for o in h.overflow]
+                for i, m in enumerate(h.measures):
+                    g.create_dataset(f"measures_{i}", data=np.asarray(m, dtype=float))
+        for key in ("roulette", "roulette_stderr"):
+            t.create_dataset(key, data=float(getattr(result, key))).attrs["units"] = "1"
+        if result.state is not None:
+            _save_state(f.create_group("state"), result.state)
     return buf.getvalue()
+
+
+def _save_state(g, state) -> None:
+    for k, v in state.to_dict().items():
+        if isinstance(v, np.ndarray):
+            g.create_dataset(k, data=v, **(dict(compression="gzip", compression_opts=4) if v.size > 4096 else {}))
+        elif isinstance(v, list):
+            g.attrs[k] = [str(x) for x in v] if k == "names" else np.asarray(v)
+        else:
+            g.attrs[k] = np.uint64(v) if isinstance(v, int) else v
 
 
 def to_bytes(result: Result) -> bytes:
@@ -259,8 +281,22 @@ def _plain(v):
     return v
 
 
+def _save_state(g, state) -> None:
+    for k, v in state.to_dict().items():
+        if isinstance(v, np.ndarray):
+            g.create_dataset(k, data=v, **(dict(compression="gzip", compression_opts=4) if v.size > 4096 else {}))
+        elif isinstance(v, list):
+            g.attrs[k] = [str(x) for x in v] if k == "names" else np.asarray(v)
+        else:
+            g.attrs[k] = np.uint64(v) if isinstance(v, int) else v
+
+
 def _str(x) -> str:
     return x.decode() if isinstance(x, bytes) else str(x)
+
+
+_NOUNS = {"str": "a string", "int": "an integer", "bool": "a boolean", "float": "a number"}
+_NOUNS.update(strs="a list of strings", bools="a list of booleans")
 
 
 class _Reader:
@@ -303,11 +339,14 @@ class _Reader:
             "bool": isinstance(v, bool),
             "float": isinstance(v, (int, float)) and not isinstance(v, bool),
             "strs": isinstance(v, list) and all(isinstance(x, str) for x in v),
+            "bools": isinstance(v, list) and all(isinstance(x, bool) for x in v),
         }[kind]
         if kind == "strs" and isinstance(v, str):
             v, ok = [v], True  # one axis written as a scalar string
         if not ok:
-            noun = {"str": "a string", "int": "an integer", "bool": "a boolean", "float": "a number"}.get(kind, "text")
+            noun = {"str": "a string", "int": "an integer", "bool": "a boolean", "float": "a number"}.get(
+                kind, "a list"
+            )
             raise self.fail(where, f"attribute {name!r} = {v!r:.60} is not {noun}")
         return v
 
@@ -345,6 +384,9 @@ class _Reader:
             kw[key] = self.array(t, key, f"/totals/{key}", ndim=1)
         if kw["absorbed_per_layer"].shape != kw["absorbed_per_layer_stderr"].shape:
             raise self.fail("/totals/absorbed_per_layer_stderr", "has a different length than absorbed_per_layer")
+        for key in ("roulette", "roulette_stderr"):  # absent from files written before it was booked apart
+            if key in t:
+                kw[key] = float(self.array(t, key, f"/totals/{key}", ndim=0))
         return Result(
             **kw,
             photons=self.count("photons"),
@@ -356,7 +398,21 @@ class _Reader:
             histograms=self.histograms(),
             config=config,
             version=self.attr(f, "version", "/", "str"),
+            state=self.state() if "state" in f else None,
         )
+
+    def state(self):
+        """The run's exact raw state (:class:`subsurf.state.TallyState`), from ``/state``."""
+        from ._core import ParameterError
+        from .state import TallyState
+
+        g = self.member(self.f, "state", "/state", "group")
+        d = {k: self.member(g, k, f"/state/{k}", "dataset")[()] for k in g}
+        d.update({k: _plain(v) for k, v in g.attrs.items()})
+        try:
+            return TallyState(d)
+        except ParameterError as e:
+            raise self.fail("/state", str(e)) from None
 
     def histograms(self) -> dict:
         hg = self.member(self.f, "histograms", "/histograms", "group")
@@ -376,6 +432,16 @@ class _Reader:
                 raise self.fail(
                     where, f"values {values.shape} and stderr {stderr.shape} do not match the edges {shape}"
                 )
+            measures, overflow = (), ()
+            if "measures_0" in g:  # files written before histograms carried their bin measures have none
+                measures = tuple(
+                    self.array(g, f"measures_{i}", f"{where}/measures_{i}", ndim=1) for i in range(len(axes))
+                )
+                if tuple(len(m) for m in measures) != shape:
+                    raise self.fail(where, f"bin measures of lengths {[len(m) for m in measures]} for bins {shape}")
+                overflow = self.attr(g, "overflow", where, "bools")
+                if len(overflow) != len(axes):
+                    raise self.fail(where, f"{len(axes)} axes but {len(overflow)} overflow flags")
             out[name] = Histogram(
                 values=values,
                 stderr=stderr,
@@ -384,6 +450,8 @@ class _Reader:
                 edge_units=edge_units,
                 units=self.attr(g, "units", where, "str"),
                 description=self.attr(g, "description", where, "str"),
+                measures=measures,
+                overflow=tuple(overflow),
             )
         return out
 
@@ -545,7 +613,7 @@ def merge(a: Result, b: Result) -> Result:
         raise err("merge: a result with no photons cannot be merged")
     na, nb = int(a.photons), int(b.photons)
     kw: dict[str, Any] = {}
-    for name in TOTALS + ("absorbed_per_layer",):
+    for name in TOTALS + ("roulette", "absorbed_per_layer"):
         ma, sa = getattr(a, name), getattr(a, name + "_stderr")
         mb, sb = getattr(b, name), getattr(b, name + "_stderr")
         if np.shape(ma) != np.shape(mb):
@@ -575,6 +643,8 @@ def merge(a: Result, b: Result) -> Result:
             edge_units=ha.edge_units,
             units=ha.units,
             description=ha.description,
+            measures=ha.measures,
+            overflow=ha.overflow,
         )
     config = dict(a.config) if isinstance(a.config, dict) else {}
     config["seeds"] = sorted(set(_seeds(a)) | set(_seeds(b)))

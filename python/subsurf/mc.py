@@ -4,8 +4,9 @@ The engine is MCML's algorithm (Wang, Jacques & Zheng 1995, Comput. Methods Prog
 47:131; after Prahl et al. 1989) in Rust — see ``crates/subsurf-core/src/mc/kernel.rs`` for the
 physics and its references. Units: mm, mm⁻¹, radians. Results are fractions of the incident
 power, each with a standard error from per-photon second moments, and are bit-identical for a
-given seed whatever the number of threads (per-photon xoshiro128++ streams seeded by
-Philox4x32-10 keyed by seed and photon index).
+given seed whatever the number of threads, interruptions or photon ranges (per-photon
+xoshiro128++ streams seeded by Philox4x32-10 keyed by seed and photon index; chunk sums merged
+exactly, see :mod:`subsurf.state`).
 """
 
 from __future__ import annotations
@@ -17,10 +18,9 @@ import numpy as np
 
 from . import _core
 from .medium import Layer, Stack
-from .result import Histogram, Result
+from .result import TOTALS, Histogram, Result
+from .state import TallyState
 from .tallies import Tallies
-
-_U64 = 2**64
 
 
 def _num(name: str, value) -> float:
@@ -97,50 +97,30 @@ def _stack_dict(s: Stack) -> dict:
     return {"layers": [_layer_dict(l) for l in s.layers], "n_above": s.n_above, "n_below": s.n_below}
 
 
-def _int(name: str, value, lo: int, hi: int | None, allowed: str) -> int:
+def _integer(name: str, value) -> int:
+    """An integer argument (its range is the core's to check)."""
     if isinstance(value, bool):
-        raise _core.ParameterError(f"{name} = {value!r} is out of range: must be {allowed}")
+        raise _core.ParameterError(f"{name} = {value!r} is not an integer")
     try:
-        v = operator.index(value)
+        return operator.index(value)
     except TypeError:
-        raise _core.ParameterError(f"{name} = {value!r} is out of range: must be {allowed}") from None
-    if v < lo or (hi is not None and v >= hi):
-        raise _core.ParameterError(f"{name} = {v} is out of range: must be {allowed}")
-    return v
+        raise _core.ParameterError(f"{name} = {value!r} is not an integer") from None
 
 
-def simulate(stack, photons=10**6, seed=0, threads=None, source=None, tallies=None, progress=None) -> Result:
-    """Trace photon packets through a layered medium (Monte Carlo, MCML's algorithm).
+#: Above this many expected scattering events (about an hour of one core), :func:`simulate`
+#: warns before it starts.
+WARN_EVENTS = 1e11
 
-    Parameters
-    ----------
-    stack : :class:`subsurf.Stack` (or a single :class:`subsurf.Layer`).
-    photons : number of packets, an integer ≥ 1.
-    seed : an integer in [0, 2⁶⁴); the same seed gives bit-identical results for any ``threads``.
-    threads : worker threads (≥ 1); ``None`` uses all cores.
-    source : :class:`PencilBeam` (default, normal incidence) or :class:`DiffuseIllumination`.
-    tallies : :class:`subsurf.Tallies` (or its ``to_dict()``) selecting the histograms to score
-        (R(r), A(z), BRDF/BTDF, per-order splits …, see docs/architecture.md); ``None`` scores
-        only the totals (fastest).
-    progress : optional callable ``progress(done, total)``, called about every 50 ms while the
-        run lasts and once at the end. If it raises ``KeyboardInterrupt`` (as Ctrl-C does) the
-        run stops and the photons traced so far are returned with ``partial=True`` (and a
-        ``RuntimeWarning``); any other exception stops the run and propagates.
 
-    Returns
-    -------
-    :class:`subsurf.result.Result` with ``specular_reflectance``, ``diffuse_reflectance``,
-    ``transmittance`` (total, including ``unscattered_transmittance``), ``absorbed`` and
-    ``absorbed_per_layer``, each with a ``*_stderr`` twin; ``events`` = scattering events.
-    """
+def _prepare(stack, seed, threads, source, tallies, progress):
+    """Checked arguments shared by :func:`simulate` and :func:`simulate_range`."""
     if isinstance(stack, Layer):
         stack = Stack([stack])
     if not isinstance(stack, Stack):
         raise _core.ParameterError(f"stack = {stack!r} is not a subsurf.Stack or subsurf.Layer")
-    photons = _int("photons", photons, 1, None, "an integer >= 1")
-    seed = _int("seed", seed, 0, _U64, "an integer in [0, 2**64)")
+    seed = _integer("seed", seed)
     if threads is not None:
-        threads = _int("threads", threads, 1, None, "an integer >= 1 (or None for all cores)")
+        threads = _integer("threads", threads)
     if source is None:
         source = PencilBeam()
     if not isinstance(source, (PencilBeam, DiffuseIllumination)):
@@ -151,9 +131,29 @@ def simulate(stack, photons=10**6, seed=0, threads=None, source=None, tallies=No
         raise _core.ParameterError(f"tallies = {tallies!r} is not a subsurf.Tallies (or None)")
     if progress is not None and not callable(progress):
         raise _core.ParameterError(f"progress = {progress!r} is not callable")
+    return stack, seed, threads, source, tallies
 
+
+def _core_tallies(tallies):
+    return None if tallies is None else {**tallies.to_dict(), "brdf": tallies.brdf}
+
+
+def _warn_cost(stack, photons: int) -> None:
+    """Refuse endless histories (ParameterError from the core) and warn about very long runs."""
+    per_photon = _core.mc_expected_events(*stack._to_core())
+    total = per_photon * photons
+    if total > WARN_EVENTS:
+        warnings.warn(
+            f"subsurf.simulate: about {total:.2g} scattering events expected ({per_photon:.3g} per photon), "
+            f"roughly {total / 3e7 / 3600:.2g} core-hours; Ctrl-C returns the photons traced so far",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+
+
+def _run(stack, photons, seed, threads, source, tallies, progress, state=None, start=None) -> dict:
     layers, n_above, n_below = stack._to_core()
-    d = _core.mc_simulate(
+    return _core.mc_run(
         layers,
         n_above,
         n_below,
@@ -162,35 +162,133 @@ def simulate(stack, photons=10**6, seed=0, threads=None, source=None, tallies=No
         threads,
         source._to_core(),
         progress,
-        None if tallies is None else {**tallies.to_dict(), "brdf": tallies.brdf},
+        _core_tallies(tallies),
+        None if state is None else state._core(),
+        start,
     )
-    if d["partial"]:
+
+
+def simulate(
+    stack, photons=10**6, seed=0, threads=None, source=None, tallies=None, progress=None, resume=None
+) -> Result:
+    """Trace photon packets through a layered medium (Monte Carlo, MCML's algorithm).
+
+    Parameters
+    ----------
+    stack : :class:`subsurf.Stack` (or a single :class:`subsurf.Layer`).
+    photons : number of packets, an integer in [1, 2⁶⁴).
+    seed : an integer in [0, 2⁶⁴). The result is a pure function of (stack, source, tallies,
+        seed, photons): bit-identical for any ``threads``, any interruption and resumption, and
+        any split into photon ranges (:func:`simulate_range`).
+    threads : worker threads (1 … 1024); ``None`` uses one per core.
+    source : :class:`PencilBeam` (default, normal incidence) or :class:`DiffuseIllumination`.
+    tallies : :class:`subsurf.Tallies` (or its ``to_dict()``) selecting the histograms to score
+        (R(r), A(z), BRDF/BTDF, per-order splits …, see docs/architecture.md); ``None`` scores
+        only the totals (fastest).
+    progress : optional callable ``progress(done, total)`` (photons of this call), called about
+        every 50 ms while the run lasts and once at the end.
+    resume : a partial :class:`~subsurf.result.Result` (or its ``state``, a
+        :class:`~subsurf.state.TallyState` holding photons [0, N)) of the same stack, source,
+        tallies and seed: the run continues from photon N to ``photons``, giving the bits of an
+        uninterrupted run. A state that already holds ``photons`` photons (e.g. states of photon
+        ranges merged with :meth:`TallyState.merge`) is just finished into a result.
+
+    Interruption (Ctrl-C, or ``progress`` raising ``KeyboardInterrupt`` — also on its final
+    call, or during a run shorter than 50 ms): the run stops and the photons completed so far are
+    returned as a result with ``partial=True`` (they are always photons 0 … N−1 with N a multiple
+    of 4096, resumable with ``resume=``) and a ``RuntimeWarning``; if the run was complete, the
+    complete result is returned. If *no* photon was completed, ``KeyboardInterrupt`` is raised
+    again (so the CLI and :func:`subsurf.mcml.run_mci` write nothing rather than an all-NaN
+    result). Any other exception from ``progress`` stops the run and propagates.
+
+    Refused up front with :class:`subsurf.ParameterError`: stacks whose photon histories would be
+    endless (a non-absorbing semi-infinite scattering layer) or longer than ~10⁹ events each, and
+    tallies that would not fit in memory; a ``RuntimeWarning`` announces runs expected to take
+    more than about an hour of one core.
+
+    Returns
+    -------
+    :class:`subsurf.result.Result` with ``specular_reflectance``, ``diffuse_reflectance``,
+    ``transmittance`` (total, including ``unscattered_transmittance``), ``absorbed`` (=
+    Σ ``absorbed_per_layer`` + ``roulette``), each with a ``*_stderr`` twin; ``events`` =
+    scattering events; ``state`` = the exact raw state.
+    """
+    stack, seed, threads, source, tallies = _prepare(stack, seed, threads, source, tallies, progress)
+    photons = _integer("photons", photons)
+    _core.mc_validate_run(photons, seed, threads)
+    prior, elapsed0 = None, 0.0
+    if resume is not None:
+        if isinstance(resume, Result):
+            if resume.state is None:
+                raise _core.ParameterError("resume: the result holds no state (merged or loaded from an old file)")
+            prior, elapsed0 = resume.state, float(resume.elapsed_s)
+        elif isinstance(resume, TallyState):
+            prior = resume
+        else:
+            raise _core.ParameterError(f"resume = {resume!r} is not a subsurf.Result or subsurf.TallyState")
+        if prior.start != 0:
+            raise _core.ParameterError(
+                f"resume: the state holds photons [{prior.start}, {prior.stop}), not a run from photon 0; "
+                "merge it after the states of the photons before it"
+            )
+    remaining = photons - (prior.stop if prior is not None else 0)
+    _warn_cost(stack, max(remaining, 0))
+    d = _run(stack, photons, seed, threads, source, tallies, progress, state=prior)
+    state = TallyState(d["state"])
+    if d["interrupted"] and state.photons == 0:
+        raise KeyboardInterrupt("subsurf.simulate was interrupted before any photon was completed")
+    partial = state.photons < photons
+    if partial:
         warnings.warn(
-            f"subsurf.simulate interrupted: returning the {d['photons']} of {photons} photons traced so far",
+            f"subsurf.simulate interrupted: returning the {state.photons} of {photons} photons traced so far",
             RuntimeWarning,
             stacklevel=2,
         )
-    from ._core import __version__
+    return _result(stack, seed, source, tallies, photons, state, elapsed0 + d["elapsed_s"])
 
+
+def simulate_range(stack, start, stop, seed=0, threads=None, source=None, tallies=None, progress=None) -> TallyState:
+    """Trace photons ``[start, stop)`` of the run (stack, source, tallies, seed) — the same
+    per-photon random streams as :func:`simulate` uses — and return their exact raw state.
+
+    ``start`` must be a multiple of :data:`subsurf.state.CHUNK_PHOTONS` (4096); ``stop`` may be
+    anything above it (a state ending inside a chunk cannot be continued: use it as the last
+    range). States of consecutive ranges merge with :meth:`TallyState.merge` to the bits of one
+    run; ``simulate(stack, photons=stop, ..., resume=merged)`` finishes them into a result. This is
+    what a cluster worker runs. If interrupted, the state of the completed prefix of the range is
+    returned with a ``RuntimeWarning`` (``KeyboardInterrupt`` if none was completed).
+    """
+    stack, seed, threads, source, tallies = _prepare(stack, seed, threads, source, tallies, progress)
+    start, stop = _integer("start", start), _integer("stop", stop)
+    _core.mc_validate_run(stop, seed, threads)
+    _warn_cost(stack, max(stop - start, 0))
+    d = _run(stack, stop, seed, threads, source, tallies, progress, start=start)
+    state = TallyState(d["state"])
+    if d["interrupted"] and state.photons == 0 and stop > start:
+        raise KeyboardInterrupt("subsurf.simulate_range was interrupted before any photon was completed")
+    if state.stop < stop:
+        warnings.warn(
+            f"subsurf.simulate_range interrupted: returning photons [{state.start}, {state.stop}) of [{start}, {stop})",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    return state
+
+
+def _result(stack, seed, source, tallies, photons, state, elapsed_s) -> Result:
+    layers, n_above, n_below = stack._to_core()
+    d = _core.mc_finish(layers, n_above, n_below, seed, source._to_core(), state._core(), _core_tallies(tallies))
     return Result(
-        specular_reflectance=d["specular_reflectance"],
-        specular_reflectance_stderr=d["specular_reflectance_stderr"],
-        diffuse_reflectance=d["diffuse_reflectance"],
-        diffuse_reflectance_stderr=d["diffuse_reflectance_stderr"],
-        transmittance=d["transmittance"],
-        transmittance_stderr=d["transmittance_stderr"],
-        unscattered_transmittance=d["unscattered_transmittance"],
-        unscattered_transmittance_stderr=d["unscattered_transmittance_stderr"],
-        absorbed=d["absorbed"],
-        absorbed_stderr=d["absorbed_stderr"],
+        **{name: d[name] for name in TOTALS},
+        **{name + "_stderr": d[name + "_stderr"] for name in TOTALS},
         absorbed_per_layer=np.asarray(d["absorbed_per_layer"], dtype=float),
         absorbed_per_layer_stderr=np.asarray(d["absorbed_per_layer_stderr"], dtype=float),
         photons=d["photons"],
         seed=seed,
-        elapsed_s=d["elapsed_s"],
+        elapsed_s=elapsed_s,
         events=d["events"],
         photons_requested=photons,
-        partial=d["partial"],
+        partial=state.photons < photons,
         histograms={h["name"]: _histogram(h) for h in d["histograms"]},
         config={
             "stack": _stack_dict(stack),
@@ -199,7 +297,10 @@ def simulate(stack, photons=10**6, seed=0, threads=None, source=None, tallies=No
             "photons": photons,
             "seed": seed,
         },
-        version=__version__,
+        version=_core.__version__,
+        roulette=d["roulette"],
+        roulette_stderr=d["roulette_stderr"],
+        state=state,
     )
 
 
@@ -214,4 +315,6 @@ def _histogram(h: dict) -> Histogram:
         edge_units=tuple(h["edge_units"]),
         units=h["units"],
         description=h["description"],
+        measures=tuple(np.asarray(m, dtype=float) for m in h["measures"]),
+        overflow=tuple(bool(o) for o in h["overflow"]),
     )

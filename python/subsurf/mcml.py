@@ -15,8 +15,9 @@ A(z) mm⁻¹ → cm⁻¹ ×10, R(r) mm⁻² → cm⁻² ×100, A(r, z) mm⁻³ �
 MCML divides the angular tallies by approximate bin measures (ScaleRdTt in mcmlio.c: solid angle
 2π sin(α)Δα with α at the bin centre, and 4π² Δr² (i + ½) sin(2α) sin(Δα/2) for R(r, α)); subsurf's
 histograms use exact bin measures (R(θ): ring solid angle 2π(cos θ₀ − cos θ₁); R(r, θ): annulus area
-× projected solid angle π(sin²θ₁ − sin²θ₀)), so the raw bin weights are recovered from subsurf's
-measures and divided by MCML's, which reproduces MCML's numbers bin for bin. Like MCML, subsurf's
+× projected solid angle π(sin²θ₁ − sin²θ₀)), which each histogram carries (``Histogram.measures``,
+from the core), so the raw bin weights are recovered with ``Histogram.bin_measure()`` and divided by
+MCML's measures, which reproduces MCML's numbers bin for bin. Like MCML, subsurf's
 last r and z bins collect everything beyond the grid.
 """
 
@@ -195,25 +196,6 @@ def run_to_tallies(run: McmlRun):
     )
 
 
-# --- bin measures -----------------------------------------------------------------------------
-
-
-def _area_exact(edges):
-    e = np.asarray(edges, dtype=float)
-    return math.pi * (e[1:] ** 2 - e[:-1] ** 2)
-
-
-def _solid_angle_exact(edges):
-    a = np.asarray(edges, dtype=float)
-    return 2.0 * math.pi * (np.cos(a[:-1]) - np.cos(a[1:]))
-
-
-def _projected_solid_angle_exact(edges):
-    """∫cos θ dω over each ring: π (sin²θ₁ − sin²θ₀), sr (subsurf's measure for R(r, θ))."""
-    a = np.asarray(edges, dtype=float)
-    return math.pi * (np.sin(a[1:]) ** 2 - np.sin(a[:-1]) ** 2)
-
-
 def mcml_arrays(run: McmlRun, result) -> dict:
     """MCML's output quantities (cm units, MCML's normalisation) from a subsurf result.
 
@@ -227,7 +209,9 @@ def mcml_arrays(run: McmlRun, result) -> dict:
     out = {
         "Rsp": float(result.specular_reflectance),
         "Rd": float(result.diffuse_reflectance),
-        "A": float(result.absorbed),
+        # MCML's A is its absorption deposits (= Σ A_l = ∫A_z dz); subsurf's `absorbed` also
+        # holds the zero-mean roulette term that makes its energy balance exact.
+        "A": float(np.sum(result.absorbed_per_layer)),
         "Tt": float(result.transmittance),
         "A_l": np.asarray(result.absorbed_per_layer, dtype=float),
     }
@@ -239,14 +223,10 @@ def mcml_arrays(run: McmlRun, result) -> dict:
         key = "Rd" if side == "rd" else "Tt"
         out[f"{key}_r"] = np.asarray(h[f"{side}_r"].values, dtype=float) * MM_PER_CM**2  # mm⁻² → cm⁻²
         ha = h[f"{side}_a"]
-        raw_a = np.asarray(ha.values, dtype=float) * _solid_angle_exact(ha.edges[0])
+        raw_a = np.asarray(ha.values, dtype=float) * ha.bin_measure()  # bin weights (no unit)
         out[f"{key}_a"] = raw_a / (2.0 * math.pi * da * np.sin(ia))  # ScaleRdTt, Rd_a
         hra = h[f"{side}_ra"]
-        raw_ra = (
-            np.asarray(hra.values, dtype=float)
-            * _area_exact(hra.edges[0])[:, None]  # bin weight (no unit)
-            * _projected_solid_angle_exact(hra.edges[1])[None, :]
-        )
+        raw_ra = np.asarray(hra.values, dtype=float) * hra.bin_measure()
         scale = 4.0 * math.pi**2 * run.dr  # cm²·sr
         scale = scale * math.sin(da / 2) * run.dr * ir[:, None] * np.sin(2.0 * ia)[None, :]
         out[f"{key}_ra"] = raw_ra / scale  # ScaleRdTt, Rd_ra

@@ -1,7 +1,8 @@
 """Layered media: :class:`Layer`, :class:`Stack` and :func:`mix`.
 
-Coefficients are in mm⁻¹, thicknesses in mm. Validation is done by the Rust core, so the
-rules (and messages) are the same everywhere: invalid values raise
+Coefficients are in mm⁻¹, thicknesses in mm. Validation and the derived properties (σt, albedo,
+σs', transport mean free path, optical thickness, interface depths) are the Rust core's, so the
+rules, formulas and messages are the same everywhere: invalid values raise
 :class:`subsurf.ParameterError` (a ``ValueError``) naming the field and the allowed range.
 """
 
@@ -52,38 +53,40 @@ class Layer:
         _core.validate_layer(self.n, self.mua, self.mus, lobes, self.thickness)
         self.lobes = tuple(lobes)
 
+    def _derived(self, name: str) -> float:
+        return _core.layer_properties(self._to_core())[name]
+
     @property
     def g(self) -> float:
         """Mean cosine of the phase function."""
-        return sum(w * g for w, g in self.lobes)
+        return self._derived("g")
 
     @property
     def sigma_t(self) -> float:
         """Extinction coefficient σt = σa + σs, mm⁻¹."""
-        return self.mua + self.mus
+        return self._derived("sigma_t")
 
     @property
     def albedo(self) -> float:
         """Single-scattering albedo σs/σt (0 for a non-interacting layer)."""
-        return self.mus / self.sigma_t if self.sigma_t > 0 else 0.0
+        return self._derived("albedo")
 
     @property
     def mus_prime(self) -> float:
         """Reduced scattering coefficient σs' = σs(1 − g), mm⁻¹."""
-        return self.mus * (1.0 - self.g)
+        return self._derived("mus_prime")
 
     reduced_scattering = mus_prime
 
     @property
     def transport_mfp(self) -> float:
-        """Transport mean free path 1/(σa + σs'), mm."""
-        s = self.mua + self.mus_prime
-        return 1.0 / s if s > 0 else math.inf
+        """Transport mean free path 1/(σa + σs'), mm (infinite for a non-interacting layer)."""
+        return self._derived("transport_mfp")
 
     @property
     def optical_thickness(self) -> float:
         """Optical thickness τ = σt·d (0 for a non-interacting layer)."""
-        return self.sigma_t * self.thickness if self.sigma_t > 0 else 0.0
+        return self._derived("optical_thickness")
 
     def _to_core(self):
         return (self.n, self.mua, self.mus, list(self.lobes), self.thickness)
@@ -130,10 +133,7 @@ class Stack:
     @property
     def boundaries(self) -> list[float]:
         """Depths of the interfaces in mm: [0, d0, d0 + d1, …]."""
-        z = [0.0]
-        for l in self.layers:
-            z.append(z[-1] + l.thickness)
-        return z
+        return _core.stack_boundaries(*self._to_core())
 
     @property
     def thickness(self) -> float:

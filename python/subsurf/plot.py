@@ -50,8 +50,10 @@ def _u(units: str) -> str:
 
 def _visible(h) -> slice:
     """Bins to draw: all but an overflow bin (the tallies' last r/z bin holds everything beyond the
-    grid, as in MCML, so it is not a density at its centre and is left out of the plots)."""
-    return slice(0, -1) if "last bin also holds" in h.description and np.shape(h.values)[0] > 1 else slice(None)
+    grid, as in MCML — ``Histogram.overflow`` — so it is not a density at its centre and is left out
+    of the plots)."""
+    over = bool(h.overflow) and h.overflow[0]
+    return slice(0, -1) if over and np.shape(h.values)[0] > 1 else slice(None)
 
 
 def _new_axes(ax, **kw):
@@ -294,11 +296,16 @@ def histogram(h, ax=None, log: bool | None = None, label: str | None = None):
 
     1-D: the bin values as steps with a ±1 standard-error band; 2-D: an image over the bin edges
     (first axis horizontal, a depth axis ``z`` pointing down) with a colour bar. Axis labels give
-    the axis names and units, the value label the histogram's units. ``log`` chooses a logarithmic
+    the axis names and units, the value label the histogram's units; overflow bins (everything beyond
+    the grid, ``Histogram.overflow``) are left out. ``log`` chooses a logarithmic
     value scale (default: when the positive values span more than three decades). Histograms with
     more axes are drawn one slice at a time: ``h.take("order", k).plot()``.
     """
-    v = np.asarray(h.values, float)
+    v, s = np.asarray(h.values, float), np.asarray(h.stderr, float)
+    edges = [np.asarray(e, float) for e in h.edges]
+    for i, over in enumerate(h.overflow):  # an overflow bin holds everything beyond the grid: not drawn
+        if over and v.shape[i] > 1:
+            v, s, edges[i] = np.delete(v, -1, axis=i), np.delete(s, -1, axis=i), edges[i][:-1]
     if v.ndim not in (1, 2):
         raise ValueError(
             f"a histogram with {v.ndim} axes {tuple(h.axes)} cannot be drawn at once; "
@@ -311,8 +318,7 @@ def histogram(h, ax=None, log: bool | None = None, label: str | None = None):
     what = f"{h.description or 'value'} ({_u(h.units)})"
     if v.ndim == 1:
         ax = _new_axes(ax)
-        e = np.asarray(h.edges[0], float)
-        s = np.asarray(h.stderr, float)
+        e = edges[0]
         ax.stairs(v, e, color="k", lw=1.2, label=label or "Monte Carlo")
         ax.stairs(v + s, e, baseline=v - s, fill=True, color="k", alpha=0.2, lw=0, label="±1 standard error")
         ax.set_xlabel(names[0])
@@ -328,7 +334,7 @@ def histogram(h, ax=None, log: bool | None = None, label: str | None = None):
         from matplotlib.figure import Figure
 
         ax = Figure(figsize=(6.4, 4.8), layout="constrained").add_subplot()
-    x, y = (np.asarray(e, float) for e in h.edges[:2])
+    x, y = edges[:2]
     norm = LogNorm(vmin=pos.min(), vmax=pos.max()) if log and pos.size else None
     mesh = ax.pcolormesh(x, y, np.ma.masked_invalid(v.T), cmap="magma", shading="flat", norm=norm)
     ax.figure.colorbar(mesh, ax=ax, label=what)

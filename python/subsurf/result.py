@@ -30,6 +30,13 @@ class Histogram:
     edge_units : unit of each axis ("mm", "rad", "ps", "1", …).
     units : unit of ``values`` (e.g. "mm^-2", "sr^-1").
     description : one line saying what it is (MCML name where there is one).
+    measures : per axis, the exact measure of each bin that ``values`` are per (annulus area in
+        mm² for r, solid angle or projected solid angle in sr for θ, width for z and t, …, as the
+        core normalises); the bin weight (fraction of the launched power) is ``values`` times
+        :meth:`bin_measure`. Empty when unknown (a hand-built histogram).
+    overflow : per axis, whether its last bin also collects everything beyond its last edge (the
+        r, z and t axes, as in MCML, and the "more than K" bin of an order axis). Empty when
+        unknown.
     """
 
     values: np.ndarray
@@ -39,6 +46,18 @@ class Histogram:
     edge_units: tuple
     units: str
     description: str = ""
+    measures: tuple = ()
+    overflow: tuple = ()
+
+    def bin_measure(self) -> np.ndarray:
+        """The measure of every bin (the outer product of the per-axis ``measures``), shaped like
+        ``values``; ``values * bin_measure()`` are the bin weights."""
+        if len(self.measures) != len(self.edges):
+            raise ValueError(f"histogram has no bin measures (measures = {self.measures!r})")
+        out = np.ones(())
+        for m in self.measures:
+            out = np.multiply.outer(out, np.asarray(m, dtype=float))
+        return out
 
     def centers(self, axis: int | str = 0) -> np.ndarray:
         """Bin centres along an axis (given by index or name)."""
@@ -71,6 +90,8 @@ class Histogram:
             edge_units=tuple(self.edge_units[k] for k in keep),
             units=self.units,
             description=f"{self.description} ({self.axes[i]} in [{display.num(lo, 4)}, {display.num(hi, 4)}])",
+            measures=tuple(self.measures[k] for k in keep) if self.measures else (),
+            overflow=tuple(self.overflow[k] for k in keep) if self.overflow else (),
         )
 
     def plot(self, ax=None, **kwargs):
@@ -129,7 +150,18 @@ class Result:
     tally name (``"rd_r"``, ``"a_z"``, ``"brdf"`` …) to its :class:`Histogram` and each is also
     reachable as an attribute (``res.rd_r``). ``config`` is the full configuration as plain
     data (stack, source, tallies) so a result file describes itself; ``partial`` is True when
-    the run was interrupted and holds fewer photons than asked for.
+    the run was interrupted and holds fewer photons than asked for (always photons 0 … N−1).
+
+    Absorption: ``absorbed_per_layer`` and the A(z), A(r, z) histograms hold the physical
+    deposits (never negative; exactly 0 in a layer with μa = 0). ``absorbed`` is all the weight
+    that did not leave the stack, 1 − specular − diffuse − transmitted exactly: the physical
+    deposits plus ``roulette``, the zero-mean control term of Russian roulette (see
+    docs/architecture.md), so ``absorbed == sum(absorbed_per_layer) + roulette`` to rounding and
+    the energy balance is exact. ``absorbed`` is never negative either.
+
+    ``state`` is the exact raw state of the run (:class:`subsurf.state.TallyState`): pass the
+    result as ``subsurf.simulate(..., resume=result)`` to continue an interrupted run to the
+    same bits as an uninterrupted one. It is ``None`` for merged or hand-built results.
     """
 
     specular_reflectance: float
@@ -153,6 +185,9 @@ class Result:
     histograms: dict = dataclasses.field(default_factory=dict)
     config: dict = dataclasses.field(default_factory=dict)
     version: str = ""
+    roulette: float = 0.0
+    roulette_stderr: float = 0.0
+    state: Any = None
 
     def __getattr__(self, name: str) -> Any:
         hist = self.__dict__.get("histograms", {})

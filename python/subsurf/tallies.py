@@ -11,33 +11,30 @@ normalisation.
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any
 
+from . import _core
 from ._core import ParameterError
 
-#: Largest number of bins in one histogram and largest order K (as the core enforces).
-MAX_BINS = 10_000_000
-MAX_ORDER = 10_000
+#: Largest number of bins in one histogram and largest order K (the core's limits; every range
+#: is checked by the core, ``subsurf_core::mc::tally::config``).
+MAX_BINS: int = _core.MC_MAX_BINS
+MAX_ORDER: int = _core.MC_MAX_ORDER
 
 
-def _count(name: str, v: Any, lo: int) -> int:
+def _integer(name: str, v: Any) -> int:
     if isinstance(v, bool) or not hasattr(v, "__index__"):
-        raise ParameterError(f"tallies.{name} = {v!r} is out of range: must be an integer in [{lo}, {MAX_BINS}]")
-    v = int(v)
-    if not lo <= v <= MAX_BINS:
-        raise ParameterError(f"tallies.{name} = {v} is out of range: must be an integer in [{lo}, {MAX_BINS}]")
-    return v
+        raise ParameterError(f"tallies.{name} = {v!r} is not an integer")
+    return int(v)
 
 
-def _width(name: str, v: Any, unit: str) -> float:
+def _number(name: str, v: Any) -> float:
+    if isinstance(v, bool):
+        raise ParameterError(f"tallies.{name} = {v!r} is not a number")
     try:
-        f = float(v)
+        return float(v)
     except (TypeError, ValueError):
-        f = math.nan
-    if isinstance(v, bool) or not (math.isfinite(f) and f > 0.0):
-        raise ParameterError(f"tallies.{name} = {v!r} is out of range: must be a finite number > 0 ({unit})")
-    return f
+        raise ParameterError(f"tallies.{name} = {v!r} is not a number") from None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,13 +70,10 @@ class Tallies:
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
-        set_("nr", _count("nr", self.nr, 1))
-        set_("dr", _width("dr", self.dr, "mm"))
-        set_("nz", _count("nz", self.nz, 1))
-        set_("dz", _width("dz", self.dz, "mm"))
-        set_("na", _count("na", self.na, 1))
-        set_("nt", _count("nt", self.nt, 0))
-        set_("dt", _width("dt", self.dt, "ps"))
+        for name in ("nr", "nz", "na", "nt"):
+            set_(name, _integer(name, getattr(self, name)))
+        for name in ("dr", "dz", "dt"):
+            set_(name, _number(name, getattr(self, name)))
         if self.brdf is not None:
             try:
                 nc, nphi = self.brdf
@@ -88,30 +82,14 @@ class Tallies:
                     f"tallies.brdf = {self.brdf!r} is invalid: "
                     "must be None or a pair (n_cos_theta, n_phi) of integers >= 1"
                 ) from None
-            set_("brdf", (_count("brdf[0]", nc, 1), _count("brdf[1]", nphi, 1)))
+            set_("brdf", (_integer("brdf[0]", nc), _integer("brdf[1]", nphi)))
         if self.max_order is not None:
-            k = self.max_order
-            if isinstance(k, bool) or not hasattr(k, "__index__") or not 0 <= int(k) <= MAX_ORDER:
-                raise ParameterError(
-                    f"tallies.max_order = {k!r} is out of range: must be None or an integer in [0, {MAX_ORDER}]"
-                )
-            set_("max_order", int(k))
+            set_("max_order", _integer("max_order", self.max_order))
         for name in ("spatial", "angular"):
             v = getattr(self, name)
             if not isinstance(v, bool):
                 raise ParameterError(f"tallies.{name} = {v!r} is invalid: must be True or False")
-        sizes = []
-        if self.spatial:
-            sizes += [("a_rz", self.nr * self.nz), ("rd_rt", self.nr * max(self.nt, 1))]
-            if self.angular:
-                sizes.append(("rd_ra", self.nr * self.na))
-        if self.brdf is not None and self.max_order is not None:
-            sizes.append(("brdf_order", (self.max_order + 2) * self.brdf[0] * self.brdf[1]))
-        for what, n in sizes:
-            if n > MAX_BINS:
-                raise ParameterError(
-                    f"tallies: the {what} histogram would have {n} bins, more than {MAX_BINS}; use coarser grids"
-                )
+        _core.mc_validate_tallies({**self.to_dict(), "brdf": self.brdf})
 
     def to_dict(self) -> dict:
         """Plain values (JSON/TOML friendly): ``brdf`` as a list or None."""

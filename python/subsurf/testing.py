@@ -8,7 +8,9 @@ freedom. The test passes when the p-value exceeds the Šidák-corrected per-test
 α_i = 1 − (1 − α)^(1/m) for ``tests = m`` tests at overall level α — so a suite of m tests
 fails by chance with probability α only. Samples outside the grid go into an extra cell whose
 expected count is N − Σ E: a pdf whose integral is not 1, or a sample where the pdf is 0,
-makes the test fail.
+makes the test fail. All of this is computed by the Rust core (``subsurf_core::stats``, the
+same code the Rust tests use); the pdf is called with arrays, once per row of cells and
+refinement.
 
 Example — test your own phase-function sampler about the +z axis::
 
@@ -24,8 +26,7 @@ Example — test your own phase-function sampler about the +z axis::
     assert res.passed, res
 
 Use fixed seeds (``seed=``) so a test is reproducible; choose N so that most cells have an
-expected count well above 5. The special functions (χ² survival, Šidák) and the pooling are
-computed by the Rust core (``subsurf_core::stats``), shared with the Rust tests.
+expected count well above 5.
 """
 
 from __future__ import annotations
@@ -139,64 +140,39 @@ def _samples_2d(samples, n_samples: int, seed: int) -> np.ndarray:
     return to_cos_phi(s) if s.shape[1] == 3 else s
 
 
-def _edges(name: str, edges, n: int, lo: float, hi: float) -> np.ndarray:
+def _edges(edges, n: int, lo: float, hi: float) -> np.ndarray:
+    """Explicit edges, or ``n`` equal cells over [lo, hi] (the core checks them)."""
     if edges is None:
-        if int(n) < 1:
-            raise _core.ParameterError(f"n_{name} = {n} is out of range: must be an integer >= 1")
-        return np.linspace(lo, hi, int(n) + 1)
-    e = np.asarray(edges, dtype=np.float64).ravel()
-    if e.size < 2 or not np.all(np.isfinite(e)) or np.any(np.diff(e) <= 0):
-        raise _core.ParameterError(f"{name}_edges: must be at least 2 finite, strictly increasing values")
-    return e
+        return np.linspace(lo, hi, max(int(n), 1) + 1)
+    return np.asarray(edges, dtype=np.float64).ravel()
 
 
-def _gl(q: int):
-    x, w = np.polynomial.legendre.leggauss(q)
-    return 0.5 * (x + 1.0), 0.5 * w  # on [0, 1]
+def _batch(pdf: Callable):
+    """The user's vectorised pdf as the core calls it: flat float64 arrays in, one value per point out."""
+
+    def call(*coords):
+        v = np.asarray(pdf(*coords), dtype=np.float64)
+        return np.ascontiguousarray(np.broadcast_to(v, coords[0].shape), dtype=np.float64).ravel()
+
+    return call
 
 
-def _cell_integrals_2d(pdf, ce, pe, sub: int, q: int) -> np.ndarray:
-    """∬ pdf over each cell by q×q Gauss–Legendre on sub×sub sub-cells (vectorised)."""
-    x, w = _gl(q)
-    t = (np.arange(sub)[:, None] + x[None, :]).ravel() / sub  # (sub*q,) in [0, 1]
-    wt = np.tile(w, sub) / sub
-    dc, dp = np.diff(ce), np.diff(pe)
-    c = ce[:-1, None] + dc[:, None] * t[None, :]  # (nc, sub*q)
-    p = pe[:-1, None] + dp[:, None] * t[None, :]  # (np, sub*q)
-    C = c[:, None, :, None]
-    P = p[None, :, None, :]
-    vals = np.asarray(pdf(*np.broadcast_arrays(C, P)), dtype=np.float64)
-    vals = np.broadcast_to(vals, np.broadcast_shapes(C.shape, P.shape))
-    integ = np.einsum("ijkl,k,l->ij", vals, wt, wt)
-    return integ * dc[:, None] * dp[None, :]
-
-
-def _expected(integrate, n: int, max_sub: int):
-    """Refine sub-cells (1, 2, 4, …) until the largest change of any cell's probability is below
-    1e-10 (absolute); returns probabilities and the last change (as a probability)."""
-    sub, prev = 1, integrate(1)
-    err = math.inf
-    while sub < max_sub:
-        sub *= 2
-        cur = integrate(sub)
-        err = float(np.max(np.abs(cur - prev)))
-        prev = cur
-        if err < 1e-10:
-            break
-    return prev, err
-
-
-def _finish(obs, prob, n, outside, min_expected, significance, tests, qerr) -> Chi2Result:
-    exp = prob.ravel() * n
-    rest = n - exp.sum()
-    rest = 0.0 if rest < 1e-6 * n else rest
-    o = np.append(obs.ravel().astype(np.float64), float(outside))
-    e = np.append(exp, rest)
-    if np.any(~np.isfinite(e)) or np.any(e < 0):
-        raise _core.ParameterError("pdf: returned negative or non-finite values")
-    stat, dof, p, pooled = _core.chi2_pooled(np.ascontiguousarray(o), np.ascontiguousarray(e), float(min_expected))
+def _grid_test(samples, edges, names, pdf, min_expected, quad_points, max_subdivisions, significance, tests):
+    """Histogram, cell probabilities, pooling and Pearson's χ²: the core's test on a grid
+    (``subsurf_core::stats::grid``), shared with the Rust tests."""
+    flat = lambda a: np.ascontiguousarray(a, dtype=np.float64).ravel()  # noqa: E731
+    stat, dof, p, pooled, outside, integral, qerr = _core.chi2_test_grid(
+        [flat(x) for x in samples],
+        [flat(e) for e in edges],
+        list(names),
+        _batch(pdf),
+        float(min_expected),
+        int(quad_points),
+        int(max_subdivisions),
+    )
     alpha = sidak_alpha(significance, tests)
-    return Chi2Result(stat, dof, p, alpha, bool(p > alpha), pooled, int(n), int(outside), float(prob.sum()), qerr * n)
+    n = len(samples[0])
+    return Chi2Result(stat, dof, p, alpha, bool(p > alpha), pooled, int(n), int(outside), float(integral), qerr)
 
 
 def chi2_test(
@@ -232,14 +208,19 @@ def chi2_test(
         sub-cells per axis of the refinement (stopped when cell probabilities change < 1e-10).
     """
     s = _samples_2d(samples, n_samples, seed)
-    ce = _edges("cos", cos_edges, n_theta, *cos_range)
-    pe = _edges("phi", phi_edges, n_phi, 0.0, 2.0 * math.pi)
-    inside = (s[:, 0] >= ce[0]) & (s[:, 0] <= ce[-1]) & (s[:, 1] >= pe[0]) & (s[:, 1] <= pe[-1])
-    obs, _, _ = np.histogram2d(s[inside, 0], s[inside, 1], bins=[ce, pe])
-    prob, err = _expected(
-        lambda sub: _cell_integrals_2d(pdf, ce, pe, sub, int(quad_points)), len(s), int(max_subdivisions)
+    ce = _edges(cos_edges, n_theta, *cos_range)
+    pe = _edges(phi_edges, n_phi, 0.0, 2.0 * math.pi)
+    return _grid_test(
+        (s[:, 0], s[:, 1]),
+        (ce, pe),
+        ("cos_edges", "phi_edges"),
+        pdf,
+        min_expected,
+        quad_points,
+        max_subdivisions,
+        significance,
+        tests,
     )
-    return _finish(obs, prob, len(s), int((~inside).sum()), min_expected, significance, tests, err)
 
 
 def chi2_test_1d(
@@ -265,18 +246,5 @@ def chi2_test_1d(
     if callable(samples):
         samples = samples(int(n_samples), np.random.default_rng(seed))
     x = np.asarray(samples, dtype=np.float64).ravel()
-    e = _edges("bin", edges, n_bins, *range)
-    inside = (x >= e[0]) & (x <= e[-1])
-    obs, _ = np.histogram(x[inside], bins=e)
-    xq, wq = _gl(int(quad_points))
-
-    def integrate(sub):
-        t = (np.arange(sub)[:, None] + xq[None, :]).ravel() / sub
-        wt = np.tile(wq, sub) / sub
-        d = np.diff(e)
-        pts = e[:-1, None] + d[:, None] * t[None, :]
-        vals = np.broadcast_to(np.asarray(pdf(pts), dtype=np.float64), pts.shape)
-        return (vals @ wt) * d
-
-    prob, err = _expected(integrate, len(x), int(max_subdivisions))
-    return _finish(obs, prob, len(x), int((~inside).sum()), min_expected, significance, tests, err)
+    e = _edges(edges, n_bins, *range)
+    return _grid_test((x,), (e,), ("bin_edges",), pdf, min_expected, quad_points, max_subdivisions, significance, tests)

@@ -151,6 +151,21 @@ impl PhotonRng {
         let r = self.next_u32() as u64;
         f64::from_bits(0x4000_0000_0000_0000 | (r << 20) | (1 << 19)) - 3.0
     }
+
+    /// A point (x, y) uniform in the open unit disc, by rejection from the square (−1, 1)²:
+    /// x then y from [`PhotonRng::symmetric`], repeated until x² + y² < 1 (acceptance π/4).
+    /// x² + y² > 0 always (x, y are odd multiples of 2⁻³², never both 0). Used for the
+    /// scattering azimuth (`mc::kernel`) and for Malley's cosine-weighted directions (`mc::source`).
+    #[inline(always)]
+    pub fn disc_point(&mut self) -> (f64, f64) {
+        loop {
+            let x = self.symmetric();
+            let y = self.symmetric();
+            if x * x + y * y < 1.0 {
+                return (x, y);
+            }
+        }
+    }
 }
 
 #[cfg(test)]

@@ -1,51 +1,61 @@
 //! Bindings of `subsurf_core::diffusion`. Every function takes flat, equally long float64
-//! arrays (python/subsurf/diffusion.py broadcasts and reshapes) and returns flat arrays; an
-//! invalid element raises ParameterError naming the field and its flat index.
+//! arrays (python/subsurf/diffusion.py broadcasts and reshapes; points and directions hold 3
+//! values per element) and returns flat arrays; an invalid element raises ParameterError
+//! naming the field and its flat index (the core's [`Error::at`]).
 
 use crate::errors::IntoPyResult;
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use subsurf_core::diffusion::{self as dif, better_dipole, MeanFreePath, Model};
-use subsurf_core::Error;
+use subsurf_core::{Error, Result};
 
-type Arr<'py> = PyReadonlyArray1<'py, f64>;
+type In<'py> = PyReadonlyArray1<'py, f64>;
 type Out<'py> = Bound<'py, PyArray1<f64>>;
 
-fn slice<'a>(a: &'a Arr<'_>) -> PyResult<&'a [f64]> {
-    a.as_slice().map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))
+fn slice<'a>(a: &'a In<'_>) -> PyResult<&'a [f64]> {
+    a.as_slice().map_err(|_| Error::Invalid("diffusion: expected contiguous float64 arrays".into())).py()
 }
 
-/// Name the element: `sigma_a` → `sigma_a[3]` (only for arrays longer than one).
-fn at_index(e: Error, i: usize, n: usize) -> Error {
-    match e {
-        Error::Parameter { field, value, allowed } if n > 1 => {
-            Error::Parameter { field: format!("{field}[{i}]"), value, allowed }
-        }
-        other => other,
-    }
+/// Row `i` of a column holding `w` values per element.
+fn row(c: &[f64], w: usize, i: usize) -> &[f64] {
+    &c[w * i..w * i + w]
 }
 
-/// Apply `f` to the i-th elements of equally long columns, without the GIL.
-fn map_cols<F>(py: Python<'_>, cols: &[&[f64]], f: F) -> PyResult<Vec<f64>>
-where
-    F: Fn(&[f64]) -> subsurf_core::Result<f64> + Send + Sync,
-{
-    let n = cols.first().map_or(0, |c| c.len());
-    if cols.iter().any(|c| c.len() != n) {
+/// Apply `f` to the rows of equally long columns (`(array, values per element)`), without the
+/// GIL; `K` outputs per element.
+fn map_rows<'py, const K: usize>(
+    py: Python<'py>,
+    cols: &[(&In<'py>, usize)],
+    f: impl Fn(&[&[f64]]) -> Result<[f64; K]> + Send + Sync,
+) -> PyResult<Vec<Out<'py>>> {
+    let data: Vec<(&[f64], usize)> = cols.iter().map(|&(a, w)| Ok((slice(a)?, w))).collect::<PyResult<_>>()?;
+    let n = data.first().map_or(0, |(c, w)| c.len() / w);
+    if data.iter().any(|(c, w)| c.len() != n * w) {
         return Err(Error::Invalid("diffusion: input arrays must have equal lengths".into())).py();
     }
-    py.detach(|| {
-        let mut row = vec![0.0; cols.len()];
-        let mut out = Vec::with_capacity(n);
-        for i in 0..n {
-            for (k, c) in cols.iter().enumerate() {
-                row[k] = c[i];
-            }
-            out.push(f(&row).map_err(|e| at_index(e, i, n))?);
-        }
-        Ok(out)
-    })
-    .py()
+    let out: Result<Vec<[f64; K]>> = py.detach(|| {
+        (0..n)
+            .map(|i| {
+                let rows: Vec<&[f64]> = data.iter().map(|&(c, w)| row(c, w, i)).collect();
+                f(&rows).map_err(|e| if n > 1 { e.at(&[i]) } else { e })
+            })
+            .collect()
+    });
+    let out = out.py()?;
+    Ok((0..K).map(|k| PyArray1::from_vec(py, out.iter().map(|r| r[k]).collect())).collect())
+}
+
+/// [`map_rows`] with one output.
+fn map1<'py>(
+    py: Python<'py>,
+    cols: &[(&In<'py>, usize)],
+    f: impl Fn(&[&[f64]]) -> Result<f64> + Send + Sync,
+) -> PyResult<Out<'py>> {
+    Ok(map_rows::<1>(py, cols, |r| f(r).map(|x| [x]))?.remove(0))
+}
+
+fn v3(r: &[f64]) -> [f64; 3] {
+    [r[0], r[1], r[2]]
 }
 
 fn model(name: &str) -> PyResult<Model> {
@@ -54,32 +64,32 @@ fn model(name: &str) -> PyResult<Model> {
 
 /// F_dr(η), Jensen's (Egan–Hilgeman) fit; η validated.
 #[pyfunction]
-fn diffusion_fdr<'py>(py: Python<'py>, eta: Arr<'py>) -> PyResult<Out<'py>> {
-    let v = map_cols(py, &[slice(&eta)?], |x| Ok(dif::fdr(dif::check_eta(x[0])?)))?;
-    Ok(PyArray1::from_vec(py, v))
+fn diffusion_fdr<'py>(py: Python<'py>, eta: In<'py>) -> PyResult<Out<'py>> {
+    map1(py, &[(&eta, 1)], |x| Ok(dif::fdr(dif::check_eta(x[0][0])?)))
 }
 
 /// Boundary coefficient A(η) of the model.
 #[pyfunction]
-fn diffusion_a<'py>(py: Python<'py>, model_name: &str, eta: Arr<'py>) -> PyResult<Out<'py>> {
+fn diffusion_a<'py>(py: Python<'py>, model_name: &str, eta: In<'py>) -> PyResult<Out<'py>> {
     let m = model(model_name)?;
-    let v = map_cols(py, &[slice(&eta)?], |x| {
-        let e = dif::check_eta(x[0])?;
+    map1(py, &[(&eta, 1)], |x| {
+        let e = dif::check_eta(x[0][0])?;
         Ok(match m {
             Model::Dipole => dif::a_coefficient(e),
             Model::BetterDipole => better_dipole::better_a(e),
         })
-    })?;
-    Ok(PyArray1::from_vec(py, v))
+    })
 }
 
 /// d'Eon's Fresnel moments (C1, C2).
 #[pyfunction]
-fn diffusion_fresnel_moments<'py>(py: Python<'py>, eta: Arr<'py>) -> PyResult<(Out<'py>, Out<'py>)> {
-    let e = slice(&eta)?;
-    let c1 = map_cols(py, &[e], |x| Ok(dif::fresnel_moment1(dif::check_eta(x[0])?)))?;
-    let c2 = map_cols(py, &[e], |x| Ok(dif::fresnel_moment2(dif::check_eta(x[0])?)))?;
-    Ok((PyArray1::from_vec(py, c1), PyArray1::from_vec(py, c2)))
+fn diffusion_fresnel_moments<'py>(py: Python<'py>, eta: In<'py>) -> PyResult<(Out<'py>, Out<'py>)> {
+    let mut v = map_rows::<2>(py, &[(&eta, 1)], |x| {
+        let e = dif::check_eta(x[0][0])?;
+        Ok([dif::fresnel_moment1(e), dif::fresnel_moment2(e)])
+    })?;
+    let c2 = v.pop().expect("two outputs");
+    Ok((v.pop().expect("two outputs"), c2))
 }
 
 /// The model's constants per element: (alpha_prime, D, sigma_tr, A, z_r, z_v).
@@ -87,72 +97,55 @@ fn diffusion_fresnel_moments<'py>(py: Python<'py>, eta: Arr<'py>) -> PyResult<(O
 fn diffusion_params<'py>(
     py: Python<'py>,
     model_name: &str,
-    sigma_a: Arr<'py>,
-    sigma_s_prime: Arr<'py>,
-    eta: Arr<'py>,
+    sigma_a: In<'py>,
+    sigma_s_prime: In<'py>,
+    eta: In<'py>,
 ) -> PyResult<Vec<Out<'py>>> {
     let m = model(model_name)?;
-    let cols = [slice(&sigma_a)?, slice(&sigma_s_prime)?, slice(&eta)?];
-    let mut outs = Vec::new();
-    for k in 0..6 {
-        let v = map_cols(py, &cols, |x| {
-            let p = match m {
-                Model::Dipole => {
-                    let d = dif::Dipole::new(x[0], x[1], x[2])?;
-                    [d.alpha_prime, d.d, d.sigma_tr, d.a, d.z_r, d.z_v]
-                }
-                Model::BetterDipole => {
-                    let d = dif::BetterDipole::new(x[0], x[1], x[2])?;
-                    [d.alpha_prime, d.d, d.sigma_tr, d.a, d.z_r, d.z_v]
-                }
-            };
-            Ok(p[k])
-        })?;
-        outs.push(PyArray1::from_vec(py, v));
-    }
-    Ok(outs)
+    map_rows::<6>(py, &[(&sigma_a, 1), (&sigma_s_prime, 1), (&eta, 1)], |x| {
+        let (sa, ssp, e) = (x[0][0], x[1][0], x[2][0]);
+        Ok(match m {
+            Model::Dipole => {
+                let d = dif::Dipole::new(sa, ssp, e)?;
+                [d.alpha_prime, d.d, d.sigma_tr, d.a, d.z_r, d.z_v]
+            }
+            Model::BetterDipole => {
+                let d = dif::BetterDipole::new(sa, ssp, e)?;
+                [d.alpha_prime, d.d, d.sigma_tr, d.a, d.z_r, d.z_v]
+            }
+        })
+    })
 }
 
-/// R_d(r) in mm⁻².
-#[pyfunction]
-fn diffusion_rd<'py>(
-    py: Python<'py>,
-    model_name: &str,
-    r: Arr<'py>,
-    sigma_a: Arr<'py>,
-    sigma_s_prime: Arr<'py>,
-    eta: Arr<'py>,
-) -> PyResult<Out<'py>> {
-    let m = model(model_name)?;
-    let cols = [slice(&r)?, slice(&sigma_a)?, slice(&sigma_s_prime)?, slice(&eta)?];
-    let v = map_cols(py, &cols, |x| m.rd(x[0], x[1], x[2], x[3]))?;
-    Ok(PyArray1::from_vec(py, v))
+/// Bindings `name(model_name, a, b, …) -> array` of a model's function of per-element columns
+/// (`arg: values per element`): one line each.
+macro_rules! by_model {
+    ($($(#[$doc:meta])* $name:ident($($arg:ident: $w:literal),+) => |$m:ident, $x:ident| $body:expr;)+) => {$(
+        $(#[$doc])*
+        #[pyfunction]
+        #[allow(clippy::too_many_arguments)]
+        fn $name<'py>(py: Python<'py>, model_name: &str, $($arg: In<'py>),+) -> PyResult<Out<'py>> {
+            let $m = model(model_name)?;
+            map1(py, &[$((&$arg, $w)),+], |$x| $body)
+        }
+    )+};
 }
 
-/// Total diffuse reflectance from (alpha_prime, eta), closed form.
-#[pyfunction]
-fn diffusion_total_rd<'py>(
-    py: Python<'py>,
-    model_name: &str,
-    alpha_prime: Arr<'py>,
-    eta: Arr<'py>,
-) -> PyResult<Out<'py>> {
-    let m = model(model_name)?;
-    let v = map_cols(py, &[slice(&alpha_prime)?, slice(&eta)?], |x| m.total_rd(x[0], x[1]))?;
-    Ok(PyArray1::from_vec(py, v))
-}
-
-/// alpha_prime from a total diffuse reflectance.
-#[pyfunction]
-fn diffusion_alpha_prime_from_rd<'py>(
-    py: Python<'py>,
-    model_name: &str,
-    rd: Arr<'py>,
-    eta: Arr<'py>,
-) -> PyResult<Out<'py>> {
-    let m = model(model_name)?;
-    let v = map_cols(py, &[slice(&rd)?, slice(&eta)?], |x| dif::alpha_prime_from_rd(x[0], x[1], m))?;
-    Ok(PyArray1::from_vec(py, v))
+by_model! {
+    /// R_d(r) in mm⁻².
+    diffusion_rd(r: 1, sigma_a: 1, sigma_s_prime: 1, eta: 1) => |m, x| m.rd(x[0][0], x[1][0], x[2][0], x[3][0]);
+    /// Total diffuse reflectance from (alpha_prime, eta), closed form.
+    diffusion_total_rd(alpha_prime: 1, eta: 1) => |m, x| m.total_rd(x[0][0], x[1][0]);
+    /// alpha_prime from a total diffuse reflectance.
+    diffusion_alpha_prime_from_rd(rd: 1, eta: 1) => |m, x| dif::alpha_prime_from_rd(x[0][0], x[1][0], m);
+    /// S_d(xi, wi, xo, wo) in mm⁻² sr⁻¹; points and directions flat (3n), properties n.
+    diffusion_sd(xi: 3, wi: 3, xo: 3, wo: 3, sigma_a: 1, sigma_s_prime: 1, eta: 1) => |m, x| {
+        dif::sd(v3(x[0]), v3(x[1]), v3(x[2]), v3(x[3]), m, x[4][0], x[5][0], x[6][0])
+    };
+    /// The diffusion BRDF (1/π) F_t(wi) R_d,total F_t(wo), sr⁻¹.
+    diffusion_brdf(wi: 3, wo: 3, sigma_a: 1, sigma_s_prime: 1, eta: 1) => |m, x| {
+        dif::diffusion_brdf(v3(x[0]), v3(x[1]), m, x[2][0], x[3][0], x[4][0])
+    };
 }
 
 /// (sigma_a, sigma_s_prime) from a diffuse colour and a mean free path.
@@ -161,112 +154,35 @@ fn diffusion_properties_from_color<'py>(
     py: Python<'py>,
     model_name: &str,
     mfp_kind: &str,
-    rd: Arr<'py>,
-    mfp: Arr<'py>,
-    eta: Arr<'py>,
+    rd: In<'py>,
+    mfp: In<'py>,
+    eta: In<'py>,
 ) -> PyResult<(Out<'py>, Out<'py>)> {
     let m = model(model_name)?;
     let kind = MeanFreePath::from_name(mfp_kind).py()?;
-    let cols = [slice(&rd)?, slice(&mfp)?, slice(&eta)?];
-    let sa = map_cols(py, &cols, |x| {
-        dif::properties_from_color(x[0], x[1], x[2], m, kind).map(|p| p.0).map_err(|e| rename(e, "rd", "diffuse_color"))
+    let mut v = map_rows::<2>(py, &[(&rd, 1), (&mfp, 1), (&eta, 1)], |x| {
+        dif::properties_from_color(x[0][0], x[1][0], x[2][0], m, kind).map(|(a, s)| [a, s])
     })?;
-    let ssp = map_cols(py, &cols, |x| dif::properties_from_color(x[0], x[1], x[2], m, kind).map(|p| p.1))?;
-    Ok((PyArray1::from_vec(py, sa), PyArray1::from_vec(py, ssp)))
-}
-
-fn rename(e: Error, from: &str, to: &str) -> Error {
-    match e {
-        Error::Parameter { field, value, allowed } if field == from => {
-            Error::Parameter { field: to.into(), value, allowed }
-        }
-        other => other,
-    }
-}
-
-fn v3(c: &[f64], i: usize) -> [f64; 3] {
-    [c[3 * i], c[3 * i + 1], c[3 * i + 2]]
-}
-
-/// S_d(xi, wi, xo, wo) in mm⁻² sr⁻¹; points and directions flat (3n), properties n.
-#[pyfunction]
-#[allow(clippy::too_many_arguments)]
-fn diffusion_sd<'py>(
-    py: Python<'py>,
-    model_name: &str,
-    xi: Arr<'py>,
-    wi: Arr<'py>,
-    xo: Arr<'py>,
-    wo: Arr<'py>,
-    sigma_a: Arr<'py>,
-    sigma_s_prime: Arr<'py>,
-    eta: Arr<'py>,
-) -> PyResult<Out<'py>> {
-    let m = model(model_name)?;
-    let (xi, wi, xo, wo) = (slice(&xi)?, slice(&wi)?, slice(&xo)?, slice(&wo)?);
-    let (sa, ssp, e) = (slice(&sigma_a)?, slice(&sigma_s_prime)?, slice(&eta)?);
-    let n = sa.len();
-    if [xi, wi, xo, wo].iter().any(|c| c.len() != 3 * n) {
-        return Err(Error::Invalid("diffusion_sd: points/directions must hold 3 values per element".into())).py();
-    }
-    let idx: Vec<f64> = (0..n).map(|i| i as f64).collect();
-    let v = map_cols(py, &[&idx, sa, ssp, e], |x| {
-        let i = x[0] as usize;
-        dif::sd(v3(xi, i), v3(wi, i), v3(xo, i), v3(wo, i), m, x[1], x[2], x[3])
-    })?;
-    Ok(PyArray1::from_vec(py, v))
-}
-
-/// The diffusion BRDF (1/π) F_t(wi) R_d,total F_t(wo), sr⁻¹.
-#[pyfunction]
-fn diffusion_brdf<'py>(
-    py: Python<'py>,
-    model_name: &str,
-    wi: Arr<'py>,
-    wo: Arr<'py>,
-    sigma_a: Arr<'py>,
-    sigma_s_prime: Arr<'py>,
-    eta: Arr<'py>,
-) -> PyResult<Out<'py>> {
-    let m = model(model_name)?;
-    let (wi, wo) = (slice(&wi)?, slice(&wo)?);
-    let (sa, ssp, e) = (slice(&sigma_a)?, slice(&sigma_s_prime)?, slice(&eta)?);
-    let n = sa.len();
-    if wi.len() != 3 * n || wo.len() != 3 * n {
-        return Err(Error::Invalid("diffusion_brdf: directions must hold 3 values per element".into())).py();
-    }
-    let idx: Vec<f64> = (0..n).map(|i| i as f64).collect();
-    let v = map_cols(py, &[&idx, sa, ssp, e], |x| {
-        let i = x[0] as usize;
-        dif::diffusion_brdf(v3(wi, i), v3(wo, i), m, x[1], x[2], x[3])
-    })?;
-    Ok(PyArray1::from_vec(py, v))
+    let ssp = v.pop().expect("two outputs");
+    Ok((v.pop().expect("two outputs"), ssp))
 }
 
 /// F_t(η, cos θ) = 1 − F_r(1 → η) (0 for cos θ ≤ 0); η validated, |cos θ| ≤ 1.
 #[pyfunction]
-fn diffusion_ft<'py>(py: Python<'py>, eta: Arr<'py>, cos_theta: Arr<'py>) -> PyResult<Out<'py>> {
-    let v = map_cols(py, &[slice(&eta)?, slice(&cos_theta)?], |x| {
-        let e = dif::check_eta(x[0])?;
-        if !(x[1].is_finite() && x[1].abs() <= 1.0) {
-            return Err(Error::param("cos_theta", x[1], "a finite number in [-1, 1]"));
-        }
-        Ok(dif::bssrdf::ft(e, x[1]))
-    })?;
-    Ok(PyArray1::from_vec(py, v))
+fn diffusion_ft<'py>(py: Python<'py>, eta: In<'py>, cos_theta: In<'py>) -> PyResult<Out<'py>> {
+    map1(py, &[(&eta, 1), (&cos_theta, 1)], |x| dif::bssrdf::ft_checked(x[0][0], x[1][0]))
 }
 
 /// Validate optical properties (sigma_a, sigma_s_prime ≥ 0, their sum > 0, eta ∈ [1, 2.5]).
 #[pyfunction]
 fn diffusion_check_properties<'py>(
     py: Python<'py>,
-    sigma_a: Arr<'py>,
-    sigma_s_prime: Arr<'py>,
-    eta: Arr<'py>,
+    sigma_a: In<'py>,
+    sigma_s_prime: In<'py>,
+    eta: In<'py>,
 ) -> PyResult<()> {
-    let cols = [slice(&sigma_a)?, slice(&sigma_s_prime)?, slice(&eta)?];
-    map_cols(py, &cols, |x| dif::check_properties(x[0], x[1], x[2]))?;
-    Ok(())
+    map1(py, &[(&sigma_a, 1), (&sigma_s_prime, 1), (&eta, 1)], |x| dif::check_properties(x[0][0], x[1][0], x[2][0]))
+        .map(|_| ())
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

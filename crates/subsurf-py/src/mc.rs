@@ -1,23 +1,30 @@
-//! Bindings of `subsurf_core::mc`: `mc_simulate` (used by python/subsurf/mc.py) and
-//! `mc_validate_source`.
+//! Bindings of `subsurf_core::mc` (used by python/subsurf/mc.py): `mc_run` traces a photon
+//! range into an exact state, `mc_finish` turns a state into totals and histograms,
+//! `mc_merge_states` appends states in range order; plus validators, limits and bin measures.
 //!
-//! Ctrl-C: the run executes on a background thread (`std::thread`) while this thread waits with
-//! the GIL released, waking every 50 ms to re-attach, call `check_signals()` and the optional
-//! `progress(done, total)` callable. A KeyboardInterrupt (from a signal or from `progress`) sets
-//! the cancel flag; the run then returns its completed chunks and the result is marked partial.
+//! Ctrl-C: a run executes on a background thread while this thread waits with the GIL
+//! released, waking every 50 ms to re-attach, call `check_signals()` and the optional
+//! `progress(done, total)` callable. A KeyboardInterrupt — from a signal or from `progress`,
+//! during the run, on `progress`'s final call, or pending when a short run ends — stops the run
+//! and is answered by the state of the photons committed so far with `interrupted = True`
+//! (always a prefix of whole chunks); any other exception from `progress` propagates.
 
-use crate::errors::IntoPyResult;
+use crate::errors::{f64_arg, to_py, u64_arg, IntoPyResult};
 use crate::medium::{stack_from_py, LayerTuple};
-use numpy::PyArray1;
+use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant};
-use subsurf_core::mc::tally::totals::{Total, Totals};
-use subsurf_core::mc::tally::{HistogramOut, TallyConfig, TallySet};
-use subsurf_core::mc::{run, RunConfig, RunOutput, Source};
+use subsurf_core::mc::config::{CHUNK_PHOTONS, MAX_THREADS, PHOTONS_ALLOWED, SEED_ALLOWED, THREADS_ALLOWED};
+use subsurf_core::mc::tally::histogram::AxisKind;
+use subsurf_core::mc::tally::totals::{Total, Totals, TOTAL_NAMES};
+use subsurf_core::mc::tally::{Channel, HistogramOut, TallyConfig, TallySet};
+use subsurf_core::mc::{cost, extend, fingerprint, finish, FlatState, RunConfig, Source, TallyState};
+use subsurf_core::medium::Stack;
+use subsurf_core::Error;
 
 /// How often the waiting thread re-attaches to check signals and report progress.
 const POLL: Duration = Duration::from_millis(50);
@@ -27,9 +34,7 @@ fn source_from_py(kind: &str, theta: f64, phi: f64) -> subsurf_core::Result<Sour
     let s = match kind {
         "pencil" => Source::Pencil { theta, phi },
         "diffuse" => Source::Diffuse,
-        other => {
-            return Err(subsurf_core::Error::Invalid(format!("source: unknown kind {other:?} (pencil or diffuse)")))
-        }
+        other => return Err(Error::Invalid(format!("source: unknown kind {other:?} (pencil or diffuse)"))),
     };
     s.validate()?;
     Ok(s)
@@ -41,36 +46,158 @@ fn mc_validate_source(kind: &str, theta: f64, phi: f64) -> PyResult<()> {
     source_from_py(kind, theta, phi).py().map(|_| ())
 }
 
-/// The `subsurf.Tallies.to_dict()` of Python as a core [`TallyConfig`] (validated).
+fn threads_arg(t: &Bound<'_, PyAny>) -> PyResult<usize> {
+    Ok(usize::try_from(u64_arg(t, "threads", THREADS_ALLOWED)?).unwrap_or(usize::MAX))
+}
+
+/// Validate the run parameters photons, seed and threads; raises ParameterError naming the field.
+#[pyfunction]
+#[pyo3(signature = (photons, seed, threads=None))]
+fn mc_validate_run(
+    photons: &Bound<'_, PyAny>,
+    seed: &Bound<'_, PyAny>,
+    threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<()> {
+    let threads = threads.map(threads_arg).transpose()?;
+    let cfg = RunConfig {
+        photons: u64_arg(photons, "photons", PHOTONS_ALLOWED)?,
+        seed: u64_arg(seed, "seed", SEED_ALLOWED)?,
+        threads,
+        source: Source::default(),
+    };
+    cfg.validate().py()
+}
+
+/// The `subsurf.Tallies.to_dict()` of Python as a validated core [`TallyConfig`].
 fn tally_config_from_py(d: &Bound<'_, PyDict>) -> PyResult<TallyConfig> {
-    macro_rules! get {
-        ($k:literal) => {
-            d.get_item($k)?
-                .ok_or_else(|| {
-                    crate::errors::to_py(subsurf_core::Error::Invalid(format!("tallies: missing field {}", $k)))
-                })?
-                .extract()?
-        };
-    }
-    let cfg = TallyConfig {
-        nr: get!("nr"),
-        dr: get!("dr"),
-        nz: get!("nz"),
-        dz: get!("dz"),
-        na: get!("na"),
-        nt: get!("nt"),
-        dt: get!("dt"),
-        brdf: get!("brdf"),
-        max_order: get!("max_order"),
-        spatial: get!("spatial"),
-        angular: get!("angular"),
+    let item = |k: &str| -> PyResult<Bound<'_, PyAny>> {
+        d.get_item(k)?.ok_or_else(|| to_py(Error::Invalid(format!("tallies: missing field {k}"))))
+    };
+    let num = |k: &str| f64_arg(&item(k)?, &format!("tallies.{k}"));
+    let opt = |k: &str| -> PyResult<Option<Bound<'_, PyAny>>> { Ok(Some(item(k)?).filter(|v| !v.is_none())) };
+    let brdf = match opt("brdf")? {
+        Some(b) => {
+            let (c, p): (Bound<'_, PyAny>, Bound<'_, PyAny>) = b.extract().map_err(|_| {
+                to_py(Error::Invalid("tallies.brdf: must be None or a pair (n_cos_theta, n_phi)".into()))
+            })?;
+            Some((f64_arg(&c, "tallies.brdf[0]")?, f64_arg(&p, "tallies.brdf[1]")?))
+        }
+        None => None,
+    };
+    let max_order = opt("max_order")?.map(|k| f64_arg(&k, "tallies.max_order")).transpose()?;
+    TallyConfig::from_numbers(
+        num("nr")?,
+        num("dr")?,
+        num("nz")?,
+        num("dz")?,
+        num("na")?,
+        num("nt")?,
+        num("dt")?,
+        brdf,
+        max_order,
+        item("spatial")?.extract()?,
+        item("angular")?.extract()?,
+    )
+    .py()
+}
+
+/// Validate a `subsurf.Tallies.to_dict()`; raises ParameterError naming the field.
+#[pyfunction]
+fn mc_validate_tallies(tallies: &Bound<'_, PyDict>) -> PyResult<()> {
+    tally_config_from_py(tallies).map(|_| ())
+}
+
+/// Everything a run is a function of, converted and validated.
+struct Setup {
+    stack: Stack,
+    cfg: RunConfig,
+    tallies: Option<TallyConfig>,
+    layout: Vec<Channel>,
+    fingerprint: u64,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn setup(
+    layers: &[LayerTuple],
+    n_above: f64,
+    n_below: f64,
+    photons: Option<&Bound<'_, PyAny>>,
+    seed: &Bound<'_, PyAny>,
+    threads: Option<&Bound<'_, PyAny>>,
+    source: &(String, f64, f64),
+    tallies: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Setup> {
+    let stack = stack_from_py(layers, n_above, n_below).py()?;
+    let threads = threads.map(threads_arg).transpose()?;
+    let cfg = RunConfig {
+        photons: photons.map_or(Ok(1), |p| u64_arg(p, "photons", PHOTONS_ALLOWED))?,
+        seed: u64_arg(seed, "seed", SEED_ALLOWED)?,
+        threads,
+        source: source_from_py(&source.0, source.1, source.2).py()?,
     };
     cfg.validate().py()?;
-    Ok(cfg)
+    let tallies = tallies.map(tally_config_from_py).transpose()?;
+    let mut layout = Totals::layout(stack.layers.len());
+    if let Some(t) = &tallies {
+        layout.extend(TallySet::layout(t).py()?);
+    }
+    let fingerprint = fingerprint(&stack, &cfg.source, cfg.seed, tallies.as_ref());
+    Ok(Setup { stack, cfg, tallies, layout, fingerprint })
+}
+
+/// A flat state dict (see `_core.pyi`) as a core state.
+fn state_from_py(d: &Bound<'_, PyDict>) -> PyResult<TallyState> {
+    let item = |k: &str| -> PyResult<Bound<'_, PyAny>> {
+        d.get_item(k)?.ok_or_else(|| to_py(Error::Invalid(format!("state: missing field {k}"))))
+    };
+    let u64s = |k: &str| -> PyResult<Vec<u64>> {
+        let a: PyReadonlyArray1<'_, u64> =
+            item(k)?.extract().map_err(|_| to_py(Error::Invalid(format!("state.{k}: expected a uint64 array"))))?;
+        Ok(a.as_array().to_vec())
+    };
+    let f64s = |k: &str| -> PyResult<Vec<f64>> {
+        let a: PyReadonlyArray1<'_, f64> =
+            item(k)?.extract().map_err(|_| to_py(Error::Invalid(format!("state.{k}: expected a float64 array"))))?;
+        Ok(a.as_array().to_vec())
+    };
+    let f = FlatState {
+        scheme: item("scheme")?.extract()?,
+        start: item("start")?.extract()?,
+        end: item("end")?.extract()?,
+        events: item("events")?.extract()?,
+        fingerprint: item("fingerprint")?.extract()?,
+        names: item("names")?.extract()?,
+        lengths: item("lengths")?.extract()?,
+        extremes: item("extremes")?.extract()?,
+        s1: u64s("s1")?,
+        s2: u64s("s2")?,
+        min: f64s("min")?,
+        max: f64s("max")?,
+    };
+    TallyState::from_flat(&f).py()
+}
+
+/// A core state as a flat dict of plain values and numpy arrays.
+fn state_to_py<'py>(py: Python<'py>, s: &TallyState) -> PyResult<Bound<'py, PyDict>> {
+    let f = s.to_flat();
+    let d = PyDict::new(py);
+    d.set_item("scheme", f.scheme)?;
+    d.set_item("start", f.start)?;
+    d.set_item("end", f.end)?;
+    d.set_item("events", f.events)?;
+    d.set_item("fingerprint", f.fingerprint)?;
+    d.set_item("names", f.names)?;
+    d.set_item("lengths", f.lengths)?;
+    d.set_item("extremes", f.extremes)?;
+    d.set_item("s1", PyArray1::from_vec(py, f.s1))?;
+    d.set_item("s2", PyArray1::from_vec(py, f.s2))?;
+    d.set_item("min", PyArray1::from_vec(py, f.min))?;
+    d.set_item("max", PyArray1::from_vec(py, f.max))?;
+    Ok(d)
 }
 
 /// Finished histograms as a list of dicts (name, values, stderr, shape, edges, axes,
-/// edge_units, units, description); `values`/`stderr` are flat numpy arrays (C order).
+/// edge_units, measures, overflow, units, description); arrays are flat numpy arrays (C order).
 fn histograms_to_py<'py>(py: Python<'py>, hs: Vec<HistogramOut>) -> PyResult<Bound<'py, PyList>> {
     let out = PyList::empty(py);
     for h in hs {
@@ -79,11 +206,16 @@ fn histograms_to_py<'py>(py: Python<'py>, hs: Vec<HistogramOut>) -> PyResult<Bou
         d.set_item("values", PyArray1::from_vec(py, h.values))?;
         d.set_item("stderr", PyArray1::from_vec(py, h.stderr))?;
         d.set_item("shape", h.shape)?;
-        let edges = PyList::empty(py);
-        for e in h.edges {
-            edges.append(PyArray1::from_vec(py, e))?;
-        }
-        d.set_item("edges", edges)?;
+        let arrays = |vs: Vec<Vec<f64>>| -> PyResult<Bound<'py, PyList>> {
+            let l = PyList::empty(py);
+            for v in vs {
+                l.append(PyArray1::from_vec(py, v))?;
+            }
+            Ok(l)
+        };
+        d.set_item("edges", arrays(h.edges)?)?;
+        d.set_item("measures", arrays(h.measures)?)?;
+        d.set_item("overflow", h.overflow)?;
         d.set_item("axes", h.axes)?;
         d.set_item("edge_units", h.edge_units)?;
         d.set_item("units", h.units)?;
@@ -93,49 +225,63 @@ fn histograms_to_py<'py>(py: Python<'py>, hs: Vec<HistogramOut>) -> PyResult<Bou
     Ok(out)
 }
 
-/// Trace `photons` packets; returns a dict of totals (with `*_stderr`), `absorbed_per_layer`
-/// (+ stderr), `photons`, `events`, `elapsed_s`, `partial`, and `histograms` (a list, see
-/// [`histograms_to_py`]; empty unless `tallies`, a `subsurf.Tallies.to_dict()`, is given).
+/// Trace photons [start, photons) of the run (`start` = the end of `state` when a state to
+/// continue is given) and return {"state": flat state, "interrupted": bool, "elapsed_s": float}.
 #[pyfunction]
-#[pyo3(signature = (layers, n_above, n_below, photons, seed, threads, source, progress=None, tallies=None))]
+#[pyo3(signature = (layers, n_above, n_below, photons, seed, threads, source, progress=None, tallies=None, state=None, start=None))]
 #[allow(clippy::too_many_arguments)]
-fn mc_simulate<'py>(
+fn mc_run<'py>(
     py: Python<'py>,
     layers: Vec<LayerTuple>,
     n_above: f64,
     n_below: f64,
-    photons: u64,
-    seed: u64,
-    threads: Option<usize>,
+    photons: Bound<'py, PyAny>,
+    seed: Bound<'py, PyAny>,
+    threads: Option<Bound<'py, PyAny>>,
     source: (String, f64, f64),
     progress: Option<Py<PyAny>>,
     tallies: Option<Bound<'py, PyDict>>,
+    state: Option<Bound<'py, PyDict>>,
+    start: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let stack = stack_from_py(&layers, n_above, n_below).py()?;
-    let cfg = RunConfig { photons, seed, threads, source: source_from_py(&source.0, source.1, source.2).py()? };
-    cfg.validate().py()?;
-    let nl = stack.layers.len();
-    let proto = match &tallies {
-        Some(d) => Some(TallySet::new(&tally_config_from_py(d)?, &stack).py()?),
-        None => None,
+    let su = setup(&layers, n_above, n_below, Some(&photons), &seed, threads.as_ref(), &source, tallies.as_ref())?;
+    // refuse before anything of the tallies' size is allocated
+    subsurf_core::mc::run::check_memory(&su.layout, su.cfg.thread_count(), None).py()?;
+    cost::check(&su.stack).py()?;
+    let mut st = match &state {
+        Some(d) => {
+            let s = state_from_py(d)?;
+            s.check_compatible(su.fingerprint, &su.layout).py()?;
+            s
+        }
+        None => {
+            let start = match &start {
+                Some(s) => u64_arg(s, "start", "an integer in [0, photons], a multiple of 4096")?,
+                None => 0,
+            };
+            if start > su.cfg.photons {
+                return Err(to_py(Error::param_int("start", start, "an integer in [0, photons], a multiple of 4096")));
+            }
+            TallyState::new(su.layout.clone(), su.fingerprint, start).py()?
+        }
     };
+    let total = su.cfg.photons - st.end;
     let cancel = Arc::new(AtomicBool::new(false));
     let done = Arc::new(AtomicU64::new(0));
     let (tx, mut rx) = mpsc::channel::<()>();
     let t0 = Instant::now();
+    let proto = su.tallies.as_ref().map(|t| TallySet::new(t, &su.stack)).transpose().py()?;
     let handle = {
         let (cancel, done) = (cancel.clone(), done.clone());
+        let (stack, cfg, nl) = (su.stack.clone(), su.cfg, su.stack.layers.len());
         std::thread::spawn(move || {
             // Two monomorphisations: a run without histograms pays nothing for them.
             let out = match proto {
-                None => run(&stack, &cfg, || Totals::new(nl), &cancel, &done).map(|o| (o, None)),
-                Some(p) => run(&stack, &cfg, || (Totals::new(nl), p.clone()), &cancel, &done).map(|o| {
-                    let RunOutput { tally: (t, set), photons, events, cancelled } = o;
-                    (RunOutput { tally: t, photons, events, cancelled }, Some(set))
-                }),
+                None => extend(&stack, &cfg, &mut st, || Totals::new(nl), &cancel, &done),
+                Some(p) => extend(&stack, &cfg, &mut st, || (Totals::new(nl), p.clone()), &cancel, &done),
             };
             let _ = tx.send(());
-            out
+            out.map(|_| st)
         })
     };
     let mut interrupt: Option<PyErr> = None;
@@ -151,7 +297,7 @@ fn mc_simulate<'py>(
         let mut check = py.check_signals();
         if check.is_ok() {
             if let Some(cb) = &progress {
-                check = cb.call1(py, (done.load(Ordering::Relaxed), photons)).map(|_| ());
+                check = cb.call1(py, (done.load(Ordering::Relaxed), total)).map(|_| ());
             }
         }
         if let Err(e) = check {
@@ -161,30 +307,63 @@ fn mc_simulate<'py>(
         }
     }
     let joined = py.detach(move || handle.join());
-    let elapsed = t0.elapsed().as_secs_f64();
-    let (out, set) =
-        joined.map_err(|_| PyRuntimeError::new_err("subsurf: the Monte Carlo worker thread panicked"))?.py()?;
-    // A KeyboardInterrupt ends the run early and is answered by a partial result (if every
-    // photon was already traced, the result is simply complete); any other error propagates.
-    if let Some(e) = interrupt {
-        if !e.is_instance_of::<PyKeyboardInterrupt>(py) {
-            return Err(e);
-        }
-    } else {
-        if let Some(cb) = &progress {
-            cb.call1(py, (out.photons, photons))?;
+    let st = joined.map_err(|_| PyRuntimeError::new_err("subsurf: the Monte Carlo worker thread panicked"))?.py()?;
+    let mut interrupted = false;
+    match interrupt {
+        Some(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => interrupted = true,
+        Some(e) => return Err(e),
+        None => {
+            // the final call, and a Ctrl-C that arrived during a run shorter than one poll
+            let mut last = py.check_signals();
+            if last.is_ok() {
+                if let Some(cb) = &progress {
+                    last = cb.call1(py, (done.load(Ordering::Relaxed), total)).map(|_| ());
+                }
+            }
+            match last {
+                Err(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => interrupted = true,
+                Err(e) => return Err(e),
+                Ok(()) => {}
+            }
         }
     }
-
-    let t = &out.tally;
     let d = PyDict::new(py);
-    for (name, q) in [
-        ("specular_reflectance", Total::Specular),
-        ("diffuse_reflectance", Total::Diffuse),
-        ("transmittance", Total::Transmittance),
-        ("unscattered_transmittance", Total::Unscattered),
-        ("absorbed", Total::Absorbed),
-    ] {
+    d.set_item("state", state_to_py(py, &st)?)?;
+    d.set_item("interrupted", interrupted)?;
+    d.set_item("elapsed_s", t0.elapsed().as_secs_f64())?;
+    Ok(d)
+}
+
+/// Totals (with `*_stderr`), `absorbed_per_layer` (+ stderr), `photons`, `events` and
+/// `histograms` (see [`histograms_to_py`]) of a state of the run described by the arguments.
+#[pyfunction]
+#[pyo3(signature = (layers, n_above, n_below, seed, source, state, tallies=None))]
+#[allow(clippy::too_many_arguments)]
+fn mc_finish<'py>(
+    py: Python<'py>,
+    layers: Vec<LayerTuple>,
+    n_above: f64,
+    n_below: f64,
+    seed: Bound<'py, PyAny>,
+    source: (String, f64, f64),
+    state: Bound<'py, PyDict>,
+    tallies: Option<Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let su = setup(&layers, n_above, n_below, None, &seed, None, &source, tallies.as_ref())?;
+    let st = state_from_py(&state)?;
+    st.check_compatible(su.fingerprint, &su.layout).py()?;
+    let nl = su.stack.layers.len();
+    let (t, hists) = match &su.tallies {
+        None => (finish(&st, || Totals::new(nl)), Vec::new()),
+        Some(c) => {
+            let proto = TallySet::new(c, &su.stack).py()?;
+            let (t, set) = finish(&st, || (Totals::new(nl), proto.clone()));
+            let n = st.photons();
+            (t, py.detach(|| set.finalize(n)))
+        }
+    };
+    let d = PyDict::new(py);
+    for (q, name) in Total::ALL.into_iter().zip(TOTAL_NAMES) {
         let (m, se) = t.get(q);
         d.set_item(name, m)?;
         d.set_item(format!("{name}_stderr"), se)?;
@@ -192,20 +371,58 @@ fn mc_simulate<'py>(
     let per_layer = t.absorbed_per_layer();
     d.set_item("absorbed_per_layer", per_layer.iter().map(|x| x.0).collect::<Vec<f64>>())?;
     d.set_item("absorbed_per_layer_stderr", per_layer.iter().map(|x| x.1).collect::<Vec<f64>>())?;
-    d.set_item("photons", out.photons)?;
-    d.set_item("events", out.events)?;
-    d.set_item("elapsed_s", elapsed)?;
-    d.set_item("partial", out.cancelled)?;
-    let hists = match set {
-        Some(s) => py.detach(|| s.finalize(out.photons)),
-        None => Vec::new(),
-    };
+    d.set_item("photons", st.photons())?;
+    d.set_item("events", st.events)?;
     d.set_item("histograms", histograms_to_py(py, hists)?)?;
     Ok(d)
 }
 
+/// Append states of consecutive photon ranges (given in range order) into one.
+#[pyfunction]
+fn mc_merge_states<'py>(py: Python<'py>, states: Vec<Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyDict>> {
+    let mut it = states.iter();
+    let first = it.next().ok_or_else(|| to_py(Error::Invalid("states: give at least one state".into())))?;
+    let mut acc = state_from_py(first)?;
+    for s in it {
+        acc.append(&state_from_py(s)?).py()?;
+    }
+    state_to_py(py, &acc)
+}
+
+/// Estimated scattering events per photon history of a stack; raises ParameterError when the
+/// histories would be endless or too long (see `subsurf_core::mc::cost`).
+#[pyfunction]
+fn mc_expected_events(layers: Vec<LayerTuple>, n_above: f64, n_below: f64) -> PyResult<f64> {
+    cost::check(&stack_from_py(&layers, n_above, n_below).py()?).py()
+}
+
+/// The exact per-bin measures of an axis of `kind` ("r", "z", "t", "theta", "theta_projected",
+/// "cos_theta", "phi", "order", "order_one") with these bin edges.
+#[pyfunction]
+fn mc_axis_measures<'py>(
+    py: Python<'py>,
+    kind: &str,
+    edges: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let k = AxisKind::from_name(kind).py()?;
+    Ok(PyArray1::from_vec(py, k.measures(&edges.as_array().to_vec()).py()?))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(mc_simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(mc_run, m)?)?;
+    m.add_function(wrap_pyfunction!(mc_finish, m)?)?;
+    m.add_function(wrap_pyfunction!(mc_merge_states, m)?)?;
     m.add_function(wrap_pyfunction!(mc_validate_source, m)?)?;
+    m.add_function(wrap_pyfunction!(mc_validate_run, m)?)?;
+    m.add_function(wrap_pyfunction!(mc_validate_tallies, m)?)?;
+    m.add_function(wrap_pyfunction!(mc_expected_events, m)?)?;
+    m.add_function(wrap_pyfunction!(mc_axis_measures, m)?)?;
+    m.add("MC_CHUNK_PHOTONS", CHUNK_PHOTONS)?;
+    m.add("MC_MAX_THREADS", MAX_THREADS)?;
+    m.add("MC_MAX_BINS", subsurf_core::mc::tally::config::MAX_BINS)?;
+    m.add("MC_MAX_ORDER", subsurf_core::mc::tally::config::MAX_ORDER)?;
+    m.add("MC_MAX_PENCIL_THETA", subsurf_core::mc::source::MAX_PENCIL_THETA)?;
+    m.add("MC_MAX_EVENTS_PER_PHOTON", cost::MAX_EVENTS_PER_PHOTON)?;
+    m.add("MC_STATE_SCHEME", subsurf_core::mc::state::SCHEME)?;
     Ok(())
 }

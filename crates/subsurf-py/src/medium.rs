@@ -1,8 +1,9 @@
-//! Bindings of `subsurf_core::medium`: validation and mixtures. The Python `Layer` and `Stack`
-//! classes (python/subsurf/medium.py) hold plain numbers and call these to validate.
+//! Bindings of `subsurf_core::medium`: validation, derived properties and mixtures. The Python
+//! `Layer` and `Stack` classes (python/subsurf/medium.py) hold plain numbers and call these.
 
 use crate::errors::IntoPyResult;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use subsurf_core::medium::{self, Component, Layer, Stack};
 use subsurf_core::optics::Phase;
 
@@ -23,26 +24,16 @@ pub fn layer_from_tuple(t: &LayerTuple) -> subsurf_core::Result<Layer> {
 pub fn stack_from_py(layers: &[LayerTuple], n_above: f64, n_below: f64) -> subsurf_core::Result<Stack> {
     let mut out = Vec::with_capacity(layers.len());
     for (i, t) in layers.iter().enumerate() {
-        let l = layer_from_tuple(t).map_err(|e| prefix_error(e, &format!("layers[{i}].")))?;
-        out.push(l);
+        out.push(layer_from_tuple(t).map_err(|e| e.within(&format!("layers[{i}].")))?);
     }
     Stack::new(out, n_above, n_below)
-}
-
-fn prefix_error(e: subsurf_core::Error, prefix: &str) -> subsurf_core::Error {
-    match e {
-        subsurf_core::Error::Parameter { field, value, allowed } => {
-            subsurf_core::Error::Parameter { field: format!("{prefix}{field}"), value, allowed }
-        }
-        other => other,
-    }
 }
 
 /// Validate one layer; raises ParameterError naming the field.
 #[pyfunction]
 #[pyo3(signature = (n, mua, mus, lobes, thickness, prefix=""))]
 fn validate_layer(n: f64, mua: f64, mus: f64, lobes: Vec<(f64, f64)>, thickness: f64, prefix: &str) -> PyResult<()> {
-    let l = layer_from_tuple(&(n, mua, mus, lobes, thickness)).map_err(|e| prefix_error(e, prefix)).py()?;
+    let l = layer_from_tuple(&(n, mua, mus, lobes, thickness)).map_err(|e| e.within(prefix)).py()?;
     l.validate(prefix).py()
 }
 
@@ -50,6 +41,29 @@ fn validate_layer(n: f64, mua: f64, mus: f64, lobes: Vec<(f64, f64)>, thickness:
 #[pyfunction]
 fn validate_stack(layers: Vec<LayerTuple>, n_above: f64, n_below: f64) -> PyResult<()> {
     stack_from_py(&layers, n_above, n_below).py().map(|_| ())
+}
+
+/// The derived properties of a layer (core `Layer` methods): g, sigma_t, albedo, mus_prime,
+/// sigma_t_prime, transport_mfp, optical_thickness.
+#[pyfunction]
+fn layer_properties<'py>(py: Python<'py>, layer: LayerTuple) -> PyResult<Bound<'py, PyDict>> {
+    let l = layer_from_tuple(&layer).py()?;
+    l.validate("").py()?;
+    let d = PyDict::new(py);
+    d.set_item("g", l.g())?;
+    d.set_item("sigma_t", l.sigma_t())?;
+    d.set_item("albedo", l.albedo())?;
+    d.set_item("mus_prime", l.mus_prime())?;
+    d.set_item("sigma_t_prime", l.sigma_t_prime())?;
+    d.set_item("transport_mfp", l.transport_mfp())?;
+    d.set_item("optical_thickness", l.optical_thickness())?;
+    Ok(d)
+}
+
+/// Depths of a stack's interfaces, mm: [0, d0, d0 + d1, …].
+#[pyfunction]
+fn stack_boundaries(layers: Vec<LayerTuple>, n_above: f64, n_below: f64) -> PyResult<Vec<f64>> {
+    Ok(stack_from_py(&layers, n_above, n_below).py()?.boundaries())
 }
 
 /// Mix components (fraction, mua, mus, g) into a layer; returns (n, mua, mus, lobes, thickness).
@@ -65,6 +79,8 @@ fn mix_components(n: f64, thickness: f64, components: Vec<(f64, f64, f64, f64)>)
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(validate_layer, m)?)?;
     m.add_function(wrap_pyfunction!(validate_stack, m)?)?;
+    m.add_function(wrap_pyfunction!(layer_properties, m)?)?;
+    m.add_function(wrap_pyfunction!(stack_boundaries, m)?)?;
     m.add_function(wrap_pyfunction!(mix_components, m)?)?;
     Ok(())
 }

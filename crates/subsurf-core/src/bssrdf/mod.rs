@@ -282,9 +282,7 @@ pub fn channel_profiles(
 
 fn channel_error(e: Error, i: usize) -> Error {
     match e {
-        Error::Parameter { field, value, allowed } => {
-            Error::Parameter { field: format!("channels[{i}].{field}"), value, allowed }
-        }
         Error::Invalid(m) => Error::Invalid(format!("channels[{i}]: {m}")),
+        other => other.within(&format!("channels[{i}].")),
     }
 }

@@ -26,7 +26,7 @@
 use super::cdf::RadialCdf;
 use super::RadialProfile;
 use crate::error::{Error, Result};
-use crate::mc::tally::Accum;
+use crate::mc::tally::{Accum, Channel, ChannelState};
 use crate::mc::{run, Packet, RunConfig, Side, Source, Tally};
 use crate::medium::Stack;
 use crate::stats::chi2_sf;
@@ -176,11 +176,26 @@ impl Tally for RadialTally {
     fn end_photon(&mut self) {
         self.photons += 1;
     }
-    fn merge(&mut self, other: &Self) {
-        self.all.merge(&other.all);
-        self.single.merge(&other.single);
-        self.total.merge(&other.total);
-        self.photons += other.photons;
+    #[inline]
+    fn roulette(&mut self, _p: &Packet, _dw: f64) {}
+    fn channels(&self, out: &mut Vec<Channel>) {
+        for (name, a) in [("profile", &self.all), ("profile_single", &self.single), ("profile_total", &self.total)] {
+            out.push(Channel { name: name.into(), len: a.len(), extremes: false });
+        }
+    }
+    fn drain_into(&mut self, state: &mut [ChannelState]) -> Option<usize> {
+        let ok = self.all.drain_into(&mut state[0])
+            & self.single.drain_into(&mut state[1])
+            & self.total.drain_into(&mut state[2]);
+        self.photons = 0;
+        ok.then_some(3)
+    }
+    fn load_from(&mut self, state: &[ChannelState], photons: u64) -> usize {
+        self.all.load_from(&state[0]);
+        self.single.load_from(&state[1]);
+        self.total.load_from(&state[2]);
+        self.photons = photons;
+        3
     }
 }
 

@@ -45,6 +45,15 @@ pub fn ft(eta: f64, cos_theta: f64) -> f64 {
     }
 }
 
+/// [`ft`] with checked arguments: η ∈ [1, 2.5] (the diffusion models' range) and cos θ ∈ [−1, 1].
+pub fn ft_checked(eta: f64, cos_theta: f64) -> Result<f64> {
+    let eta = super::check_eta(eta)?;
+    if !(cos_theta.is_finite() && cos_theta.abs() <= 1.0) {
+        return Err(Error::param("cos_theta", cos_theta, "a finite number in [-1, 1]"));
+    }
+    Ok(ft(eta, cos_theta))
+}
+
 /// S_d(x_i, ω_i; x_o, ω_o) in mm⁻² sr⁻¹ (Jensen et al. 2001), with R_d from `model`.
 #[allow(clippy::too_many_arguments)]
 pub fn sd(

@@ -15,9 +15,14 @@ use crate::error::{Error, Result};
 /// rd ∈ [0, 1] has exactly one α'; found by bisection until the bracket is below 1e-15
 /// (then |α' − α'_true| ≤ 1e-15 up to the rounding of R_d itself).
 pub fn alpha_prime_from_rd(rd: f64, eta: f64, model: Model) -> Result<f64> {
+    alpha_prime_of("rd", rd, eta, model)
+}
+
+/// [`alpha_prime_from_rd`] with the reflectance argument called `field` in errors.
+fn alpha_prime_of(field: &str, rd: f64, eta: f64, model: Model) -> Result<f64> {
     if !(rd.is_finite() && (0.0..=1.0).contains(&rd)) {
         return Err(Error::param(
-            "rd",
+            field,
             rd,
             "a finite number in [0, 1] (the total diffuse reflectance a semi-infinite medium can reach)",
         ));
@@ -69,7 +74,8 @@ impl MeanFreePath {
 }
 
 /// Optical properties (σa, σs') in mm⁻¹ whose total diffuse reflectance (of `model`, at η) is
-/// `rd` and whose mean free path of the given kind is `mfp` (mm):
+/// `rd` (errors name it `diffuse_color`, as the Python API does) and whose mean free path of the
+/// given kind is `mfp` (mm):
 /// α' = alpha_prime_from_rd(rd, η); σt' = 1/ℓ (transport) or σtr/(ℓ_d σtr/σt') (diffuse);
 /// σs' = α' σt'; σa = σt' − σs' = (1 − α') σt'.
 /// For the diffuse kind, rd = 1 (α' = 1, σtr = 0) has no finite σt' and is refused.
@@ -77,7 +83,7 @@ pub fn properties_from_color(rd: f64, mfp: f64, eta: f64, model: Model, kind: Me
     if !(mfp.is_finite() && mfp > 0.0) {
         return Err(Error::param("mean_free_path", mfp, "a finite number > 0 (mm)"));
     }
-    let ap = alpha_prime_from_rd(rd, eta, model)?;
+    let ap = alpha_prime_of("diffuse_color", rd, eta, model)?;
     let st = match kind {
         MeanFreePath::Transport => 1.0 / mfp,
         MeanFreePath::Diffuse => {

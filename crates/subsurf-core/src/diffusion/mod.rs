@@ -94,19 +94,35 @@ pub fn check_alpha_prime(alpha_prime: f64) -> Result<f64> {
     }
 }
 
-/// Check (σa, σs', η) and return σt' = σa + σs' (> 0).
+/// Range of the reduced extinction coefficient σt' = σa + σs' (mm⁻¹) and of distances r (mm)
+/// the models accept: within it every term of the profiles (z³ with z = 1/σt', e^{−σtr d}, d³)
+/// is a finite, normal floating-point number.
+pub const SIGMA_T_PRIME_RANGE: (f64, f64) = (1e-100, 1e100);
+/// Largest source–exit distance r (mm) accepted.
+pub const R_MAX: f64 = 1e100;
+
+/// Check (σa, σs', η) and return σt' = σa + σs' (in [`SIGMA_T_PRIME_RANGE`]).
 pub fn check_properties(sigma_a: f64, sigma_s_prime: f64, eta: f64) -> Result<f64> {
-    crate::error::check_nonneg("sigma_a", sigma_a)?;
-    crate::error::check_nonneg("sigma_s_prime", sigma_s_prime)?;
+    crate::error::check_coefficient("sigma_a", sigma_a)?;
+    crate::error::check_coefficient("sigma_s_prime", sigma_s_prime)?;
     check_eta(eta)?;
     let st = sigma_a + sigma_s_prime;
-    if !(st > 0.0 && st.is_finite()) {
-        return Err(Error::param("sigma_a + sigma_s_prime", st, "a finite number > 0 (a non-empty medium)"));
+    let (lo, hi) = SIGMA_T_PRIME_RANGE;
+    if !(lo..=hi).contains(&st) {
+        return Err(Error::param(
+            "sigma_a + sigma_s_prime",
+            st,
+            "a number in [1e-100, 1e100] (mm^-1; 0 is an empty medium)",
+        ));
     }
     Ok(st)
 }
 
-/// Check a source–exit distance r ≥ 0 (mm).
+/// Check a source–exit distance r ∈ [0, [`R_MAX`]] (mm).
 pub fn check_r(r: f64) -> Result<f64> {
-    crate::error::check_nonneg("r", r)
+    if (0.0..=R_MAX).contains(&r) {
+        Ok(r)
+    } else {
+        Err(Error::param("r", r, "a number in [0, 1e100] (mm)"))
+    }
 }

@@ -21,12 +21,17 @@ pub fn gauss_legendre_01(n: usize) -> (Vec<f64>, Vec<f64>) {
     (x.iter().map(|xi| 0.5 * (1.0 + xi)).collect(), w.iter().map(|wi| 0.5 * wi).collect())
 }
 
-fn check_nodes(field: &str, n: usize) -> Result<()> {
+/// A quadrature node count `n_theta` or `n_phi` given as any integer: in [4, 4096].
+pub fn nodes(field: &str, n: i128) -> Result<usize> {
     if (4..=4096).contains(&n) {
-        Ok(())
+        Ok(n as usize)
     } else {
-        Err(Error::param(field, n as f64, "an integer in [4, 4096]"))
+        Err(Error::param_int(field, n, "an integer in [4, 4096]"))
     }
+}
+
+fn check_nodes(field: &str, n: usize) -> Result<()> {
+    nodes(field, n as i128).map(|_| ())
 }
 
 fn hemispherical(stack: &Stack, wi: [f64; 3], reflection: bool, n_theta: usize, n_phi: usize) -> Result<f64> {

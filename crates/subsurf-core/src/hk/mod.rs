@@ -103,11 +103,8 @@ mod tests {
             )
             .unwrap(),
         ];
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::stats::SplitMix64::new(12345);
+        let mut rnd = || rng.next_f64();
         for s in &stacks {
             for _ in 0..200 {
                 let a = dir((rnd() * 0.999).acos(), 2.0 * PI * rnd(), true);

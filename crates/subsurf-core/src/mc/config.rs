@@ -7,8 +7,19 @@ use crate::error::{Error, Result};
 /// thread count), so that results are bit-identical for any number of threads.
 pub const CHUNK_PHOTONS: u64 = 4096;
 
-/// Russian roulette: packets lighter than this weight play roulette (MCML's `WEIGHT`).
+/// Russian roulette: packets lighter than this fraction of their entering weight 1 − R_sp play
+/// roulette (MCML's `WEIGHT` = 10⁻⁴, there absolute; see `mc::kernel`).
 pub const ROULETTE_THRESHOLD: f64 = 1e-4;
+
+/// Most worker threads a run may use (each holds up to two chunk tallies; see `mc::run`).
+pub const MAX_THREADS: usize = 1024;
+
+/// The allowed values of `photons`, as messages state them.
+pub const PHOTONS_ALLOWED: &str = "an integer in [1, 2**64 - 1]";
+/// The allowed values of `seed`.
+pub const SEED_ALLOWED: &str = "an integer in [0, 2**64 - 1]";
+/// The allowed values of `threads`.
+pub const THREADS_ALLOWED: &str = "an integer in [1, 1024] (or None for one per core)";
 
 /// Russian roulette: a packet survives with probability 1/m and its weight is multiplied by m
 /// (MCML's `CHANCE` = 1/m = 0.1).
@@ -21,13 +32,18 @@ pub struct RunConfig {
     pub photons: u64,
     /// The 64-bit seed (the Philox key that seeds each photon's xoshiro128++ stream; see [`crate::rng`]).
     pub seed: u64,
-    /// Worker threads; `None` = all cores (rayon's global pool).
+    /// Worker threads (1 … [`MAX_THREADS`]); `None` = one per core.
     pub threads: Option<usize>,
     /// The light source.
     pub source: Source,
 }
 
 impl RunConfig {
+    /// The number of worker threads the run uses.
+    pub fn thread_count(&self) -> usize {
+        self.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()).min(MAX_THREADS))
+    }
+
     /// A run of `photons` packets with `seed`, all cores, a normal-incidence pencil beam.
     pub fn new(photons: u64, seed: u64) -> Self {
         RunConfig { photons, seed, threads: None, source: Source::default() }
@@ -36,11 +52,11 @@ impl RunConfig {
     /// Check every field.
     pub fn validate(&self) -> Result<()> {
         if self.photons == 0 {
-            return Err(Error::param("photons", 0.0, "an integer >= 1"));
+            return Err(Error::param_int("photons", 0, PHOTONS_ALLOWED));
         }
         if let Some(t) = self.threads {
-            if t == 0 {
-                return Err(Error::param("threads", 0.0, "an integer >= 1 (or None for all cores)"));
+            if !(1..=MAX_THREADS).contains(&t) {
+                return Err(Error::param_int("threads", t as i128, THREADS_ALLOWED));
             }
         }
         self.source.validate()

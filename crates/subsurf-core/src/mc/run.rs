@@ -1,29 +1,40 @@
-//! Running many photons: fixed chunks traced in parallel (rayon), merged in chunk order.
+//! Running many photons: fixed chunks traced in parallel, merged exactly, always a prefix.
 //!
-//! Photons 0 … N−1 are split into chunks of [`CHUNK_PHOTONS`]; each chunk is traced into its
-//! own tally (made by the caller's factory) and the chunk tallies are merged into the result
-//! strictly in chunk order. Since each photon has its own random stream (see [`crate::rng`])
-//! and floating-point sums are formed in the same order whatever the scheduling, results are
-//! bit-identical for any number of threads. Chunks are scheduled in waves (a bounded number in
-//! flight) so memory stays O(threads × tally size) for any N.
+//! Photons are split into chunks of [`CHUNK_PHOTONS`] (chunk c holds photons [c·4096,
+//! (c+1)·4096), cut at the run's last photon). Worker threads take chunks in increasing order;
+//! each chunk is traced into a tally of its own (made by the caller's factory) in a fixed
+//! sequential order, and is then committed — its sums added exactly into the run's
+//! [`TallyState`] — strictly in chunk order: a chunk finished early waits (as a pending tally)
+//! until every chunk before it is committed. Hence:
+//! - results are bit-identical for any number of threads, and for any split of the photons into
+//!   ranges at chunk boundaries traced separately and appended (see [`crate::mc::state`]);
+//! - the committed photons are always a prefix: a cancelled run holds exactly photons
+//!   [start, N) for some chunk boundary N, so it can be resumed ([`extend`]) to the same bits.
 //!
-//! Cancellation: `cancel` is polled before each chunk and every 256 photons inside one; a
-//! chunk interrupted midway is discarded, so a cancelled run returns the completed chunks
-//! (`photons` says how many photons they hold). `progress` is increased by each completed
-//! chunk's photon count.
+//! Memory: a worker starts chunk c only while c < (next chunk to commit) + 2·threads, so at most
+//! 2·threads chunk tallies exist; [`check_memory`] refuses, before anything is allocated, a
+//! tally configuration whose copies, exact sums and results would not fit in the available
+//! memory.
+//!
+//! Cancellation: `cancel` is polled before each chunk, before each photon and every
+//! [`STOP_POLL_STEPS`](super::kernel::STOP_POLL_STEPS) steps inside a history; a chunk
+//! interrupted midway is discarded. `progress` counts traced photons (published every 64).
 
 use super::config::{RunConfig, CHUNK_PHOTONS};
 use super::kernel::Kernel;
-use super::tally::Tally;
+use super::state::TallyState;
+use super::tally::{Channel, Tally};
 use crate::error::{Error, Result};
 use crate::medium::Stack;
-use rayon::prelude::*;
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Condvar, Mutex};
+use std::time::Duration;
 
-/// What a run returns.
+/// What [`run`] returns.
 #[derive(Clone, Debug)]
 pub struct RunOutput<T> {
-    /// The merged tally of all completed chunks.
+    /// The tally of all committed photons (exact sums, rounded).
     pub tally: T,
     /// Photons traced (= requested unless cancelled).
     pub photons: u64,
@@ -33,30 +44,241 @@ pub struct RunOutput<T> {
     pub cancelled: bool,
 }
 
-/// How often (photons) a chunk polls the cancel flag.
-const CANCEL_POLL: u64 = 256;
+/// Bytes per bin of each chunk tally in flight (one `Accum` cell).
+pub const CHUNK_BYTES_PER_BIN: u64 = 32;
+/// Bytes per bin held once per run: exact sums (72), the tally they are loaded into (32), the
+/// finished histogram (16) and, in Python, its arrays and the exported state (16 + 72).
+pub const RUN_BYTES_PER_BIN: u64 = 208;
+/// Photons between two updates of the progress counter.
+const PROGRESS_EVERY: u64 = 64;
 
+/// Bytes a run of `layout` on `threads` threads needs at most (see the module docs).
+pub fn memory_estimate(layout: &[Channel], threads: usize) -> u64 {
+    let bins: u64 = layout.iter().map(|c| c.len as u64).sum();
+    bins.saturating_mul(CHUNK_BYTES_PER_BIN * 2 * threads as u64 + RUN_BYTES_PER_BIN)
+}
+
+/// Memory available to a new allocation, bytes (Linux: `MemAvailable` of /proc/meminfo);
+/// `None` where it cannot be read.
+pub fn available_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb.saturating_mul(1024))
+}
+
+fn gb(bytes: u64) -> String {
+    format!("{:.3} GB", bytes as f64 / 1e9)
+}
+
+/// Refuse a tally layout whose memory for `threads` threads exceeds `available` bytes (default:
+/// [`available_memory`]), naming the largest histograms and the size needed.
+pub fn check_memory(layout: &[Channel], threads: usize, available: Option<u64>) -> Result<()> {
+    let need = memory_estimate(layout, threads);
+    let Some(have) = available.or_else(available_memory) else { return Ok(()) };
+    if need <= have {
+        return Ok(());
+    }
+    let mut big: Vec<&Channel> = layout.iter().collect();
+    big.sort_by_key(|c| std::cmp::Reverse(c.len));
+    let names: Vec<String> = big.iter().take(4).map(|c| format!("{} {} bins", c.name, c.len)).collect();
+    Err(Error::Invalid(format!(
+        "tallies: the histograms ({}, …) need about {} of memory ({} bytes per bin for each of the 2 × {threads} chunk \
+         copies of {threads} thread(s), {} for the exact sums and results) but {} is available: use coarser grids \
+         (tallies.nr, nz, na, nt, brdf, max_order) or fewer threads",
+        names.join(", "),
+        gb(need),
+        CHUNK_BYTES_PER_BIN,
+        RUN_BYTES_PER_BIN,
+        gb(have)
+    )))
+}
+
+/// Trace photons `range` into `tally`; `None` if cancelled midway.
 fn trace_chunk<T: Tally, const CLEAR: bool, const MIXTURE: bool>(
     k: &Kernel,
     seed: u64,
     range: std::ops::Range<u64>,
     tally: &mut T,
     cancel: &AtomicBool,
+    progress: &AtomicU64,
 ) -> Option<u64> {
     let mut events = 0;
-    for i in range.clone() {
-        if (i - range.start).is_multiple_of(CANCEL_POLL) && cancel.load(Ordering::Relaxed) {
+    let mut unpublished = 0;
+    for i in range {
+        if cancel.load(Ordering::Relaxed) {
             return None;
         }
-        events += k.trace::<T, CLEAR, MIXTURE>(seed, i, tally);
+        events += k.trace::<T, CLEAR, MIXTURE>(seed, i, tally, cancel)?;
+        unpublished += 1;
+        if unpublished == PROGRESS_EVERY {
+            progress.fetch_add(unpublished, Ordering::Relaxed);
+            unpublished = 0;
+        }
     }
+    progress.fetch_add(unpublished, Ordering::Relaxed);
     Some(events)
 }
 
-/// Trace `cfg.photons` photons through `stack` into tallies made by `make_tally`.
+/// The committer shared by the workers (under a mutex).
+struct Commit<'a, T> {
+    state: &'a mut TallyState,
+    /// The next chunk to commit.
+    frontier: u64,
+    /// Chunks traced but not yet committed: (tally, photons, events).
+    pending: BTreeMap<u64, (T, u64, u64)>,
+    /// Committed tallies, cleared and ready for reuse.
+    spare: Vec<T>,
+    /// A sum fell outside the exact range.
+    failed: bool,
+}
+
+impl<T: Tally> Commit<'_, T> {
+    /// Commit every pending chunk that continues the prefix.
+    fn advance(&mut self) {
+        while let Some((mut t, photons, events)) = self.pending.remove(&self.frontier) {
+            if t.drain_into(&mut self.state.channels).is_none() {
+                self.failed = true;
+            }
+            self.state.end += photons;
+            self.state.events += events;
+            self.frontier += 1;
+            self.spare.push(t);
+        }
+    }
+}
+
+/// Trace photons [`state.end`, `cfg.photons`) of the run through `stack` into tallies made by
+/// `make_tally` and add them to `state` (which may be empty or a prefix from an earlier,
+/// interrupted run). Returns whether the run was cancelled (the state then holds a shorter
+/// prefix).
 ///
-/// Errors: an invalid configuration ([`RunConfig::validate`]) or a thread pool that cannot be
-/// built. `cancel` stops the run early (see the module docs); `progress` counts photons done.
+/// Errors: an invalid configuration ([`RunConfig::validate`]), a stack refused by
+/// [`crate::mc::cost::check`], too little memory ([`check_memory`]), a state that does not
+/// end at a chunk boundary or holds more photons than asked for, or tallies whose layout differs
+/// from the state's.
+///
+/// [`state.end`]: TallyState::end
+pub fn extend<T, F>(
+    stack: &Stack,
+    cfg: &RunConfig,
+    state: &mut TallyState,
+    make_tally: F,
+    cancel: &AtomicBool,
+    progress: &AtomicU64,
+) -> Result<bool>
+where
+    T: Tally,
+    F: Fn() -> T + Sync,
+{
+    cfg.validate()?;
+    stack.layers.first().ok_or_else(|| Error::Invalid("layers: the stack is empty; give at least one layer".into()))?;
+    super::cost::check(stack)?;
+    let end = cfg.photons;
+    if state.end > end {
+        return Err(Error::Invalid(format!(
+            "photons = {end} is fewer than the {} photons the state to continue already holds",
+            state.end
+        )));
+    }
+    if state.end == end {
+        return Ok(false);
+    }
+    if !state.end.is_multiple_of(CHUNK_PHOTONS) {
+        return Err(Error::Invalid(format!(
+            "state: it ends at photon {}, inside a chunk of {CHUNK_PHOTONS} photons, so it cannot be continued \
+             (only interrupted runs and ranges ending at a multiple of {CHUNK_PHOTONS} can)",
+            state.end
+        )));
+    }
+    let threads = cfg.thread_count();
+    check_memory(&state.layout, threads, None)?;
+    let first = make_tally();
+    let mut layout = Vec::new();
+    first.channels(&mut layout);
+    if layout != state.layout {
+        return Err(Error::Invalid("state: its tallies differ from this run's".into()));
+    }
+    let kernel = Kernel::new(stack, cfg.source);
+    let (c0, c1) = (state.end / CHUNK_PHOTONS, end.div_ceil(CHUNK_PHOTONS));
+    let window = 2 * threads as u64;
+    let next = AtomicU64::new(c0);
+    let commit =
+        Mutex::new(Commit { state, frontier: c0, pending: BTreeMap::new(), spare: vec![first], failed: false });
+    let turn = Condvar::new();
+    let seed = cfg.seed;
+
+    // A worker that panics (a bug) raises `failed` as it unwinds, so that the others stop
+    // waiting for its chunk and the panic reaches the caller instead of a hang.
+    let failed = AtomicBool::new(false);
+    struct OnPanic<'a>(&'a AtomicBool);
+    impl Drop for OnPanic<'_> {
+        fn drop(&mut self) {
+            if std::thread::panicking() {
+                self.0.store(true, Ordering::Relaxed);
+            }
+        }
+    }
+    let stop = || cancel.load(Ordering::Relaxed) || failed.load(Ordering::Relaxed);
+    let worker = || loop {
+        let _guard = OnPanic(&failed);
+        if stop() {
+            return;
+        }
+        let c = next.fetch_add(1, Ordering::Relaxed);
+        if c >= c1 {
+            return;
+        }
+        let mut tally = {
+            let mut g = commit.lock().expect("no panics while committing");
+            while c >= g.frontier + window && !g.failed && !stop() {
+                g = turn.wait_timeout(g, Duration::from_millis(20)).expect("no panics").0;
+            }
+            if g.failed || stop() {
+                return;
+            }
+            g.spare.pop()
+        }
+        .unwrap_or_else(&make_tally);
+        let range = c * CHUNK_PHOTONS..((c + 1) * CHUNK_PHOTONS).min(end);
+        let photons = range.end - range.start;
+        let ev = match (kernel.any_clear, kernel.any_mixture) {
+            (false, false) => trace_chunk::<T, false, false>(&kernel, seed, range, &mut tally, cancel, progress),
+            (false, true) => trace_chunk::<T, false, true>(&kernel, seed, range, &mut tally, cancel, progress),
+            (true, false) => trace_chunk::<T, true, false>(&kernel, seed, range, &mut tally, cancel, progress),
+            (true, true) => trace_chunk::<T, true, true>(&kernel, seed, range, &mut tally, cancel, progress),
+        };
+        let Some(events) = ev else { return }; // cancelled midway: the chunk is dropped
+        let mut g = commit.lock().expect("no panics while committing");
+        g.pending.insert(c, (tally, photons, events));
+        g.advance();
+        drop(g);
+        turn.notify_all();
+    };
+    let spawn = threads.min((c1 - c0) as usize).max(1);
+    std::thread::scope(|s| {
+        for _ in 1..spawn {
+            s.spawn(worker);
+        }
+        worker();
+    });
+    let g = commit.into_inner().expect("no panics while committing");
+    if g.failed {
+        return Err(Error::Invalid("a tally sum left the range of the exact accumulators".into()));
+    }
+    Ok(g.state.end < end)
+}
+
+/// A tally made by `make_tally` holding the (rounded) exact sums of `state`, ready for
+/// normalisation.
+pub fn finish<T: Tally>(state: &TallyState, make_tally: impl Fn() -> T) -> T {
+    let mut t = make_tally();
+    t.load_from(&state.channels, state.photons());
+    t
+}
+
+/// Trace `cfg.photons` photons through `stack` into tallies made by `make_tally` (from photon
+/// 0, see [`extend`]) and return the finished tally.
 pub fn run<T, F>(
     stack: &Stack,
     cfg: &RunConfig,
@@ -68,58 +290,9 @@ where
     T: Tally,
     F: Fn() -> T + Sync,
 {
-    cfg.validate()?;
-    stack.layers.first().ok_or_else(|| Error::Invalid("layers: the stack is empty; give at least one layer".into()))?;
-    let kernel = Kernel::new(stack, cfg.source);
-    let n = cfg.photons;
-    let nchunks = n.div_ceil(CHUNK_PHOTONS);
-    let seed = cfg.seed;
-
-    let one_chunk = |c: u64| -> Option<(T, u64, u64)> {
-        if cancel.load(Ordering::Relaxed) {
-            return None;
-        }
-        let range = c * CHUNK_PHOTONS..((c + 1) * CHUNK_PHOTONS).min(n);
-        let mut t = make_tally();
-        let ev = match (kernel.any_clear, kernel.any_mixture) {
-            (false, false) => trace_chunk::<T, false, false>(&kernel, seed, range.clone(), &mut t, cancel),
-            (false, true) => trace_chunk::<T, false, true>(&kernel, seed, range.clone(), &mut t, cancel),
-            (true, false) => trace_chunk::<T, true, false>(&kernel, seed, range.clone(), &mut t, cancel),
-            (true, true) => trace_chunk::<T, true, true>(&kernel, seed, range.clone(), &mut t, cancel),
-        }?;
-        let done = range.end - range.start;
-        progress.fetch_add(done, Ordering::Relaxed);
-        Some((t, done, ev))
-    };
-
-    let body = || {
-        // Chunks in flight per wave: any value gives the same result (merging is in chunk
-        // order); a few per thread keeps the cores busy at the end of each wave.
-        let wave = (8 * rayon::current_num_threads() as u64).max(16);
-        let mut acc = make_tally();
-        let (mut photons, mut events) = (0u64, 0u64);
-        let mut c0 = 0;
-        while c0 < nchunks && !cancel.load(Ordering::Relaxed) {
-            let c1 = (c0 + wave).min(nchunks);
-            let parts: Vec<Option<(T, u64, u64)>> = (c0..c1).into_par_iter().map(one_chunk).collect();
-            for (t, done, ev) in parts.iter().flatten() {
-                acc.merge(t);
-                photons += done;
-                events += ev;
-            }
-            c0 = c1;
-        }
-        RunOutput { tally: acc, photons, events, cancelled: photons < n }
-    };
-
-    match cfg.threads {
-        None => Ok(body()),
-        Some(t) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(t)
-                .build()
-                .map_err(|e| Error::Invalid(format!("threads = {t}: cannot start the thread pool: {e}")))?;
-            Ok(pool.install(body))
-        }
-    }
+    let mut layout = Vec::new();
+    make_tally().channels(&mut layout);
+    let mut state = TallyState::new(layout, 0, 0)?;
+    let cancelled = extend(stack, cfg, &mut state, &make_tally, cancel, progress)?;
+    Ok(RunOutput { tally: finish(&state, &make_tally), photons: state.photons(), events: state.events, cancelled })
 }

@@ -11,11 +11,17 @@ use crate::error::{Error, Result};
 use crate::optics::fr_dielectric_cos_t;
 use crate::rng::PhotonRng;
 
+/// Largest polar angle of a pencil beam, rad: π/2 − 10⁻⁶. Closer to grazing, a fraction
+/// below ~10⁻⁵ of the light enters and, refracted to within 10⁻⁶ rad of the critical angle, meets
+/// ~10⁵ or more interfaces before it leaves a thin layer again: a run would crawl for a result
+/// that is the specular reflection to 5 digits.
+pub const MAX_PENCIL_THETA: f64 = std::f64::consts::FRAC_PI_2 - 1e-6;
+
 /// A light source above the stack.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Source {
     /// A collimated pencil beam hitting the origin, arriving at polar angle `theta` (radians
-    /// from the inward normal, 0 ≤ θ < π/2) and azimuth `phi` (radians); its propagation
+    /// from the inward normal, 0 ≤ θ ≤ [`MAX_PENCIL_THETA`]) and azimuth `phi` (radians); its propagation
     /// direction in the ambient medium is (sin θ cos φ, sin θ sin φ, cos θ).
     Pencil { theta: f64, phi: f64 },
     /// Diffuse (Lambertian, cosine-weighted) illumination from the upper hemisphere, hitting
@@ -36,8 +42,12 @@ impl Source {
     /// Check the parameters.
     pub fn validate(&self) -> Result<()> {
         if let Source::Pencil { theta, phi } = *self {
-            if !(theta.is_finite() && (0.0..std::f64::consts::FRAC_PI_2).contains(&theta)) {
-                return Err(Error::param("source.theta", theta, "a number in [0, pi/2) (radians)"));
+            if !(0.0..=MAX_PENCIL_THETA).contains(&theta) {
+                return Err(Error::param(
+                    "source.theta",
+                    theta,
+                    "a number in [0, pi/2 - 1e-6] (radians; closer to grazing almost no light enters)",
+                ));
             }
             if !phi.is_finite() {
                 return Err(Error::param("source.phi", phi, "a finite number (radians)"));
@@ -76,13 +86,7 @@ impl Launcher {
         match self.source {
             Source::Pencil { .. } => (self.pencil_dir, self.pencil_rsp),
             Source::Diffuse => {
-                let (x, y) = loop {
-                    let x = rng.symmetric(); // 2ξ − 1
-                    let y = rng.symmetric();
-                    if x * x + y * y < 1.0 {
-                        break (x, y);
-                    }
-                };
+                let (x, y) = rng.disc_point();
                 let z = (1.0 - x * x - y * y).sqrt();
                 refract_in([x, y, z], self.n_above, self.n_top)
             }
@@ -115,6 +119,8 @@ mod tests {
         assert!((d[1] / d[0] - 0.3f64.tan()).abs() < 1e-12);
         assert!((rsp - crate::optics::fr_dielectric(th.cos(), 1.0, 1.4)).abs() < 1e-15);
         assert!(Source::Pencil { theta: 1.6, phi: 0.0 }.validate().is_err());
+        assert!(Source::Pencil { theta: MAX_PENCIL_THETA, phi: 0.0 }.validate().is_ok());
+        assert!(Source::Pencil { theta: (89.9999999f64).to_radians(), phi: 0.0 }.validate().is_err());
         assert!(Source::Pencil { theta: -0.1, phi: 0.0 }.validate().is_err());
     }
 

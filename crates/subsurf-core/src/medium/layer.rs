@@ -1,6 +1,6 @@
 //! One homogeneous layer of a turbid medium.
 
-use crate::error::{check_index, check_nonneg, Error, Result};
+use crate::error::{check_coefficient, check_index, Error, Result};
 use crate::optics::Phase;
 
 /// A homogeneous slab: refractive index `n`, absorption `mua` and scattering `mus`
@@ -37,8 +37,15 @@ impl Layer {
     /// Validate every field; `prefix` (e.g. `"layers[1]."`) is put before the field names.
     pub fn validate(&self, prefix: &str) -> Result<()> {
         check_index(&format!("{prefix}n"), self.n)?;
-        check_nonneg(&format!("{prefix}mua"), self.mua)?;
-        check_nonneg(&format!("{prefix}mus"), self.mus)?;
+        check_coefficient(&format!("{prefix}mua"), self.mua)?;
+        check_coefficient(&format!("{prefix}mus"), self.mus)?;
+        if !self.sigma_t().is_finite() {
+            return Err(Error::param(
+                format!("{prefix}mua + {prefix}mus"),
+                self.sigma_t(),
+                "finite (the extinction coefficient sigma_t = mua + mus overflows)",
+            ));
+        }
         for (i, l) in self.phase.lobes().iter().enumerate() {
             let field = if self.phase.lobes().len() == 1 {
                 format!("{prefix}g")
@@ -120,5 +127,10 @@ mod tests {
         assert!(Layer::new(1.0, 0.0, 1.0, 0.0, 0.0).is_err());
         assert!(Layer::new(1.0, 0.0, 1.0, 0.0, f64::NAN).is_err());
         assert!(Layer::new(1.0, 0.0, 1.0, 0.0, f64::INFINITY).is_ok());
+        // subnormal coefficients and an overflowing sigma_t are refused
+        assert!(Layer::new(1.0, 0.0, 1e-320, 0.0, 1.0).unwrap_err().to_string().starts_with("mus = 1e-320"));
+        assert!(Layer::new(1.0, 1e-310, 1e-310, 0.0, 1.0).unwrap_err().to_string().starts_with("mua = 1e-310"));
+        let e = Layer::new(1.4, 1e308, 1e308, 0.0, 1.0).unwrap_err().to_string();
+        assert!(e.starts_with("mua + mus = inf"), "{e}");
     }
 }

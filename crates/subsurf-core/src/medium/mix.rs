@@ -3,7 +3,7 @@
 //! scattering-weighted mixture of the components' HG lobes.
 
 use super::Layer;
-use crate::error::{check_g, check_nonneg, Error, Result};
+use crate::error::{check_coefficient, check_g, Error, Result};
 use crate::optics::Phase;
 
 /// One component of a mixture: its volume fraction and the coefficients of the pure component.
@@ -33,8 +33,8 @@ pub fn mix(n: f64, thickness: f64, components: &[Component]) -> Result<Layer> {
         if !(c.fraction.is_finite() && (0.0..=1.0).contains(&c.fraction)) {
             return Err(Error::param(format!("components[{i}].fraction"), c.fraction, "a number in [0, 1]"));
         }
-        check_nonneg(&format!("components[{i}].mua"), c.mua)?;
-        check_nonneg(&format!("components[{i}].mus"), c.mus)?;
+        check_coefficient(&format!("components[{i}].mua"), c.mua)?;
+        check_coefficient(&format!("components[{i}].mus"), c.mus)?;
         check_g(&format!("components[{i}].g"), c.g)?;
         total_f += c.fraction;
         mua += c.fraction * c.mua;

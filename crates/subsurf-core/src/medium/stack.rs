@@ -3,6 +3,11 @@
 use super::Layer;
 use crate::error::{check_index, Error, Result};
 
+/// Smallest thickness of a finite layer relative to the depth of its bottom face, 2⁻⁴⁰ ≈ 9.1e-13:
+/// positions at depth z are resolved to about 1.1e-16 z, so a thinner layer's faces could not be
+/// told apart (its thickness would be off by more than 1e-4 relative).
+pub const MIN_THICKNESS_PER_DEPTH: f64 = 9.094947017729282e-13;
+
 /// Layers from top (z = 0, light arrives from above) to bottom, with the refractive indices
 /// of the ambient media above and below. Only the last layer may be semi-infinite.
 #[derive(Clone, Debug, PartialEq)]
@@ -24,13 +29,33 @@ impl Stack {
         check_index("n_above", n_above)?;
         check_index("n_below", n_below)?;
         let last = layers.len() - 1;
+        let mut depth = 0.0;
         for (i, l) in layers.iter().enumerate() {
             l.validate(&format!("layers[{i}]."))?;
-            if l.thickness.is_infinite() && i != last {
+            if l.thickness.is_infinite() {
+                if i != last {
+                    return Err(Error::param(
+                        format!("layers[{i}].thickness"),
+                        l.thickness,
+                        "finite: only the last layer may be semi-infinite",
+                    ));
+                }
+                break;
+            }
+            depth += l.thickness;
+            if !depth.is_finite() {
                 return Err(Error::param(
                     format!("layers[{i}].thickness"),
                     l.thickness,
-                    "finite: only the last layer may be semi-infinite",
+                    "such that the stack's total thickness stays finite (mm)",
+                ));
+            }
+            if l.thickness < MIN_THICKNESS_PER_DEPTH * depth {
+                return Err(Error::param(
+                    format!("layers[{i}].thickness"),
+                    l.thickness,
+                    "at least 9.1e-13 times the depth of the layer's bottom face (the layers above are too \
+                     thick for its faces to be resolved)",
                 ));
             }
         }
@@ -78,6 +103,14 @@ mod tests {
         let mut bad = layer(1.0);
         bad.mus = -1.0;
         assert!(Stack::new(vec![layer(1.0), bad], 1.0, 1.0).unwrap_err().to_string().starts_with("layers[1].mus"));
+        // a 1 mm layer below 1e308 mm of glass cannot be resolved; total depth must stay finite
+        let glass = |d| Layer::new(1.0, 0.0, 0.0, 0.0, d).unwrap();
+        let e = Stack::new(vec![glass(1e308), layer(1.0)], 1.0, 1.0).unwrap_err().to_string();
+        assert!(e.starts_with("layers[1].thickness = 1.0 is out of range"), "{e}");
+        let e = Stack::new(vec![glass(1e308), glass(1e308)], 1.0, 1.0).unwrap_err().to_string();
+        assert!(e.starts_with("layers[1].thickness = 1e+308"), "{e}");
+        assert!(Stack::new(vec![glass(1e6), layer(1e-6), layer(f64::INFINITY)], 1.0, 1.0).is_ok());
+        assert_eq!(MIN_THICKNESS_PER_DEPTH, 2f64.powi(-40));
         let s = Stack::new(vec![layer(1.0), layer(f64::INFINITY)], 1.0, 1.0).unwrap();
         assert!(s.is_semi_infinite());
         assert_eq!(s.boundaries()[1], 1.0);

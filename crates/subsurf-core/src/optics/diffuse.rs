@@ -25,11 +25,19 @@ use crate::stats::integrate_adaptive;
 /// Tolerance of the adaptive quadrature (absolute, per unit length).
 const TOL: f64 = 1e-13;
 
-fn check_eta(field: &str, eta: f64) -> Result<f64> {
-    if eta.is_finite() && eta > 0.0 {
+/// Smallest relative index η the hemispherical averages accept.
+pub const ETA_MIN: f64 = 1e-3;
+/// Largest relative index η the hemispherical averages accept: beyond it (η² ≥ 10⁶) the
+/// critical cosine √(1 − 1/η²) is within 5·10⁻⁷ of 1 and the quadrature of the remaining sliver
+/// loses its accuracy (and at η ≈ 10¹⁵⁵, η² overflows); real interfaces have η between ~0.25 and 4.
+pub const ETA_MAX: f64 = 1e3;
+
+/// Check a relative index η ∈ [[`ETA_MIN`], [`ETA_MAX`]].
+pub fn check_eta(field: &str, eta: f64) -> Result<f64> {
+    if (ETA_MIN..=ETA_MAX).contains(&eta) {
         Ok(eta)
     } else {
-        Err(Error::param(field, eta, "a finite number > 0"))
+        Err(Error::param(field, eta, "a number in [0.001, 1000] (eta = n_inside / n_outside)"))
     }
 }
 
@@ -51,11 +59,11 @@ fn moment_ratio(x: f64, i: i32) -> f64 {
 
 /// The i-th Fresnel moment C_i(η) = ∫_0^1 R(μ; η → 1) μ^i dμ for light *inside* a medium of
 /// relative index η = n_inside/n_outside (d'Eon 2012; pbrt-v3 `FresnelMoment{1,2}`).
-/// Errors: η not finite and > 0, or `i` > 16.
+/// Errors: η outside [[`ETA_MIN`], [`ETA_MAX`]], or `i` > 16.
 pub fn fresnel_moment(eta: f64, i: u32) -> Result<f64> {
     check_eta("eta", eta)?;
     if i > 16 {
-        return Err(Error::param("i", i as f64, "an integer in [0, 16]"));
+        return Err(Error::param_int("i", i, "an integer in [0, 16]"));
     }
     Ok(moment_ratio(eta, i as i32))
 }
@@ -77,7 +85,7 @@ pub fn fresnel_moment2(eta: f64) -> Result<f64> {
 /// boundary (the F_dr of Jensen et al. 2001), `false` for diffuse light arriving from outside.
 /// Reciprocity gives F_dr,int = 1 − (1 − F_dr,ext)/η² (tested, not used).
 /// Reference values: η = 1.3 → 0.44446 (int), 0.06113 (ext); 1.4 → 0.52899, 0.07681;
-/// 1.5 → 0.59635, 0.09178. Errors: η not finite and > 0.
+/// 1.5 → 0.59635, 0.09178. Errors: η outside [[`ETA_MIN`], [`ETA_MAX`]].
 pub fn diffuse_fresnel_reflectance(eta: f64, internal: bool) -> Result<f64> {
     check_eta("eta", eta)?;
     let x = if internal { eta } else { 1.0 / eta };
@@ -185,10 +193,21 @@ mod tests {
 
     #[test]
     fn bad_eta_is_an_error() {
-        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        // out of range values that used to hang the quadrature (η² overflows) are refused
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e155, 1e308, 1e-200, 1.001e3, 0.999e-3] {
             assert!(diffuse_fresnel_reflectance(bad, true).is_err());
             assert!(fresnel_moment1(bad).is_err());
         }
         assert!(fresnel_moment(1.3, 17).is_err());
+        assert!(fresnel_moment2(1e155).unwrap_err().to_string().starts_with("eta = 1e+155 is out of range"));
+        assert!(diffuse_fresnel_reflectance(1e-200, false).is_err());
+        // both ends of the range are computed (and bounded by the TIR-only limits)
+        for eta in [ETA_MIN, ETA_MAX] {
+            for internal in [true, false] {
+                let f = diffuse_fresnel_reflectance(eta, internal).unwrap();
+                assert!(f.is_finite() && (0.0..=1.0).contains(&f), "{eta} {internal}: {f}");
+            }
+            assert!(fresnel_moment1(eta).unwrap().is_finite());
+        }
     }
 }

@@ -22,7 +22,9 @@ pub enum Polarization {
 pub fn cos_transmitted(cos_i: f64, eta_i: f64, eta_t: f64) -> Option<f64> {
     let cos_i = cos_i.abs().min(1.0);
     let eta = eta_i / eta_t;
-    let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
+    let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
+    // at normal incidence no index ratio, however extreme, bends the ray (η² may overflow)
+    let sin2_t = if sin2_i == 0.0 { 0.0 } else { eta * eta * sin2_i };
     if sin2_t >= 1.0 {
         None
     } else {

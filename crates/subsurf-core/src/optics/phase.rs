@@ -11,8 +11,14 @@ use crate::error::{check_g, Error, Result};
 use std::f64::consts::PI;
 
 /// Below this |g| the HG sampler switches to the isotropic formula (the general one loses
-/// precision as g → 0; the two agree to O(g)).
-const G_ISOTROPIC: f64 = 1e-6;
+/// precision as g → 0; the two agree to O(g)). Every HG sampler (here and in the Monte Carlo
+/// kernels) uses this threshold.
+pub const G_ISOTROPIC: f64 = 1e-6;
+
+/// When |u_z| of the direction to be turned exceeds this, [`spin`] uses the formula for a
+/// direction along ±z (the general one divides by √(1 − u_z²)); every direction update (here and
+/// in the Monte Carlo kernels) uses this threshold (MCML uses 1 − 10⁻¹²).
+pub const SPIN_POLE_COS: f64 = 1.0 - 1e-12;
 
 /// Henyey–Greenstein phase function p(cos θ; g) = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2})
 /// in sr⁻¹. The denominator is evaluated as (1 − |g|)² + 2|g|(1 ∓ cos θ), a sum of
@@ -59,7 +65,7 @@ pub fn sample_isotropic(u: f64) -> f64 {
 pub fn spin(d: [f64; 3], cos_theta: f64, cos_phi: f64, sin_phi: f64) -> [f64; 3] {
     let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
     let [ux, uy, uz] = d;
-    if uz.abs() > 1.0 - 1e-12 {
+    if uz.abs() > SPIN_POLE_COS {
         [sin_theta * cos_phi, sin_theta * sin_phi, cos_theta * uz.signum()]
     } else {
         let temp = (1.0 - uz * uz).sqrt();
@@ -238,7 +244,7 @@ mod stat_tests {
             }
             samples.push((dot(e, d).clamp(-1.0, 1.0), p));
         }
-        let edges = graded_cos_edges(12, 16, 1e-5);
+        let edges = graded_cos_edges(12, 16, 1e-5).unwrap();
         chi2_test_cos_phi(&samples, &|c, _| pdf(c), &edges, &uniform_edges(0.0, 2.0 * PI, 8)).unwrap()
     }
 

@@ -7,7 +7,7 @@
 //! Σ Xᵢ². Each bin therefore keeps the current photon's partial sum and the id of the photon
 //! that owns it; when another photon first touches the bin, the partial is squared into the
 //! second moment ("lazy flush"). This is O(1) per deposit, with no per-photon sweep over the
-//! bins. [`Accum::flush`] squares the outstanding partials (at merge and finalize).
+//! bins. [`Accum::drain_into`] squares the outstanding partials when the chunk is merged.
 
 /// Owner id meaning "no partial pending".
 const NONE: u64 = u64::MAX;
@@ -64,29 +64,29 @@ impl Accum {
         }
     }
 
-    /// Square every pending partial into the second moment.
-    pub fn flush(&mut self) {
-        for c in &mut self.cells {
+    /// Add every bin's (S₁, S₂) exactly into `state` (same length) and clear the bins for the
+    /// next chunk. `false` if a sum is outside the exact range.
+    pub fn drain_into(&mut self, state: &mut super::ChannelState) -> bool {
+        debug_assert_eq!(self.len(), state.s1.len());
+        let mut ok = true;
+        for (i, c) in self.cells.iter_mut().enumerate() {
             if c.owner != NONE {
-                c.sum2 += c.cur * c.cur;
-                c.cur = 0.0;
-                c.owner = NONE;
+                ok &= state.add(i, c.sum, c.sum2 + c.cur * c.cur);
+                *c = EMPTY;
+            } else if c.sum != 0.0 || c.sum2 != 0.0 {
+                ok &= state.add(i, c.sum, c.sum2);
+                *c = EMPTY;
             }
         }
+        ok
     }
 
-    /// Add another accumulator of the same size (its photons must be disjoint from ours, as
-    /// chunks of a run are). Deterministic: the result depends only on the operands and the
-    /// order of merges.
-    pub fn merge(&mut self, other: &Accum) {
-        debug_assert_eq!(self.len(), other.len());
-        self.flush();
-        for (c, o) in self.cells.iter_mut().zip(&other.cells) {
-            c.sum += o.sum;
-            c.sum2 += o.sum2;
-            if o.owner != NONE {
-                c.sum2 += o.cur * o.cur;
-            }
+    /// Set every bin to the exact sums of `state`, rounded to f64 (for normalisation).
+    pub fn load_from(&mut self, state: &super::ChannelState) {
+        debug_assert_eq!(self.len(), state.s1.len());
+        for (i, c) in self.cells.iter_mut().enumerate() {
+            let (sum, sum2) = state.get(i);
+            *c = Cell { sum, sum2, cur: 0.0, owner: NONE };
         }
     }
 
@@ -115,28 +115,20 @@ pub use super::totals::mean_stderr;
 
 #[cfg(test)]
 mod tests {
+    use super::super::{Channel, ChannelState};
     use super::*;
-
-    /// A tiny deterministic generator for the tests (SplitMix64).
-    fn splitmix(state: &mut u64) -> u64 {
-        *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = *state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
+    use crate::stats::SplitMix64;
 
     /// Random deposits: (photon, bin, x) with several deposits per photon, some repeated bins,
     /// negative values included.
     fn events(n_photons: u64, bins: usize, seed: u64) -> Vec<(u64, usize, f64)> {
-        let mut s = seed;
+        let mut rng = SplitMix64::new(seed);
         let mut ev = Vec::new();
         for p in 0..n_photons {
-            let k = splitmix(&mut s) % 7;
+            let k = rng.next_u64() % 7;
             for _ in 0..k {
-                let b = (splitmix(&mut s) % bins as u64) as usize;
-                let x = (splitmix(&mut s) >> 11) as f64 / (1u64 << 53) as f64 - 0.2;
-                ev.push((p, b, x));
+                let b = (rng.next_u64() % bins as u64) as usize;
+                ev.push((p, b, rng.next_f64() - 0.2));
             }
         }
         ev
@@ -157,6 +149,10 @@ mod tests {
             .collect()
     }
 
+    fn channel(bins: usize) -> ChannelState {
+        ChannelState::new(&Channel { name: "x".into(), len: bins, extremes: false })
+    }
+
     #[test]
     fn matches_brute_force_second_moments() {
         let (n, bins) = (500, 13);
@@ -171,11 +167,15 @@ mod tests {
             assert!((a.sum(b) - s1).abs() < 1e-12 * (1.0 + s1.abs()), "bin {b}");
             assert!((a.sum2(b) - s2).abs() < 1e-12 * (1.0 + s2), "bin {b}");
         }
-        // flushing does not change the moments
-        let before: Vec<f64> = (0..bins).map(|b| a.sum2(b)).collect();
-        a.flush();
+        // draining into exact sums and loading back keeps the moments and clears the bins
+        let mut st = channel(bins);
+        assert!(a.drain_into(&mut st));
+        assert!((0..bins).all(|b| a.sum(b) == 0.0 && a.sum2(b) == 0.0));
+        a.load_from(&st);
         for b in 0..bins {
-            assert!((a.sum2(b) - before[b]).abs() < 1e-12 * (1.0 + before[b]));
+            let (s1, s2) = want[b];
+            assert!((a.sum(b) - s1).abs() < 1e-12 * (1.0 + s1.abs()), "bin {b}");
+            assert!((a.sum2(b) - s2).abs() < 1e-12 * (1.0 + s2), "bin {b}");
         }
     }
 
@@ -194,40 +194,34 @@ mod tests {
         assert!(mean_stderr(1.0, 1.0, 1).1.is_nan());
     }
 
+    /// Chunks drained into exact sums in any grouping and order give the same bits.
     #[test]
-    fn merge_of_chunks_equals_single_run_and_is_deterministic() {
+    fn exact_merge_of_chunks_is_partition_independent() {
         let (n, bins) = (900, 5);
         let ev = events(n, bins, 11);
-        let mut whole = Accum::new(bins);
-        for &(p, b, x) in &ev {
-            whole.add(b, x, p);
-        }
         let chunk = |lo: u64, hi: u64| {
             let mut a = Accum::new(bins);
             for &(p, b, x) in ev.iter().filter(|e| e.0 >= lo && e.0 < hi) {
                 a.add(b, x, p);
             }
-            a
+            let mut st = channel(bins);
+            assert!(a.drain_into(&mut st));
+            st
         };
         let (c0, c1, c2) = (chunk(0, 300), chunk(300, 600), chunk(600, 900));
-        let mut left = Accum::new(bins);
-        for c in [&c0, &c1, &c2] {
-            left.merge(c);
-        }
-        let mut right = c1.clone();
-        right.merge(&c2);
-        let mut assoc = c0.clone();
-        assoc.merge(&right);
-        let mut again = Accum::new(bins);
-        for c in [&c0, &c1, &c2] {
-            again.merge(c);
-        }
-        assert_eq!(left, again, "same merge order must be bit-identical");
+        let mut left = c0.clone();
+        left.merge(&c1);
+        left.merge(&c2);
+        let mut right = c2.clone();
+        right.merge(&c1);
+        let mut other = c0.clone();
+        other.merge(&right);
+        assert_eq!(left, other, "exact sums must not depend on grouping or order");
+        let want = brute(&ev, n, bins);
         for b in 0..bins {
-            for other in [&whole, &assoc] {
-                assert!((left.sum(b) - other.sum(b)).abs() < 1e-12 * (1.0 + left.sum(b).abs()));
-                assert!((left.sum2(b) - other.sum2(b)).abs() < 1e-12 * (1.0 + left.sum2(b)));
-            }
+            let (s1, s2) = left.get(b);
+            assert!((s1 - want[b].0).abs() < 1e-12 * (1.0 + s1.abs()));
+            assert!((s2 - want[b].1).abs() < 1e-12 * (1.0 + s2));
         }
     }
 }

@@ -3,10 +3,16 @@
 
 use crate::error::{Error, Result};
 
-/// Largest number of bins allowed in one histogram (each bin costs 32 bytes per chunk tally).
+/// Largest number of bins allowed in one histogram (each bin costs 32 bytes per chunk tally in
+/// flight and 72 bytes of exact sums; see `mc::run::memory_estimate`).
 pub const MAX_BINS: usize = 10_000_000;
 /// Largest scattering order `K` of the per-order split.
 pub const MAX_ORDER: u32 = 10_000;
+/// Smallest bin width (dr, dz in mm; dt in ps): bin measures (dr² for annuli) and their
+/// reciprocals stay normal floating-point numbers.
+pub const MIN_WIDTH: f64 = 1e-100;
+/// Largest bin width (same units as [`MIN_WIDTH`]).
+pub const MAX_WIDTH: f64 = 1e100;
 
 /// Grids and switches of the optional tallies. Radial, depth and time axes start at 0 and
 /// their last bin also collects everything beyond the grid (MCML's convention, Wang et al.
@@ -58,19 +64,35 @@ impl Default for TallyConfig {
     }
 }
 
+fn count_allowed(min: usize) -> &'static str {
+    if min == 0 {
+        "an integer in [0, 10000000]"
+    } else {
+        "an integer in [1, 10000000]"
+    }
+}
+
 fn check_count(field: &str, n: usize, min: usize) -> Result<()> {
     if n < min || n > MAX_BINS {
-        let allowed = if min == 0 { "an integer in [0, 10000000]" } else { "an integer in [1, 10000000]" };
-        return Err(Error::param(field, n as f64, allowed));
+        return Err(Error::param_int(field, n as i128, count_allowed(min)));
     }
     Ok(())
 }
 
+/// A bin count given as any number (negative, huge or fractional values get the range message).
+fn count_from(field: &str, v: f64, min: usize) -> Result<usize> {
+    if v == v.trunc() && v >= min as f64 && v <= MAX_BINS as f64 {
+        Ok(v as usize)
+    } else {
+        Err(Error::param_count(field, v, count_allowed(min)))
+    }
+}
+
 fn check_width(field: &str, w: f64) -> Result<()> {
-    if w.is_finite() && w > 0.0 {
+    if (MIN_WIDTH..=MAX_WIDTH).contains(&w) {
         Ok(())
     } else {
-        Err(Error::param(field, w, "a finite number > 0"))
+        Err(Error::param(field, w, "a number in [1e-100, 1e100]"))
     }
 }
 
@@ -85,6 +107,49 @@ fn check_product(what: &str, dims: &[usize]) -> Result<()> {
 }
 
 impl TallyConfig {
+    /// A validated configuration from plain numbers as a user gives them (the fields of
+    /// `subsurf.Tallies`; counts as f64 so that any input — negative, huge — gets the range in
+    /// its message).
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_numbers(
+        nr: f64,
+        dr: f64,
+        nz: f64,
+        dz: f64,
+        na: f64,
+        nt: f64,
+        dt: f64,
+        brdf: Option<(f64, f64)>,
+        max_order: Option<f64>,
+        spatial: bool,
+        angular: bool,
+    ) -> Result<TallyConfig> {
+        let brdf = match brdf {
+            Some((c, p)) => Some((count_from("tallies.brdf[0]", c, 1)?, count_from("tallies.brdf[1]", p, 1)?)),
+            None => None,
+        };
+        let max_order = match max_order {
+            Some(k) if k == k.trunc() && (0.0..=MAX_ORDER as f64).contains(&k) => Some(k as u32),
+            Some(k) => return Err(Error::param_count("tallies.max_order", k, "an integer in [0, 10000] (or None)")),
+            None => None,
+        };
+        let c = TallyConfig {
+            nr: count_from("tallies.nr", nr, 1)?,
+            dr,
+            nz: count_from("tallies.nz", nz, 1)?,
+            dz,
+            na: count_from("tallies.na", na, 1)?,
+            nt: count_from("tallies.nt", nt, 0)?,
+            dt,
+            brdf,
+            max_order,
+            spatial,
+            angular,
+        };
+        c.validate()?;
+        Ok(c)
+    }
+
     /// Check every field (names as in `subsurf.Tallies`).
     pub fn validate(&self) -> Result<()> {
         check_count("tallies.nr", self.nr, 1)?;
@@ -97,10 +162,11 @@ impl TallyConfig {
         if let Some((nc, np)) = self.brdf {
             check_count("tallies.brdf[0]", nc, 1)?;
             check_count("tallies.brdf[1]", np, 1)?;
+            check_product("brdf", &[nc, np])?;
         }
         if let Some(k) = self.max_order {
             if k > MAX_ORDER {
-                return Err(Error::param("tallies.max_order", k as f64, "an integer in [0, 10000]"));
+                return Err(Error::param_int("tallies.max_order", k, "an integer in [0, 10000] (or None)"));
             }
         }
         if self.spatial {
@@ -136,7 +202,10 @@ mod tests {
         };
         assert!(bad(|c| c.nr = 0).starts_with("tallies.nr = 0"));
         assert!(bad(|c| c.dr = 0.0).starts_with("tallies.dr = 0"));
-        assert!(bad(|c| c.dz = f64::NAN).starts_with("tallies.dz = NaN"));
+        assert!(bad(|c| c.dz = f64::NAN).starts_with("tallies.dz = nan"));
+        assert!(bad(|c| c.dr = 1e-200).starts_with("tallies.dr = 1e-200 is out of range"));
+        assert!(bad(|c| c.dt = 1e101).contains("[1e-100, 1e100]"));
+        assert!(bad(|c| c.brdf = Some((10_000_000, 10_000_000))).contains("brdf"));
         assert!(bad(|c| c.na = 0).starts_with("tallies.na"));
         assert!(bad(|c| c.dt = -1.0).starts_with("tallies.dt"));
         assert!(bad(|c| c.brdf = Some((0, 4))).starts_with("tallies.brdf[0]"));
@@ -147,6 +216,12 @@ mod tests {
             c.nz = 10_000
         })
         .contains("a_rz"));
+        let num =
+            |nr: f64, k: Option<f64>| TallyConfig::from_numbers(nr, 0.1, 1.0, 0.1, 1.0, 0.0, 1.0, None, k, true, true);
+        assert!(num(-1.0, None).unwrap_err().to_string().starts_with("tallies.nr = -1 is out of range"));
+        assert!(num(1e20, None).unwrap_err().to_string().starts_with("tallies.nr = 100000000000000000000 is out"));
+        assert!(num(2.5, None).is_err() && num(3.0, None).is_ok());
+        assert!(num(3.0, Some(-1.0)).unwrap_err().to_string().starts_with("tallies.max_order = -1"));
         let ok = TallyConfig { nt: 0, brdf: Some((10, 1)), max_order: Some(0), ..Default::default() };
         assert!(ok.validate().is_ok());
     }

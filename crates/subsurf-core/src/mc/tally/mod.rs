@@ -3,10 +3,100 @@
 //!
 //! Standard errors come from per-photon second moments: every tally sees
 //! [`Tally::begin_photon`] / [`Tally::end_photon`] around each photon's history.
+//!
+//! Merging: a tally scores one chunk of photons in f64 (a fixed, sequential order), then
+//! [`Tally::drain_into`] adds its sums *exactly* into the run's [`ChannelState`]s (fixed-point,
+//! see [`exact`]), so the merged sums do not depend on how the photons were split into chunks'
+//! groups (threads, resume points, workers). [`Tally::load_from`] puts the rounded exact sums
+//! back into a tally for normalisation.
 
+pub mod accum;
+pub mod config;
+pub mod exact;
+pub mod histogram;
+pub mod set;
 pub mod totals;
 
 use super::packet::{Packet, Side};
+use exact::{Sum1, Sum2};
+
+pub use accum::Accum;
+pub use config::TallyConfig;
+pub use histogram::HistogramOut;
+pub use set::TallySet;
+
+/// One array ("channel") of a tally's exact state: `len` bins, each with the exact S₁ and S₂
+/// of the per-photon scores; `extremes`: also the smallest and largest per-photon score (kept
+/// by the totals, so that a quantity every photon scores identically has a standard error of
+/// exactly 0).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Channel {
+    /// A stable name (the histogram or total it feeds).
+    pub name: String,
+    /// Number of bins.
+    pub len: usize,
+    /// Whether per-photon minima and maxima are kept.
+    pub extremes: bool,
+}
+
+/// The exact sums of one [`Channel`] over the photons merged so far.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChannelState {
+    /// Σ score per bin.
+    pub s1: Vec<Sum1>,
+    /// Σ (per-photon score)² per bin.
+    pub s2: Vec<Sum2>,
+    /// Smallest and largest per-photon score per bin (empty unless the channel keeps them;
+    /// +∞/−∞ before any photon).
+    pub min: Vec<f64>,
+    /// See `min`.
+    pub max: Vec<f64>,
+}
+
+impl ChannelState {
+    /// Empty sums for `c`.
+    pub fn new(c: &Channel) -> Self {
+        let e = if c.extremes { c.len } else { 0 };
+        ChannelState {
+            s1: vec![Sum1::ZERO; c.len],
+            s2: vec![Sum2::ZERO; c.len],
+            min: vec![f64::INFINITY; e],
+            max: vec![f64::NEG_INFINITY; e],
+        }
+    }
+
+    /// Add a chunk's (S₁, S₂) of bin `i` exactly; `false` if a value is out of the exact range.
+    #[inline]
+    pub fn add(&mut self, i: usize, s1: f64, s2: f64) -> bool {
+        self.s1[i].add_f64(s1) & self.s2[i].add_f64(s2)
+    }
+
+    /// Fold a chunk's per-photon extremes of bin `i` in.
+    #[inline]
+    pub fn add_extremes(&mut self, i: usize, min: f64, max: f64) {
+        self.min[i] = self.min[i].min(min);
+        self.max[i] = self.max[i].max(max);
+    }
+
+    /// Add another state of the same channel (exact, order independent).
+    pub fn merge(&mut self, o: &ChannelState) {
+        for (a, b) in self.s1.iter_mut().zip(&o.s1) {
+            a.add(b);
+        }
+        for (a, b) in self.s2.iter_mut().zip(&o.s2) {
+            a.add(b);
+        }
+        for (i, (&lo, &hi)) in o.min.iter().zip(&o.max).enumerate() {
+            self.add_extremes(i, lo, hi);
+        }
+    }
+
+    /// (S₁, S₂) of bin `i` rounded to f64.
+    #[inline]
+    pub fn get(&self, i: usize) -> (f64, f64) {
+        (self.s1[i].to_f64(), self.s2[i].to_f64())
+    }
+}
 
 /// Receiver of the kernel's events. All weights are in units of the launched packet weight (1).
 pub trait Tally: Send {
@@ -14,19 +104,30 @@ pub trait Tally: Send {
     fn begin_photon(&mut self, photon: u64);
     /// Weight reflected specularly at the top surface on launch.
     fn specular(&mut self, w: f64);
-    /// Weight `dw` deposited (absorbed) at the packet's position `p.pos` in layer `p.layer`.
-    /// `dw` can be negative: Russian roulette deposits its zero-mean control term here, so that
-    /// energy balance holds exactly in every run (see `mc::kernel`).
+    /// Weight `dw ≥ 0` physically absorbed (w σa/σt at an interaction) at the packet's position
+    /// `p.pos` in layer `p.layer`.
     fn absorb(&mut self, p: &Packet, dw: f64);
+    /// Weight `dw` removed from (dw > 0) or added to (dw < 0) the packet by Russian roulette —
+    /// its zero-mean control term, so that energy balance holds exactly in every run — or the
+    /// weight of a packet that can never leave (see `mc::kernel`). Not absorption: the totals
+    /// book it in `absorbed` (which is then 1 − R_sp − R_d − T exactly, and never negative),
+    /// the histograms and per-layer absorption do not.
+    fn roulette(&mut self, p: &Packet, dw: f64);
     /// The packet leaves through `side` with weight `w`. `p` is its state at the exit point
     /// (inside, before refraction); `dir_out` is its unit direction in the ambient medium after
     /// refraction (`dir_out[2] < 0` for `Side::Top`, `> 0` for `Side::Bottom`).
     fn escape(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64);
     /// The current photon history has ended.
     fn end_photon(&mut self);
-    /// Add another tally of the same configuration into this one (deterministic: the run
-    /// merges chunk tallies in chunk order).
-    fn merge(&mut self, other: &Self);
+    /// Append the descriptions of this tally's channels to `out` (fixed for a configuration).
+    fn channels(&self, out: &mut Vec<Channel>);
+    /// Add this tally's sums exactly into `state` (its own channels first, in the order of
+    /// [`Tally::channels`]) and clear the tally for the next chunk. Returns how many channels it
+    /// used, or `None` when a sum lies outside the exact range (see [`exact`]).
+    fn drain_into(&mut self, state: &mut [ChannelState]) -> Option<usize>;
+    /// Replace this tally's sums by the exact sums of `state` (rounded to f64) for a run of
+    /// `photons` photons, ready for normalisation. Returns how many channels it used.
+    fn load_from(&mut self, state: &[ChannelState], photons: u64) -> usize;
 }
 
 /// The empty tally: scores nothing (for runs that need only the engine's own counters).
@@ -38,11 +139,18 @@ impl Tally for () {
     #[inline]
     fn absorb(&mut self, _p: &Packet, _dw: f64) {}
     #[inline]
+    fn roulette(&mut self, _p: &Packet, _dw: f64) {}
+    #[inline]
     fn escape(&mut self, _p: &Packet, _side: Side, _dir_out: [f64; 3], _w: f64) {}
     #[inline]
     fn end_photon(&mut self) {}
-    #[inline]
-    fn merge(&mut self, _other: &Self) {}
+    fn channels(&self, _out: &mut Vec<Channel>) {}
+    fn drain_into(&mut self, _state: &mut [ChannelState]) -> Option<usize> {
+        Some(0)
+    }
+    fn load_from(&mut self, _state: &[ChannelState], _photons: u64) -> usize {
+        0
+    }
 }
 
 /// Two tallies side by side, e.g. `(Totals, TallySet)`: each sees every event.
@@ -63,6 +171,11 @@ impl<A: Tally, B: Tally> Tally for (A, B) {
         self.1.absorb(p, dw);
     }
     #[inline]
+    fn roulette(&mut self, p: &Packet, dw: f64) {
+        self.0.roulette(p, dw);
+        self.1.roulette(p, dw);
+    }
+    #[inline]
     fn escape(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
         self.0.escape(p, side, dir_out, w);
         self.1.escape(p, side, dir_out, w);
@@ -72,19 +185,16 @@ impl<A: Tally, B: Tally> Tally for (A, B) {
         self.0.end_photon();
         self.1.end_photon();
     }
-    #[inline]
-    fn merge(&mut self, other: &Self) {
-        self.0.merge(&other.0);
-        self.1.merge(&other.1);
+    fn channels(&self, out: &mut Vec<Channel>) {
+        self.0.channels(out);
+        self.1.channels(out);
+    }
+    fn drain_into(&mut self, state: &mut [ChannelState]) -> Option<usize> {
+        let a = self.0.drain_into(state)?;
+        Some(a + self.1.drain_into(&mut state[a..])?)
+    }
+    fn load_from(&mut self, state: &[ChannelState], photons: u64) -> usize {
+        let a = self.0.load_from(state, photons);
+        a + self.1.load_from(&state[a..], photons)
     }
 }
-
-pub mod accum;
-pub mod config;
-pub mod histogram;
-pub mod set;
-
-pub use accum::Accum;
-pub use config::TallyConfig;
-pub use histogram::HistogramOut;
-pub use set::TallySet;

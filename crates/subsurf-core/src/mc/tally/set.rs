@@ -17,9 +17,10 @@
 //!   cos θ_c × ring solid angle for ∫cos θ dω = π(sin²θ_{i+1} − sin²θ_i)); the same for T.
 //! - A(z) = Σdw / (N dz) [mm⁻¹]; A(r,z) = Σdw / (N · area · dz) [mm⁻³]. Fluence (MCML's
 //!   F = A/μa, manual §5.3): A/μa in bins inside one layer; in a bin straddling an interface
-//!   each deposit is divided by μa of the layer it happens in, so that bin is right too; Φ(z) [1] (planar integral per unit incident power),
-//!   Φ(r,z) [mm⁻²]; NaN for bins touching a layer with μa = 0 (fluence is not observable there
-//!   through absorption).
+//!   each deposit is divided by μa of the layer it happens in, so that bin is right too (kept
+//!   as dw · μa,min/μa so that the exact sums stay in range, divided by μa,min at the end);
+//!   Φ(z) [1] (planar integral per unit incident power), Φ(r,z) [mm⁻²]; NaN for bins touching
+//!   a layer with μa = 0 (fluence is not observable there through absorption).
 //! - Time t = (optical path Σ nᵢ ℓᵢ)/c, c = 0.299792458 mm/ps; R(t) = Σw/(N dt) [ps⁻¹],
 //!   R(r,t) [mm⁻² ps⁻¹].
 //! - BRDF/BTDF on bins uniform in μ = cos θ_out ∈ [0, 1] × φ_out ∈ [0, 2π) (equal solid angle),
@@ -41,11 +42,8 @@ use std::f64::consts::PI;
 
 use super::accum::Accum;
 use super::config::TallyConfig;
-use super::histogram::{
-    annulus_area, bin_clamped, cos_bin_projected_solid_angle, histogram, ring_projected_solid_angle, ring_solid_angle,
-    Axis, HistogramOut,
-};
-use super::Tally;
+use super::histogram::{bin_clamped, histogram, Axis, AxisKind, HistogramOut};
+use super::{Channel, ChannelState, Tally};
 use crate::error::Result;
 use crate::mc::packet::{Packet, Side};
 use crate::medium::Stack;
@@ -53,71 +51,146 @@ use crate::medium::Stack;
 /// Speed of light in vacuum, mm/ps.
 pub const C_MM_PER_PS: f64 = 0.299_792_458;
 
-/// The tallies of one side (reflection through the top, transmission through the bottom).
-/// An empty [`Accum`] means "not scored".
-#[derive(Clone, Debug, PartialEq)]
-struct SideTallies {
-    r: Accum,
-    a: Accum,
-    ra: Accum,
-    t: Accum,
-    rt: Accum,
-    brdf: Accum,
-    order: Accum,
-    brdf_order: Accum,
-    single: Accum,
-    brdf_single: Accum,
+/// What enables a tally.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Need {
+    /// `spatial` is on.
+    Spatial,
+    /// `angular` is on.
+    Angular,
+    /// Reflection side and `nt > 0`.
+    Time,
+    /// `brdf` is given.
+    Brdf,
+    /// `max_order` is given.
+    Order,
 }
 
-impl SideTallies {
-    fn new(c: &TallyConfig, time: bool) -> Self {
-        let on = |b: bool, n: usize| Accum::new(if b { n } else { 0 });
-        let nb = c.brdf.map_or(0, |(a, b)| a * b);
-        let no = c.max_order.map_or(0, |k| k as usize + 2);
-        SideTallies {
-            r: on(c.spatial, c.nr),
-            a: on(c.angular, c.na),
-            ra: on(c.spatial && c.angular, c.nr * c.na),
-            t: on(time && c.nt > 0, c.nt),
-            rt: on(time && c.nt > 0 && c.spatial, c.nr * c.nt),
-            brdf: Accum::new(nb),
-            order: Accum::new(no),
-            brdf_order: Accum::new(no * nb),
-            single: on(no > 0, 1),
-            brdf_single: on(no > 0, nb),
-        }
-    }
-
-    fn each_mut(&mut self) -> [&mut Accum; 10] {
-        [
-            &mut self.r,
-            &mut self.a,
-            &mut self.ra,
-            &mut self.t,
-            &mut self.rt,
-            &mut self.brdf,
-            &mut self.order,
-            &mut self.brdf_order,
-            &mut self.single,
-            &mut self.brdf_single,
-        ]
-    }
-
-    fn each(&self) -> [&Accum; 10] {
-        [
-            &self.r,
-            &self.a,
-            &self.ra,
-            &self.t,
-            &self.rt,
-            &self.brdf,
-            &self.order,
-            &self.brdf_order,
-            &self.single,
-            &self.brdf_single,
-        ]
-    }
+/// One histogram of the table: name, axes, units, description, what enables it. In `name` and
+/// `text`: `{s}` → rd/tt, `{b}` → brdf/btdf, `{B}` → BRDF/BTDF, `{what}` → diffuse
+/// reflectance/transmittance, `{M}` → MCML's Rd/Tt, `{K}` → the largest order.
+struct Spec {
+    name: &'static str,
+    axes: &'static [AxisKind],
+    units: &'static str,
+    text: &'static str,
+    needs: &'static [Need],
 }
+
+use AxisKind::{CosTheta, Depth, Order, OrderOne, Phi, Radius, Theta, ThetaProjected, Time};
+use Need::{Angular, Brdf, Order as ByOrder, Spatial, Time as Timed};
+
+const BSDF_TEXT: &str = "{B} (cosine-weighted bin average of f, sr^-1) on equal-solid-angle bins of the exit direction";
+
+/// The tallies of each side (reflection through the top, transmission through the bottom), in
+/// histogram order; an accumulator's index is its position here (plus [`PER_SIDE`] for "tt").
+const SIDE_SPECS: [Spec; PER_SIDE] = [
+    Spec { name: "{s}_r", axes: &[Radius], units: "mm^-2", text: "{what} per unit area vs radius ({M}_r)", needs: &[Spatial] },
+    Spec {
+        name: "{s}_a",
+        axes: &[Theta],
+        units: "sr^-1",
+        text: "{what} per unit solid angle vs exit angle in the ambient medium ({M}_a)",
+        needs: &[Angular],
+    },
+    Spec {
+        name: "{s}_ra",
+        axes: &[Radius, ThetaProjected],
+        units: "mm^-2 sr^-1",
+        text: "{what} per unit area perpendicular to the exit direction and per solid angle ({M}_ra)",
+        needs: &[Spatial, Angular],
+    },
+    Spec { name: "{s}_t", axes: &[Time], units: "ps^-1", text: "time-resolved {what} (time = optical path / c)", needs: &[Timed] },
+    Spec {
+        name: "{s}_rt",
+        axes: &[Radius, Time],
+        units: "mm^-2 ps^-1",
+        text: "time-resolved {what} per unit area vs radius and time",
+        needs: &[Timed, Spatial],
+    },
+    Spec { name: "{b}", axes: &[CosTheta, Phi], units: "sr^-1", text: BSDF_TEXT, needs: &[Brdf] },
+    Spec {
+        name: "{s}_order",
+        axes: &[Order],
+        units: "1",
+        text: "{what} by scattering order 0 … {K} and > {K} (last bin)",
+        needs: &[ByOrder],
+    },
+    Spec {
+        name: "{s}_single_direct",
+        axes: &[OrderOne],
+        units: "1",
+        text: "{what} of singly scattered light with no interface reflection (Hanrahan–Krueger paths)",
+        needs: &[ByOrder],
+    },
+    Spec {
+        name: "{b}_order",
+        axes: &[Order, CosTheta, Phi],
+        units: "sr^-1",
+        text: "{B} (cosine-weighted bin average of f, sr^-1) on equal-solid-angle bins of the exit direction, by scattering order (last order bin: > {K})",
+        needs: &[ByOrder, Brdf],
+    },
+    Spec {
+        name: "{b}_single_direct",
+        axes: &[OrderOne, CosTheta, Phi],
+        units: "sr^-1",
+        text: "{B} (cosine-weighted bin average of f, sr^-1) on equal-solid-angle bins of the exit direction, single scattering with no interface reflection (Hanrahan–Krueger)",
+        needs: &[ByOrder, Brdf],
+    },
+];
+
+/// The absorption tallies (accumulators [`A_Z`] …), in histogram order; the fluence ones are
+/// the straddling-bin sums Σ dw μa,min/μa (see the module docs).
+const DEPTH_SPECS: [Spec; 4] = [
+    Spec {
+        name: "a_z",
+        axes: &[Depth],
+        units: "mm^-1",
+        text: "absorbed fraction per unit depth (A_z)",
+        needs: &[Spatial],
+    },
+    Spec {
+        name: "a_rz",
+        axes: &[Radius, Depth],
+        units: "mm^-3",
+        text: "absorbed fraction per unit volume (A_rz)",
+        needs: &[Spatial],
+    },
+    Spec {
+        name: "fluence_z",
+        axes: &[Depth],
+        units: "1",
+        text: "fluence A/mu_a integrated over the plane, per unit incident power (F_z); NaN where mu_a = 0",
+        needs: &[Spatial],
+    },
+    Spec {
+        name: "fluence_rz",
+        axes: &[Radius, Depth],
+        units: "mm^-2",
+        text: "fluence A/mu_a per unit incident power (F_rz); NaN where mu_a = 0",
+        needs: &[Spatial],
+    },
+];
+
+/// Accumulators of one side, by their position in [`SIDE_SPECS`].
+const R: usize = 0;
+const A: usize = 1;
+const RA: usize = 2;
+const T: usize = 3;
+const RT: usize = 4;
+const BSDF: usize = 5;
+const ORDER: usize = 6;
+const SINGLE: usize = 7;
+const BSDF_ORDER: usize = 8;
+const BSDF_SINGLE: usize = 9;
+/// Accumulators per side.
+const PER_SIDE: usize = 10;
+/// The absorption accumulators, after both sides.
+const A_Z: usize = 2 * PER_SIDE;
+const A_RZ: usize = A_Z + 1;
+const PHI_Z: usize = A_Z + 2;
+const PHI_RZ: usize = A_Z + 3;
+const N_ACC: usize = A_Z + 4;
 
 /// Every optional tally of a run; implements [`Tally`] and is combined with the engine's
 /// `Totals` as `(Totals, TallySet)`. Plain data: no allocation per event.
@@ -132,19 +205,32 @@ pub struct TallySet {
     n_cos: usize,
     n_phi: usize,
     max_order: u32,
-    /// 1/μa per layer (0 where μa = 0: no fluence deposit).
-    inv_mua: Vec<f64>,
+    /// μa,min/μa per layer (0 where μa = 0: no fluence deposit); μa,min = the smallest μa > 0.
+    fluence_scale: Vec<f64>,
+    mua_min: f64,
     /// Interface depths [0, d₀, d₀ + d₁, …], mm.
     bounds: Vec<f64>,
-    rd: SideTallies,
-    tt: SideTallies,
-    a_z: Accum,
-    a_rz: Accum,
     /// Per depth bin: μa (mm⁻¹) of the one layer the bin lies in, or −1 if it straddles an
     /// interface. Fluence is A/μa in the former; only straddling bins need their own Σ dw/μa.
     bin_mua: Vec<f64>,
-    phi_z: Accum,
-    phi_rz: Accum,
+    /// The accumulators: rd side, tt side (each in [`SIDE_SPECS`] order), then a_z, a_rz and the
+    /// straddling fluence sums; empty when disabled.
+    acc: Vec<Accum>,
+}
+
+/// The name or description of spec `text` for side `side` (0 = rd, 1 = tt).
+fn expand(text: &str, side: usize, max_order: u32) -> String {
+    let (s, b, big, what, m) = if side == 0 {
+        ("rd", "brdf", "BRDF", "diffuse reflectance", "Rd")
+    } else {
+        ("tt", "btdf", "BTDF", "transmittance", "Tt")
+    };
+    text.replace("{s}", s)
+        .replace("{b}", b)
+        .replace("{B}", big)
+        .replace("{what}", what)
+        .replace("{M}", m)
+        .replace("{K}", &max_order.to_string())
 }
 
 impl TallySet {
@@ -152,7 +238,8 @@ impl TallySet {
     pub fn new(cfg: &TallyConfig, stack: &Stack) -> Result<Self> {
         cfg.validate()?;
         let (n_cos, n_phi) = cfg.brdf.unwrap_or((0, 0));
-        let sp = |n: usize| Accum::new(if cfg.spatial { n } else { 0 });
+        let mua_min = stack.layers.iter().map(|l| l.mua).filter(|&m| m > 0.0).fold(f64::INFINITY, f64::min);
+        let mua_min = if mua_min.is_finite() { mua_min } else { 1.0 };
         let mut t = TallySet {
             cfg: *cfg,
             photon: u64::MAX - 1,
@@ -163,16 +250,13 @@ impl TallySet {
             n_cos,
             n_phi,
             max_order: cfg.max_order.unwrap_or(0),
-            inv_mua: stack.layers.iter().map(|l| if l.mua > 0.0 { 1.0 / l.mua } else { 0.0 }).collect(),
+            fluence_scale: stack.layers.iter().map(|l| if l.mua > 0.0 { mua_min / l.mua } else { 0.0 }).collect(),
+            mua_min,
             bounds: stack.boundaries(),
-            rd: SideTallies::new(cfg, true),
-            tt: SideTallies::new(cfg, false),
-            a_z: sp(cfg.nz),
-            a_rz: sp(cfg.nr * cfg.nz),
             bin_mua: Vec::new(),
-            phi_z: sp(cfg.nz),
-            phi_rz: sp(cfg.nr * cfg.nz),
+            acc: Vec::new(),
         };
+        t.acc = (0..N_ACC).map(|i| Accum::new(if Self::enabled(cfg, i) { Self::bins(cfg, i) } else { 0 })).collect();
         if cfg.spatial {
             t.bin_mua = (0..cfg.nz)
                 .map(|iz| {
@@ -187,11 +271,79 @@ impl TallySet {
         Ok(t)
     }
 
+    /// The spec of accumulator `i` and its side (0 = rd, 1 = tt; 0 for the absorption ones).
+    fn spec(i: usize) -> (&'static Spec, usize) {
+        if i < A_Z {
+            (&SIDE_SPECS[i % PER_SIDE], i / PER_SIDE)
+        } else {
+            (&DEPTH_SPECS[i - A_Z], 0)
+        }
+    }
+
+    fn enabled(c: &TallyConfig, i: usize) -> bool {
+        let (spec, side) = Self::spec(i);
+        spec.needs.iter().all(|n| match n {
+            Need::Spatial => c.spatial,
+            Need::Angular => c.angular,
+            Need::Time => side == 0 && c.nt > 0,
+            Need::Brdf => c.brdf.is_some(),
+            Need::Order => c.max_order.is_some(),
+        })
+    }
+
+    fn axis(&self, kind: AxisKind) -> Axis {
+        let c = &self.cfg;
+        match kind {
+            Radius => Axis::uniform(kind, c.nr, c.dr),
+            Depth => Axis::uniform(kind, c.nz, c.dz),
+            Time => Axis::uniform(kind, c.nt, c.dt),
+            Theta | ThetaProjected => Axis::span(kind, c.na, 0.0, PI / 2.0),
+            CosTheta => Axis::span(kind, self.n_cos, 0.0, 1.0),
+            Phi => Axis::span(kind, self.n_phi, 0.0, 2.0 * PI),
+            Order => Axis::order(self.max_order),
+            OrderOne => Axis::order_one(),
+        }
+    }
+
+    /// Number of bins of accumulator `i` when enabled.
+    fn bins(c: &TallyConfig, i: usize) -> usize {
+        let (n_cos, n_phi) = c.brdf.unwrap_or((0, 0));
+        Self::spec(i)
+            .0
+            .axes
+            .iter()
+            .map(|&k| match k {
+                Radius => c.nr,
+                Depth => c.nz,
+                Time => c.nt,
+                Theta | ThetaProjected => c.na,
+                CosTheta => n_cos,
+                Phi => n_phi,
+                Order => c.max_order.unwrap_or(0) as usize + 2,
+                OrderOne => 1,
+            })
+            .product()
+    }
+
+    /// The channels a `TallySet` for `cfg` would have (validates `cfg`; allocates nothing, so a
+    /// configuration can be checked against the memory it needs first).
+    pub fn layout(cfg: &TallyConfig) -> Result<Vec<Channel>> {
+        cfg.validate()?;
+        let k = cfg.max_order.unwrap_or(0);
+        Ok((0..N_ACC)
+            .filter(|&i| Self::enabled(cfg, i))
+            .map(|i| {
+                let (spec, side) = Self::spec(i);
+                Channel { name: expand(spec.name, side, k), len: Self::bins(cfg, i), extremes: false }
+            })
+            .collect())
+    }
+
     /// Indices of the layers that overlap depth bin `iz` (the last bin reaches to infinity).
     fn layers_touching(&self, iz: usize) -> impl Iterator<Item = usize> + '_ {
         let z0 = iz as f64 * self.cfg.dz;
         let z1 = if iz + 1 == self.cfg.nz { f64::INFINITY } else { (iz + 1) as f64 * self.cfg.dz };
-        (0..self.inv_mua.len()).filter(move |&j| z0 < self.bounds[j + 1] && self.bounds[j] < z1)
+        (0..self.fluence_scale.len()).filter(move |&j| z0 < self.bounds[j + 1] && self.bounds[j] < z1)
     }
 
     /// The configuration.
@@ -201,179 +353,56 @@ impl TallySet {
 
     /// Whether any layer touching depth bin `iz` has μa = 0.
     fn fluence_undefined(&self, iz: usize) -> bool {
-        self.layers_touching(iz).any(|j| self.inv_mua[j] == 0.0)
+        self.layers_touching(iz).any(|j| self.fluence_scale[j] == 0.0)
+    }
+
+    /// The histogram of accumulator `i` (its spec's axes, normalisation and description; the
+    /// overflow of each r, z, t axis is stated in the description).
+    fn histogram_of(&self, i: usize, photons: u64, factor: f64) -> HistogramOut {
+        let (spec, side) = Self::spec(i);
+        let axes: Vec<Axis> = spec.axes.iter().map(|&k| self.axis(k)).collect();
+        let mut text = expand(spec.text, side, self.max_order);
+        for a in axes.iter().filter(|a| a.kind.overflow() && a.kind != Order) {
+            let name = a.kind.axis_name();
+            let top = a.edges[a.len()];
+            text.push_str(&format!("; last {name} bin also holds {name} > {top} {}", a.kind.unit()));
+        }
+        histogram(&expand(spec.name, side, self.max_order), &self.acc[i], photons, &axes, spec.units, &text, factor)
     }
 
     /// Normalise everything into histograms for a run of `photons` photons (see the module docs
     /// for each normalisation). Only the enabled tallies are returned.
     pub fn finalize(&self, photons: u64) -> Vec<HistogramOut> {
-        let c = &self.cfg;
-        let n = photons;
-        let (r_ax, z_ax) = (Axis::uniform("r", "mm", c.nr, c.dr), Axis::uniform("z", "mm", c.nz, c.dz));
-        let a_ax = Axis::span("theta", "rad", c.na, 0.0, PI / 2.0);
-        let t_ax = Axis::uniform("t", "ps", c.nt, c.dt);
-        let area = |i: usize| annulus_area(i, c.dr);
-        let th = &a_ax.edges;
-        let mut out = Vec::new();
-        for (side, s) in [("rd", &self.rd), ("tt", &self.tt)] {
-            let what = if side == "rd" { "diffuse reflectance" } else { "transmittance" };
-            let mcml = if side == "rd" { "Rd" } else { "Tt" };
-            if !s.r.is_empty() {
-                let d = format!(
-                    "{what} per unit area vs radius ({mcml}_r); last bin also holds r > {} mm",
-                    c.nr as f64 * c.dr
-                );
-                out.push(histogram(&format!("{side}_r"), &s.r, n, std::slice::from_ref(&r_ax), "mm^-2", &d, |i| {
-                    1.0 / area(i)
-                }));
-            }
-            if !s.a.is_empty() {
-                let d = format!("{what} per unit solid angle vs exit angle in the ambient medium ({mcml}_a)");
-                out.push(histogram(&format!("{side}_a"), &s.a, n, std::slice::from_ref(&a_ax), "sr^-1", &d, |i| {
-                    1.0 / ring_solid_angle(th[i], th[i + 1])
-                }));
-            }
-            if !s.ra.is_empty() {
-                let d =
-                    format!("{what} per unit area perpendicular to the exit direction and per solid angle ({mcml}_ra)");
-                out.push(histogram(
-                    &format!("{side}_ra"),
-                    &s.ra,
-                    n,
-                    &[r_ax.clone(), a_ax.clone()],
-                    "mm^-2 sr^-1",
-                    &d,
-                    |i| {
-                        let (ir, ia) = (i / c.na, i % c.na);
-                        1.0 / (area(ir) * ring_projected_solid_angle(th[ia], th[ia + 1]))
-                    },
-                ));
-            }
-            if !s.t.is_empty() {
-                let d = format!(
-                    "time-resolved {what} (time = optical path / c); last bin also holds t > {} ps",
-                    c.nt as f64 * c.dt
-                );
-                out.push(histogram(&format!("{side}_t"), &s.t, n, std::slice::from_ref(&t_ax), "ps^-1", &d, |_| {
-                    1.0 / c.dt
-                }));
-            }
-            if !s.rt.is_empty() {
-                let d = format!("time-resolved {what} per unit area vs radius and time");
-                out.push(histogram(
-                    &format!("{side}_rt"),
-                    &s.rt,
-                    n,
-                    &[r_ax.clone(), t_ax.clone()],
-                    "mm^-2 ps^-1",
-                    &d,
-                    |i| 1.0 / (area(i / c.nt) * c.dt),
-                ));
-            }
-            let bsdf = if side == "rd" { "brdf" } else { "btdf" };
-            let (mu_ax, phi_ax) = (
-                Axis::span("cos_theta", "1", self.n_cos, 0.0, 1.0),
-                Axis::span("phi", "rad", self.n_phi, 0.0, 2.0 * PI),
-            );
-            let nb = self.n_cos * self.n_phi;
-            let proj = |b: usize| {
-                let ic = (b % nb.max(1)) / self.n_phi.max(1);
-                cos_bin_projected_solid_angle(mu_ax.edges[ic], mu_ax.edges[ic + 1], 2.0 * PI / self.n_phi as f64)
-            };
-            let bsdf_d = format!(
-                "{} (cosine-weighted bin average of f, sr^-1) on equal-solid-angle bins of the exit direction",
-                bsdf.to_uppercase()
-            );
-            if !s.brdf.is_empty() {
-                out.push(histogram(bsdf, &s.brdf, n, &[mu_ax.clone(), phi_ax.clone()], "sr^-1", &bsdf_d, |b| {
-                    1.0 / proj(b)
-                }));
-            }
-            if !s.order.is_empty() {
-                let o_ax = Axis::order(self.max_order);
-                let d = format!("{what} by scattering order 0 … {k} and > {k} (last bin)", k = self.max_order);
-                out.push(histogram(
-                    &format!("{side}_order"),
-                    &s.order,
-                    n,
-                    std::slice::from_ref(&o_ax),
-                    "1",
-                    &d,
-                    |_| 1.0,
-                ));
-                let d =
-                    format!("{what} of singly scattered light with no interface reflection (Hanrahan–Krueger paths)");
-                out.push(histogram(
-                    &format!("{side}_single_direct"),
-                    &s.single,
-                    n,
-                    &[Axis::order_one()],
-                    "1",
-                    &d,
-                    |_| 1.0,
-                ));
-                if nb > 0 {
-                    let d = format!("{bsdf_d}, by scattering order (last order bin: > {})", self.max_order);
-                    let axes = [o_ax, mu_ax.clone(), phi_ax.clone()];
-                    out.push(histogram(&format!("{bsdf}_order"), &s.brdf_order, n, &axes, "sr^-1", &d, |b| {
-                        1.0 / proj(b)
-                    }));
-                    let d = format!("{bsdf_d}, single scattering with no interface reflection (Hanrahan–Krueger)");
-                    let axes = [Axis::order_one(), mu_ax.clone(), phi_ax.clone()];
-                    out.push(histogram(&format!("{bsdf}_single_direct"), &s.brdf_single, n, &axes, "sr^-1", &d, |b| {
-                        1.0 / proj(b)
-                    }));
+        let mut out: Vec<HistogramOut> =
+            (0..PHI_Z).filter(|&i| Self::enabled(&self.cfg, i)).map(|i| self.histogram_of(i, photons, 1.0)).collect();
+        if !Self::enabled(&self.cfg, PHI_Z) {
+            return out;
+        }
+        let (c, inv_min) = (&self.cfg, 1.0 / self.mua_min);
+        let mut fz = self.histogram_of(PHI_Z, photons, inv_min);
+        let mut frz = self.histogram_of(PHI_RZ, photons, inv_min);
+        let (az, arz) = (&out[out.len() - 2], &out[out.len() - 1]);
+        for iz in 0..c.nz {
+            let mua = self.bin_mua[iz];
+            if mua > 0.0 {
+                // the bin lies in one absorbing layer: Φ = A/μa, bin by bin
+                fz.values[iz] = az.values[iz] / mua;
+                fz.stderr[iz] = az.stderr[iz] / mua;
+                for k in (iz..c.nr * c.nz).step_by(c.nz) {
+                    frz.values[k] = arz.values[k] / mua;
+                    frz.stderr[k] = arz.stderr[k] / mua;
+                }
+            } else if mua == 0.0 || self.fluence_undefined(iz) {
+                fz.values[iz] = f64::NAN;
+                fz.stderr[iz] = f64::NAN;
+                for k in (iz..c.nr * c.nz).step_by(c.nz) {
+                    frz.values[k] = f64::NAN;
+                    frz.stderr[k] = f64::NAN;
                 }
             }
         }
-        if !self.a_z.is_empty() {
-            let over = format!("last bin also holds z > {} mm", c.nz as f64 * c.dz);
-            out.push(histogram(
-                "a_z",
-                &self.a_z,
-                n,
-                std::slice::from_ref(&z_ax),
-                "mm^-1",
-                &format!("absorbed fraction per unit depth (A_z); {over}"),
-                |_| 1.0 / c.dz,
-            ));
-            let rz = [r_ax.clone(), z_ax.clone()];
-            let d =
-                format!("absorbed fraction per unit volume (A_rz); {over}, last r bin r > {} mm", c.nr as f64 * c.dr);
-            out.push(histogram("a_rz", &self.a_rz, n, &rz, "mm^-3", &d, |i| 1.0 / (area(i / c.nz) * c.dz)));
-            let mut fz = histogram("fluence_z", &self.phi_z, n, &[z_ax], "1", &format!("fluence A/mu_a integrated over the plane, per unit incident power (F_z); {over}; NaN where mu_a = 0"), |_| 1.0 / c.dz);
-            let mut frz = histogram(
-                "fluence_rz",
-                &self.phi_rz,
-                n,
-                &rz,
-                "mm^-2",
-                &format!("fluence A/mu_a per unit incident power (F_rz); {over}; NaN where mu_a = 0"),
-                |i| 1.0 / (area(i / c.nz) * c.dz),
-            );
-            let (az, arz) = (&out[out.len() - 2], &out[out.len() - 1]);
-            for iz in 0..c.nz {
-                let mua = self.bin_mua[iz];
-                if mua > 0.0 {
-                    // the bin lies in one absorbing layer: Φ = A/μa, bin by bin
-                    fz.values[iz] = az.values[iz] / mua;
-                    fz.stderr[iz] = az.stderr[iz] / mua;
-                    for k in (iz..c.nr * c.nz).step_by(c.nz) {
-                        frz.values[k] = arz.values[k] / mua;
-                        frz.stderr[k] = arz.stderr[k] / mua;
-                    }
-                } else if mua == 0.0 || self.fluence_undefined(iz) {
-                    fz.values[iz] = f64::NAN;
-                    fz.stderr[iz] = f64::NAN;
-                    for ir in 0..c.nr {
-                        frz.values[ir * c.nz + iz] = f64::NAN;
-                        frz.stderr[ir * c.nz + iz] = f64::NAN;
-                    }
-                }
-            }
-            out.push(fz);
-            out.push(frz);
-        }
+        out.push(fz);
+        out.push(frz);
         out
     }
 }
@@ -389,57 +418,60 @@ impl Tally for TallySet {
 
     #[inline]
     fn absorb(&mut self, p: &Packet, dw: f64) {
-        if self.a_z.is_empty() {
+        if self.acc[A_Z].is_empty() {
             return;
         }
         let (c, ph) = (&self.cfg, self.photon);
         let iz = bin_clamped(p.pos[2], self.inv_dz, c.nz);
         let ir = bin_clamped(p.pos[0].hypot(p.pos[1]), self.inv_dr, c.nr);
         let irz = ir * c.nz + iz;
-        self.a_z.add(iz, dw, ph);
-        self.a_rz.add(irz, dw, ph);
-        let im = self.inv_mua.get(p.layer).copied().unwrap_or(0.0);
-        if im > 0.0 && self.bin_mua[iz] < 0.0 {
-            self.phi_z.add(iz, dw * im, ph);
-            self.phi_rz.add(irz, dw * im, ph);
+        self.acc[A_Z].add(iz, dw, ph);
+        self.acc[A_RZ].add(irz, dw, ph);
+        let scale = self.fluence_scale.get(p.layer).copied().unwrap_or(0.0);
+        if scale > 0.0 && self.bin_mua[iz] < 0.0 {
+            self.acc[PHI_Z].add(iz, dw * scale, ph);
+            self.acc[PHI_RZ].add(irz, dw * scale, ph);
         }
     }
+
+    #[inline]
+    fn roulette(&mut self, _p: &Packet, _dw: f64) {}
 
     #[inline]
     fn escape(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
         let (c, ph) = (&self.cfg, self.photon);
         let s = match side {
-            Side::Top => &mut self.rd,
-            Side::Bottom => &mut self.tt,
+            Side::Top => &mut self.acc[..PER_SIDE],
+            Side::Bottom => &mut self.acc[PER_SIDE..2 * PER_SIDE],
         };
         let ir = bin_clamped(p.pos[0].hypot(p.pos[1]), self.inv_dr, c.nr);
         let mu = dir_out[2].abs().min(1.0);
-        if !s.r.is_empty() {
-            s.r.add(ir, w, ph);
+        if !s[R].is_empty() {
+            s[R].add(ir, w, ph);
         }
-        if !s.a.is_empty() {
+        if !s[A].is_empty() {
             let ia = bin_clamped(mu.acos(), self.inv_da, c.na);
-            s.a.add(ia, w, ph);
-            if !s.ra.is_empty() {
-                s.ra.add(ir * c.na + ia, w, ph);
+            s[A].add(ia, w, ph);
+            if !s[RA].is_empty() {
+                s[RA].add(ir * c.na + ia, w, ph);
             }
         }
-        if !s.t.is_empty() {
+        if !s[T].is_empty() {
             let it = bin_clamped(p.path / C_MM_PER_PS, self.inv_dt, c.nt);
-            s.t.add(it, w, ph);
-            if !s.rt.is_empty() {
-                s.rt.add(ir * c.nt + it, w, ph);
+            s[T].add(it, w, ph);
+            if !s[RT].is_empty() {
+                s[RT].add(ir * c.nt + it, w, ph);
             }
         }
         let ko = p.order.min(self.max_order + 1) as usize;
         let direct1 = p.order == 1 && p.reflections == 0;
-        if !s.order.is_empty() {
-            s.order.add(ko, w, ph);
+        if !s[ORDER].is_empty() {
+            s[ORDER].add(ko, w, ph);
             if direct1 {
-                s.single.add(0, w, ph);
+                s[SINGLE].add(0, w, ph);
             }
         }
-        if !s.brdf.is_empty() {
+        if !s[BSDF].is_empty() {
             let ic = bin_clamped(mu, self.n_cos as f64, self.n_cos);
             let mut phi = dir_out[1].atan2(dir_out[0]);
             if phi < 0.0 {
@@ -447,11 +479,12 @@ impl Tally for TallySet {
             }
             let ip = bin_clamped(phi, self.n_phi as f64 / (2.0 * PI), self.n_phi);
             let b = ic * self.n_phi + ip;
-            s.brdf.add(b, w, ph);
-            if !s.order.is_empty() {
-                s.brdf_order.add(ko * s.brdf.len() + b, w, ph);
+            s[BSDF].add(b, w, ph);
+            if !s[ORDER].is_empty() {
+                let nb = s[BSDF].len();
+                s[BSDF_ORDER].add(ko * nb + b, w, ph);
                 if direct1 {
-                    s.brdf_single.add(b, w, ph);
+                    s[BSDF_SINGLE].add(b, w, ph);
                 }
             }
         }
@@ -460,17 +493,30 @@ impl Tally for TallySet {
     #[inline]
     fn end_photon(&mut self) {}
 
-    fn merge(&mut self, other: &Self) {
-        for (a, b) in self.rd.each_mut().into_iter().zip(other.rd.each()) {
-            a.merge(b);
+    fn channels(&self, out: &mut Vec<Channel>) {
+        for (i, a) in self.acc.iter().enumerate().filter(|(_, a)| !a.is_empty()) {
+            let (spec, side) = Self::spec(i);
+            out.push(Channel { name: expand(spec.name, side, self.max_order), len: a.len(), extremes: false });
         }
-        for (a, b) in self.tt.each_mut().into_iter().zip(other.tt.each()) {
-            a.merge(b);
+    }
+
+    fn drain_into(&mut self, state: &mut [ChannelState]) -> Option<usize> {
+        let mut k = 0;
+        let mut ok = true;
+        for a in self.acc.iter_mut().filter(|a| !a.is_empty()) {
+            ok &= a.drain_into(&mut state[k]);
+            k += 1;
         }
-        self.a_z.merge(&other.a_z);
-        self.a_rz.merge(&other.a_rz);
-        self.phi_z.merge(&other.phi_z);
-        self.phi_rz.merge(&other.phi_rz);
+        ok.then_some(k)
+    }
+
+    fn load_from(&mut self, state: &[ChannelState], _photons: u64) -> usize {
+        let mut k = 0;
+        for a in self.acc.iter_mut().filter(|a| !a.is_empty()) {
+            a.load_from(&state[k]);
+            k += 1;
+        }
+        k
     }
 }
 

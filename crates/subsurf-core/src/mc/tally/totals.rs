@@ -7,9 +7,20 @@
 //! X̂ = S₁/N, SE = √((S₂/N − X̂²)/(N − 1)) (the sample variance of the scores over N; e.g.
 //! Kalos & Whitlock, *Monte Carlo Methods*, 2nd ed., §2.6). This accounts for the correlation
 //! of all the weight a photon leaves in one quantity, which MCML's per-bin formula does not.
+//! The smallest and largest per-photon score are kept too: a quantity that every photon scores
+//! identically (the specular reflectance of a pencil beam) is reported as that score with a
+//! standard error of exactly 0, not with rounding noise.
+//!
+//! Absorption: `absorbed_per_layer` holds the physical deposits w σa/σt only (MCML's A_l), so it
+//! is never negative and exactly 0 in a layer with σa = 0. The total `absorbed` is the weight
+//! that did not leave the stack, 1 − R_sp − R_d − T for every photon: the physical deposits plus
+//! the Russian-roulette term ([`Total::Roulette`], zero mean; see `mc::kernel`), which makes the
+//! energy balance exact in every run. Since roulette plays below 10⁻⁴ of the entering weight
+//! and a survivor never weighs more than 10⁻³ of it, a photon never leaves with more than it
+//! brought, so `absorbed` is never negative either.
 
+use super::{Channel, ChannelState, Tally};
 use crate::mc::packet::{Packet, Side};
-use crate::mc::tally::Tally;
 
 /// Index of each total in the accumulator arrays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -22,22 +33,50 @@ pub enum Total {
     Transmittance = 2,
     /// The unscattered part of the transmittance (order 0; interface reflections allowed).
     Unscattered = 3,
-    /// Absorbed fraction in the whole stack (MCML's A), including roulette's zero-mean term.
+    /// Weight that did not leave the stack: Σ absorbed_per_layer + [`Total::Roulette`]
+    /// (= 1 − R_sp − R_d − T per photon, ≥ 0).
     Absorbed = 4,
+    /// The Russian-roulette control term (zero mean) and the weight of packets that could not
+    /// leave; part of [`Total::Absorbed`], not of the per-layer absorption or the histograms.
+    Roulette = 5,
 }
 
-const NQ: usize = 5;
+/// Number of [`Total`] quantities.
+pub const NQ: usize = 6;
 
-/// Totals with per-photon second moments.
+impl Total {
+    /// Every total, in index order.
+    pub const ALL: [Total; NQ] =
+        [Total::Specular, Total::Diffuse, Total::Transmittance, Total::Unscattered, Total::Absorbed, Total::Roulette];
+}
+
+/// Names of the [`Total`]s, in index order (the Python result's attribute names).
+pub const TOTAL_NAMES: [&str; NQ] = [
+    "specular_reflectance",
+    "diffuse_reflectance",
+    "transmittance",
+    "unscattered_transmittance",
+    "absorbed",
+    "roulette",
+];
+
+/// Totals with per-photon second moments and extremes. Scores are kept in one array: the
+/// [`Total`]s, then one absorbed fraction per layer.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Totals {
     photons: u64,
+    layers: usize,
+    /// The current photon's scores: the [`Total`]s, and the physical absorption per layer.
     cur: [f64; NQ],
-    sum: [f64; NQ],
-    sum2: [f64; NQ],
     cur_layer: Vec<f64>,
-    sum_layer: Vec<f64>,
-    sum2_layer: Vec<f64>,
+    /// Over photons, slots of the [`Total`]s then of the layers: Σx, Σx², and the bounds of x
+    /// (a chunk keeps only whether x was the same for every photon — cheaper than min/max per
+    /// photon — as bounds (x, x), or (−∞, ∞) when it varied; merged states then hold the true
+    /// "all equal" answer, which is all [`Totals::get`] needs).
+    sum: Vec<f64>,
+    sum2: Vec<f64>,
+    min: Vec<f64>,
+    max: Vec<f64>,
 }
 
 /// Sample mean and standard error of the mean from Σx = `s1` and Σx² = `s2` over `n` samples
@@ -59,14 +98,16 @@ pub fn mean_stderr(s1: f64, s2: f64, n: u64) -> (f64, f64) {
 impl Totals {
     /// Empty totals for a stack of `layers` layers.
     pub fn new(layers: usize) -> Self {
+        let n = NQ + layers;
         Totals {
             photons: 0,
+            layers,
             cur: [0.0; NQ],
-            sum: [0.0; NQ],
-            sum2: [0.0; NQ],
             cur_layer: vec![0.0; layers],
-            sum_layer: vec![0.0; layers],
-            sum2_layer: vec![0.0; layers],
+            sum: vec![0.0; n],
+            sum2: vec![0.0; n],
+            min: vec![f64::INFINITY; n],
+            max: vec![f64::NEG_INFINITY; n],
         }
     }
 
@@ -75,20 +116,41 @@ impl Totals {
         self.photons
     }
 
+    /// (estimate, standard error) of slot `i`: the common score and 0 when every photon scored
+    /// the same, else [`mean_stderr`].
+    fn estimate(&self, i: usize) -> (f64, f64) {
+        if self.photons > 0 && self.min[i] == self.max[i] {
+            return (self.min[i], 0.0);
+        }
+        mean_stderr(self.sum[i], self.sum2[i], self.photons)
+    }
+
     /// (estimate, standard error) of a total, as a fraction of the incident power.
     pub fn get(&self, q: Total) -> (f64, f64) {
-        let i = q as usize;
-        mean_stderr(self.sum[i], self.sum2[i], self.photons)
+        self.estimate(q as usize)
     }
 
     /// (estimate, standard error) of the absorbed fraction in each layer.
     pub fn absorbed_per_layer(&self) -> Vec<(f64, f64)> {
-        self.sum_layer.iter().zip(&self.sum2_layer).map(|(&s1, &s2)| mean_stderr(s1, s2, self.photons)).collect()
+        (NQ..NQ + self.layers).map(|i| self.estimate(i)).collect()
     }
 
-    /// specular + diffuse + transmittance + absorbed (1 up to rounding in every run).
+    /// (specular + diffuse + transmittance + absorbed)/N (1 up to rounding in every run).
     pub fn energy_balance(&self) -> f64 {
-        (self.sum[0] + self.sum[1] + self.sum[2] + self.sum[4]) / self.photons as f64
+        let s = &self.sum;
+        (s[Total::Specular as usize]
+            + s[Total::Diffuse as usize]
+            + s[Total::Transmittance as usize]
+            + s[Total::Absorbed as usize])
+            / self.photons as f64
+    }
+
+    /// The channels of the totals of a stack of `layers` layers.
+    pub fn layout(layers: usize) -> Vec<Channel> {
+        vec![
+            Channel { name: "totals".into(), len: NQ, extremes: true },
+            Channel { name: "absorbed_per_layer".into(), len: layers, extremes: true },
+        ]
     }
 }
 
@@ -96,9 +158,7 @@ impl Tally for Totals {
     #[inline]
     fn begin_photon(&mut self, _photon: u64) {
         self.cur = [0.0; NQ];
-        for x in &mut self.cur_layer {
-            *x = 0.0;
-        }
+        self.cur_layer.fill(0.0);
     }
     #[inline]
     fn specular(&mut self, w: f64) {
@@ -107,6 +167,10 @@ impl Tally for Totals {
     #[inline]
     fn absorb(&mut self, p: &Packet, dw: f64) {
         self.cur_layer[p.layer] += dw;
+    }
+    #[inline]
+    fn roulette(&mut self, _p: &Packet, dw: f64) {
+        self.cur[Total::Roulette as usize] += dw;
     }
     #[inline]
     fn escape(&mut self, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
@@ -123,31 +187,46 @@ impl Tally for Totals {
     #[inline]
     fn end_photon(&mut self) {
         self.photons += 1;
-        let mut a = 0.0;
-        for ((c, s), s2) in self.cur_layer.iter().zip(&mut self.sum_layer).zip(&mut self.sum2_layer) {
-            a += *c;
-            *s += *c;
-            *s2 += *c * *c;
-        }
-        self.cur[Total::Absorbed as usize] = a;
-        for i in 0..NQ {
-            let x = self.cur[i];
+        let physical: f64 = self.cur_layer.iter().sum();
+        self.cur[Total::Absorbed as usize] = physical + self.cur[Total::Roulette as usize];
+        let first = self.photons == 1;
+        for (i, &x) in self.cur.iter().chain(&self.cur_layer).enumerate() {
             self.sum[i] += x;
             self.sum2[i] += x * x;
+            if first {
+                (self.min[i], self.max[i]) = (x, x);
+            } else if x != self.min[i] {
+                (self.min[i], self.max[i]) = (f64::NEG_INFINITY, f64::INFINITY);
+            }
         }
     }
-    fn merge(&mut self, other: &Self) {
-        self.photons += other.photons;
-        for i in 0..NQ {
-            self.sum[i] += other.sum[i];
-            self.sum2[i] += other.sum2[i];
+    fn channels(&self, out: &mut Vec<Channel>) {
+        out.extend(Totals::layout(self.layers));
+    }
+    fn drain_into(&mut self, state: &mut [ChannelState]) -> Option<usize> {
+        let mut ok = true;
+        for (k, (lo, hi)) in [(0, NQ), (NQ, NQ + self.layers)].into_iter().enumerate() {
+            for i in lo..hi {
+                if self.photons > 0 {
+                    ok &= state[k].add(i - lo, self.sum[i], self.sum2[i]);
+                    state[k].add_extremes(i - lo, self.min[i], self.max[i]);
+                }
+            }
         }
-        for (a, b) in self.sum_layer.iter_mut().zip(&other.sum_layer) {
-            *a += *b;
+        *self = Totals::new(self.layers);
+        ok.then_some(2)
+    }
+    fn load_from(&mut self, state: &[ChannelState], photons: u64) -> usize {
+        *self = Totals::new(self.layers);
+        self.photons = photons;
+        for (k, lo) in [0, NQ].into_iter().enumerate() {
+            for j in 0..state[k].s1.len() {
+                (self.sum[lo + j], self.sum2[lo + j]) = state[k].get(j);
+                self.min[lo + j] = state[k].min[j];
+                self.max[lo + j] = state[k].max[j];
+            }
         }
-        for (a, b) in self.sum2_layer.iter_mut().zip(&other.sum2_layer) {
-            *a += *b;
-        }
+        2
     }
 }
 
@@ -155,13 +234,18 @@ impl Tally for Totals {
 mod tests {
     use super::*;
 
+    fn pkt() -> Packet {
+        Packet { pos: [0.0; 3], dir: [0.0, 0.0, -1.0], w: 1.0, layer: 0, order: 1, reflections: 0, path: 0.0 }
+    }
+
     #[test]
     fn mean_and_stderr_of_known_scores() {
         // Scores 1, 0, 0, 1 on Diffuse: mean 1/2, sample variance 1/3, SE = √(1/12).
         let mut t = Totals::new(1);
-        let p = Packet { pos: [0.0; 3], dir: [0.0, 0.0, -1.0], w: 1.0, layer: 0, order: 1, reflections: 0, path: 0.0 };
+        let p = pkt();
         for x in [1.0, 0.0, 0.0, 1.0] {
             t.begin_photon(0);
+            t.specular(0.25);
             t.escape(&p, Side::Top, p.dir, x);
             t.absorb(&p, 1.0 - x);
             t.end_photon();
@@ -171,10 +255,33 @@ mod tests {
         assert!((se - (1.0f64 / 12.0).sqrt()).abs() < 1e-15);
         assert_eq!(t.get(Total::Absorbed).0, 0.5);
         assert_eq!(t.absorbed_per_layer()[0].0, 0.5);
+        // every photon scored 0.25 specularly: exactly 0.25 ± 0
+        assert_eq!(t.get(Total::Specular), (0.25, 0.0));
+        // drain and load: exact state round trip
+        let mut chans = Vec::new();
+        t.channels(&mut chans);
+        let mut st: Vec<ChannelState> = chans.iter().map(ChannelState::new).collect();
+        let before = (t.get(Total::Diffuse), t.get(Total::Specular));
+        assert_eq!(t.drain_into(&mut st), Some(2));
+        assert_eq!(t.photons(), 0);
         let mut u = Totals::new(1);
-        u.merge(&t);
-        u.merge(&t);
-        assert_eq!(u.photons(), 8);
-        assert_eq!(u.get(Total::Diffuse).0, 0.5);
+        assert_eq!(u.load_from(&st, 4), 2);
+        assert_eq!((u.get(Total::Diffuse), u.get(Total::Specular)), before);
+    }
+
+    #[test]
+    fn roulette_is_in_the_total_not_in_the_layers() {
+        let mut t = Totals::new(2);
+        let mut p = pkt();
+        t.begin_photon(0);
+        t.absorb(&p, 0.75);
+        p.layer = 1;
+        t.roulette(&p, -0.25);
+        t.escape(&p, Side::Top, p.dir, 0.5);
+        t.end_photon();
+        assert_eq!(t.get(Total::Absorbed).0, 0.5);
+        assert_eq!(t.get(Total::Roulette).0, -0.25);
+        assert_eq!(t.absorbed_per_layer()[1].0, 0.0);
+        assert_eq!(t.energy_balance(), 1.0);
     }
 }

@@ -10,11 +10,18 @@
 //! - [`ln_gamma`], [`gamma_q`] (regularised upper incomplete gamma), [`chi2_sf`] (χ² survival).
 //! - [`sidak_alpha`]: per-test significance for m independent tests at overall level α.
 //! - [`chi2_pooled`]: Pearson's statistic with pooling of low-expected cells.
-//! - [`gauss_legendre`], [`integrate_adaptive`], [`integrate_2d`]: quadrature.
-//! - [`histogram_cos_phi`], [`expected_cos_phi`], [`chi2_test_cos_phi`]: the grid on (cos θ, φ).
+//! - [`gauss_legendre`], [`integrate_adaptive`]: quadrature.
+//! - [`uniform_edges`], [`graded_cos_edges`]: cell edges.
+//! - [`grid`]: the test on a grid of cells — [`histogram`], [`cell_probabilities`],
+//!   [`chi2_test_grid`], and [`chi2_test_cos_phi`] for directions (cos θ, φ). The Python kit
+//!   (`subsurf.testing`) calls these too.
 
 use crate::error::{Error, Result};
 use std::f64::consts::PI;
+
+pub mod grid;
+
+pub use grid::{cell_probabilities, chi2_test_cos_phi, chi2_test_grid, histogram, histogram_cos_phi, GridChi2};
 
 /// SplitMix64 (Steele, Lea & Flood 2014): a tiny, fast, statistically sound generator for
 /// *tests* with fixed seeds. Not the simulation RNG (that is [`crate::rng`]).
@@ -153,7 +160,7 @@ pub fn sidak_alpha(alpha: f64, m: usize) -> Result<f64> {
         return Err(Error::param("significance", alpha, "a number in (0, 1)"));
     }
     if m == 0 {
-        return Err(Error::param("tests", 0.0, "an integer >= 1"));
+        return Err(Error::param_int("tests", 0, "an integer >= 1"));
     }
     Ok(-((-alpha).ln_1p() / m as f64).exp_m1())
 }
@@ -292,7 +299,9 @@ fn gl_panel(f: &mut dyn FnMut(f64) -> f64, a: f64, b: f64, x: &[f64], w: &[f64])
 /// ∫_a^b f by adaptive bisection of 10-point Gauss–Legendre panels: a panel is accepted when
 /// its estimate and the sum over its two halves differ by less than `tol` scaled by the panel
 /// width (so the total error is ≲ `tol` in practice); `tol` is floored at 1e-14 of the
-/// integral's first estimate, and the recursion depth is capped at 30.
+/// integral's first estimate, and the recursion depth is capped at 30. A non-finite panel
+/// (NaN or ±∞ integrand) ends the refinement there, so the result is then non-finite at once
+/// rather than after 2³⁰ panels.
 pub fn integrate_adaptive(f: &mut dyn FnMut(f64) -> f64, a: f64, b: f64, tol: f64) -> f64 {
     let (x, w) = gauss_legendre(10);
     let whole = gl_panel(f, a, b, &x, &w);
@@ -316,18 +325,10 @@ fn adapt(
     let left = gl_panel(f, a, m, x, w);
     let right = gl_panel(f, m, b, x, w);
     let both = left + right;
-    if depth >= 30 || (both - whole).abs() <= tol_per_len * (b - a).abs() {
+    if depth >= 30 || !both.is_finite() || (both - whole).abs() <= tol_per_len * (b - a).abs() {
         return both;
     }
     adapt(f, a, m, left, tol_per_len, x, w, depth + 1) + adapt(f, m, b, right, tol_per_len, x, w, depth + 1)
-}
-
-/// ∬ f(x, y) over [x0, x1] × [y0, y1], adaptive in both variables (the inner integral over y
-/// is itself adaptive). `tol` is an absolute tolerance on the result.
-pub fn integrate_2d(f: &dyn Fn(f64, f64) -> f64, x: [f64; 2], y: [f64; 2], tol: f64) -> f64 {
-    let inner_tol = tol / (x[1] - x[0]).abs().max(f64::MIN_POSITIVE);
-    let mut outer = |xv: f64| integrate_adaptive(&mut |yv| f(xv, yv), y[0], y[1], inner_tol);
-    integrate_adaptive(&mut outer, x[0], x[1], tol)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -341,8 +342,12 @@ pub fn uniform_edges(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 
 /// Edges on [−1, 1] refined geometrically towards both poles, for peaked pdfs (HG with
 /// |g| → 1): `n_end` cells on each side whose widths grow geometrically from `min_gap` at
-/// ±1 to a total of 0.1, and `n_mid` equal cells over [−0.9, 0.9].
-pub fn graded_cos_edges(n_end: usize, n_mid: usize, min_gap: f64) -> Vec<f64> {
+/// ±1 to a total of 0.1, and `n_mid` equal cells over [−0.9, 0.9]. Errors: `min_gap` not a
+/// finite number > 0.
+pub fn graded_cos_edges(n_end: usize, n_mid: usize, min_gap: f64) -> Result<Vec<f64>> {
+    if !(min_gap.is_finite() && min_gap > 0.0) {
+        return Err(Error::param("min_gap", min_gap, "a finite number > 0"));
+    }
     let n_end = n_end.max(1);
     let min_gap = min_gap.clamp(1e-12, 0.1 / n_end as f64);
     // distances from the pole: 0, min_gap·r^0 … geometric up to 0.1
@@ -356,90 +361,7 @@ pub fn graded_cos_edges(n_end: usize, n_mid: usize, min_gap: f64) -> Vec<f64> {
     let mid = uniform_edges(-0.9, 0.9, n_mid.max(1));
     e.extend_from_slice(&mid[1..mid.len() - 1]);
     e.extend(dist.iter().rev().map(|d| 1.0 - d));
-    e
-}
-
-fn check_edges(name: &str, e: &[f64]) -> Result<()> {
-    if e.len() < 2 {
-        return Err(Error::Invalid(format!("{name}: need at least 2 edges, got {}", e.len())));
-    }
-    for (i, p) in e.windows(2).enumerate() {
-        if !(p[0].is_finite() && p[1].is_finite() && p[1] > p[0]) {
-            return Err(Error::param(format!("{name}[{}]", i + 1), p[1], "finite and strictly increasing"));
-        }
-    }
-    Ok(())
-}
-
-fn find_bin(edges: &[f64], v: f64) -> Option<usize> {
-    let n = edges.len() - 1;
-    if !(v >= edges[0] && v <= edges[n]) {
-        return None;
-    }
-    // first edge > v, minus one; the top edge belongs to the last cell.
-    let k = edges.partition_point(|&e| e <= v);
-    Some(k.saturating_sub(1).min(n - 1))
-}
-
-/// Histogram samples (cos θ, φ) on the grid `cos_edges` × `phi_edges` (row-major, cos θ
-/// slowest). Returns the counts and the number of samples outside the grid (those are a
-/// failure of the sampler when the grid covers its whole domain).
-pub fn histogram_cos_phi(samples: &[(f64, f64)], cos_edges: &[f64], phi_edges: &[f64]) -> Result<(Vec<f64>, usize)> {
-    check_edges("cos_edges", cos_edges)?;
-    check_edges("phi_edges", phi_edges)?;
-    let np = phi_edges.len() - 1;
-    let mut counts = vec![0.0; (cos_edges.len() - 1) * np];
-    let mut outside = 0;
-    for &(c, p) in samples {
-        match (find_bin(cos_edges, c), find_bin(phi_edges, p)) {
-            (Some(i), Some(j)) => counts[i * np + j] += 1.0,
-            _ => outside += 1,
-        }
-    }
-    Ok((counts, outside))
-}
-
-/// Expected counts `n_samples · ∬_cell pdf(cos θ, φ) d cos θ dφ` for every cell of the grid
-/// (row-major, cos θ slowest); `pdf` is a density with respect to solid angle
-/// (dω = d cos θ dφ). Adaptive Gauss–Legendre per cell to an absolute probability error of
-/// 1e-12 (or 1e-14 relative), so sharply peaked pdfs (HG with g = 0.99) are integrated
-/// accurately.
-pub fn expected_cos_phi(
-    pdf: &dyn Fn(f64, f64) -> f64,
-    cos_edges: &[f64],
-    phi_edges: &[f64],
-    n_samples: f64,
-) -> Result<Vec<f64>> {
-    check_edges("cos_edges", cos_edges)?;
-    check_edges("phi_edges", phi_edges)?;
-    let mut out = Vec::with_capacity((cos_edges.len() - 1) * (phi_edges.len() - 1));
-    for c in cos_edges.windows(2) {
-        for p in phi_edges.windows(2) {
-            out.push(n_samples * integrate_2d(pdf, [c[0], c[1]], [p[0], p[1]], 1e-12));
-        }
-    }
-    Ok(out)
-}
-
-/// The whole test on (cos θ, φ): histogram, expected counts, pooling (min expected 5) and
-/// Pearson's χ². Samples outside the grid count in one extra cell whose expectation is
-/// n − Σ E (≥ 0), so an out-of-domain sample or a pdf of integral ≠ 1 is detected.
-pub fn chi2_test_cos_phi(
-    samples: &[(f64, f64)],
-    pdf: &dyn Fn(f64, f64) -> f64,
-    cos_edges: &[f64],
-    phi_edges: &[f64],
-) -> Result<Chi2> {
-    let (mut obs, outside) = histogram_cos_phi(samples, cos_edges, phi_edges)?;
-    let n = samples.len() as f64;
-    let mut exp = expected_cos_phi(pdf, cos_edges, phi_edges, n)?;
-    // Expected count outside the grid; below 1e-6·n it is quadrature noise and counts as 0,
-    // so that any sample outside the grid is then an immediate rejection.
-    let rest = n - exp.iter().sum::<f64>();
-    let rest = if rest < 1e-6 * n { 0.0 } else { rest };
-    obs.push(outside as f64);
-    exp.push(rest);
-    chi2_pooled(&obs, &exp, 5.0)
+    Ok(e)
 }
 
 #[cfg(test)]
@@ -550,20 +472,21 @@ mod tests {
         }
         let i = integrate_adaptive(&mut |t: f64| t.sqrt(), 0.0, 1.0, 1e-12);
         assert!((i - 2.0 / 3.0).abs() < 1e-11);
-        let i = integrate_2d(&|a, b| a * b.cos(), [0.0, 2.0], [0.0, 1.0], 1e-12);
-        assert!((i - 2.0 * 1f64.sin()).abs() < 1e-11);
-        let e = graded_cos_edges(10, 20, 1e-5);
+        let mut calls = 0;
+        let nan = integrate_adaptive(
+            &mut |_| {
+                calls += 1;
+                f64::NAN
+            },
+            0.0,
+            1.0,
+            1e-12,
+        );
+        assert!(nan.is_nan() && calls < 100, "{calls} evaluations");
+        assert!(graded_cos_edges(10, 20, 0.0).is_err());
+        let e = graded_cos_edges(10, 20, 1e-5).unwrap();
         assert_eq!(e.len(), 41);
         assert!(e.windows(2).all(|p| p[1] > p[0]) && e[0] == -1.0 && e[40] == 1.0);
         assert!((e[1] + 1.0 - 1e-5).abs() < 1e-15);
-    }
-
-    #[test]
-    fn histogram_edges_and_outside() {
-        let (c, out) =
-            histogram_cos_phi(&[(-1.0, 0.0), (1.0, 6.0), (0.0, 3.0), (1.5, 0.0)], &[-1.0, 0.0, 1.0], &[0.0, 2.0 * PI])
-                .unwrap();
-        assert_eq!((c, out), (vec![1.0, 2.0], 1));
-        assert!(histogram_cos_phi(&[], &[0.0, 0.0], &[0.0, 1.0]).is_err());
     }
 }
