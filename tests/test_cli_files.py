@@ -29,7 +29,9 @@ n = 2.5
 mua = 0.001
 mus = 100.0
 """
-SLOW_MCI = "1.0\n1\nslow.mco A\n1000000\n0.01 0.01\n10 10 5\n1\n1.0\n2.5 0.01 1000 0 1e6\n1.0\n"
+#: Ctrl-C once more than one chunk (4096 photons) was traced: with one thread, chunk 0 is complete
+AFTER_A_CHUNK = "interrupt_after=4097"
+SLOW_MCI = "1.0\n1\nslow.mco A\n10000\n0.01 0.01\n10 10 5\n1\n1.0\n2.5 0.01 1000 0 1e6\n1.0\n"
 
 
 def leftovers(d):
@@ -65,7 +67,7 @@ def wait_for(path, proc, timeout=60.0):
 
 def test_ctrl_c_after_the_first_photons_writes_a_partial_result(tmp_path, cli):
     (tmp_path / "long.toml").write_text(FAST.format(photons=10**9))
-    p = cli("simulate", tmp_path / "long.toml", "-o", tmp_path / "p.h5", "--threads", "1", hook="interrupt_after=1")
+    p = cli("simulate", tmp_path / "long.toml", "-o", tmp_path / "p.h5", "--threads", "1", hook=AFTER_A_CHUNK)
     assert p.returncode == 130, (p.stdout, p.stderr)
     assert "Traceback" not in p.stderr
     r = subsurf.load(tmp_path / "p.h5")
@@ -92,13 +94,13 @@ def test_ctrl_c_never_replaces_a_complete_result(tmp_path, cli):
     out = tmp_path / "r.h5"
     assert cli("simulate", tmp_path / "c.toml", "-o", out, "-q").returncode == 0
     complete = out.read_bytes()
-    p = cli("simulate", tmp_path / "long.toml", "-o", out, "--force", "-q", hook="interrupt_after=1")
+    p = cli("simulate", tmp_path / "long.toml", "-o", out, "--force", "-q", "--threads", "1", hook=AFTER_A_CHUNK)
     assert p.returncode == 130, p.stderr
     assert out.read_bytes() == complete
     partial = subsurf.load(tmp_path / "r.partial.h5")
     assert partial.partial and f"wrote {tmp_path / 'r.partial.h5'} (partial: interrupted)" in p.stdout
     # a second interrupted run does not replace the first partial result either
-    p = cli("simulate", tmp_path / "long.toml", "-o", out, "--force", "-q", hook="interrupt_after=1")
+    p = cli("simulate", tmp_path / "long.toml", "-o", out, "--force", "-q", "--threads", "1", hook=AFTER_A_CHUNK)
     assert p.returncode == 130 and subsurf.load(tmp_path / "r.partial-2.h5").partial
     assert subsurf.io.results_equal(subsurf.load(tmp_path / "r.partial.h5"), partial)
 
@@ -108,8 +110,8 @@ def test_second_ctrl_c_during_the_save_leaves_a_complete_file(tmp_path):
     hook = tmp_path / "hook"
     hook.mkdir()
     proc = popen(
-        ["simulate", tmp_path / "long.toml", "-o", tmp_path / "p.h5", "-q"],
-        hook=f"interrupt_after=1,pause_in_write={hook}",
+        ["simulate", tmp_path / "long.toml", "-o", tmp_path / "p.h5", "-q", "--threads", "1"],
+        hook=f"{AFTER_A_CHUNK},pause_in_write={hook}",
     )
     wait_for(hook / "paused", proc)
     proc.send_signal(signal.SIGINT)  # held back until the file is complete
