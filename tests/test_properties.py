@@ -20,7 +20,7 @@ import os
 
 import h5py
 import pytest
-from hypothesis import assume, event, given
+from hypothesis import assume, event, given, settings
 from hypothesis import strategies as st
 
 CAMPAIGN = os.environ.get("SUBSURF_HYPOTHESIS_PROFILE", "ci") == "campaign"
@@ -348,6 +348,7 @@ ATTR_VALUES = st.one_of(
 
 
 @given(edits=st.lists(st.tuples(EDITS, st.integers(0, 10**6), ATTR_VALUES), min_size=1, max_size=3), v1=st.booleans())
+@(lambda f: f if CAMPAIGN else settings(max_examples=25)(f))  # ~0.1 s a case (h5py edits and a save)
 def test_edited_results_files_merge_cleanly(worker, h5_file, as_format_1, tmp_path_factory, edits, v1):
     """Missing datasets and attributes, wrong types (format 1: no checksums to catch them first);
     ``merge`` of one file loads it whole and writes it back."""
