@@ -281,16 +281,6 @@ def _plain(v):
     return v
 
 
-def _save_state(g, state) -> None:
-    for k, v in state.to_dict().items():
-        if isinstance(v, np.ndarray):
-            g.create_dataset(k, data=v, **(dict(compression="gzip", compression_opts=4) if v.size > 4096 else {}))
-        elif isinstance(v, list):
-            g.attrs[k] = [str(x) for x in v] if k == "names" else np.asarray(v)
-        else:
-            g.attrs[k] = np.uint64(v) if isinstance(v, int) else v
-
-
 def _str(x) -> str:
     return x.decode() if isinstance(x, bytes) else str(x)
 
