@@ -127,6 +127,13 @@ def test_round_trip_of_a_real_run(tmp_path):
     assert set(back.histograms) == set(res.histograms) and "brdf_order" in back.histograms
     both = merge(res, subsurf.simulate(stack, photons=1000, seed=4, threads=1, tallies=t))
     assert both.photons == 3000 and abs(both.energy_balance - 1) < 1e-12
+    # the exact state (for resuming) is covered by the checksums too
+    assert back.state == res.state
+    with h5py.File(tmp_path / "r.h5", "r") as f:
+        offset = f["state/s1"].id.get_offset()
+    _flip(tmp_path / "r.h5", offset + 3)
+    with pytest.raises(ResultFileError, match=r"r.h5: /state/s1: fails its checksum"):
+        subsurf.load(tmp_path / "r.h5")
 
 
 def _flip(path, offset):
