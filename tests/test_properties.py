@@ -61,11 +61,12 @@ WILD = st.one_of(
     st.sampled_from([0.0, -0.0, 5e-324, 1e-320, 1e-310, 1e-200, 1e-12, 1e155, 1e300, 1e308, math.inf, math.nan]),
 )
 INVALID = st.sampled_from([-1.0, -1e-300, math.nan, -math.inf])
+EXTREME = st.sampled_from([5e-324, 1e-310, 1e-200, 1e155, 1e308, math.inf])
 
 
 def real(lo, hi, *special):
-    """Floats in [lo, hi], a few special values and invalid ones (campaign: any float)."""
-    base = st.one_of(st.floats(lo, hi), st.sampled_from(special or (lo, hi)), INVALID)
+    """Floats in [lo, hi], a few special values, extreme and invalid ones (campaign: any float)."""
+    base = st.one_of(st.floats(lo, hi), st.sampled_from(special or (lo, hi)), INVALID, EXTREME)
     return st.one_of(base, WILD) if CAMPAIGN else base
 
 
