@@ -42,8 +42,8 @@ def simulate(stack, label: str = "simulate", quiet: bool = False, **kwargs):
     """:func:`subsurf.simulate` with a progress bar; returns the :class:`~subsurf.result.Result`.
 
     Ctrl-C during the run returns the photons traced so far (``result.partial``; the command reports
-    it, so the API's warning is not repeated); Ctrl-C before the first photons were complete raises
-    :class:`Interrupted` ("nothing written").
+    it, so the API's warning is not repeated); Ctrl-C before the first photons were complete (the API
+    raises ``KeyboardInterrupt`` then) raises :class:`Interrupted` ("nothing written").
     """
     from .mc import simulate as run
 
@@ -56,8 +56,6 @@ def simulate(stack, label: str = "simulate", quiet: bool = False, **kwargs):
         raise Interrupted(f"{label}: interrupted before any photon was traced; nothing written") from None
     finally:
         bar.close()
-    if result.photons == 0:  # a result without photons has nothing to write
-        raise Interrupted(f"{label}: interrupted before any photon was traced; nothing written")
     return result
 
 
