@@ -73,7 +73,9 @@ def output_summary(path: str):
         return summary(subsurf.load(path))
     if path.endswith(".mco"):
         q = mcml.read_mco(path)
-        return {"balance": q["Rsp"] + q["Rd"] + q["A"] + q["Tt"], "photons": q["photons"]}
+        numbers = [np.asarray(v, float) for k, v in q.items() if k not in ("out_fname", "layers")]
+        finite = all(np.isfinite(a).all() for a in numbers)
+        return {"balance": q["Rsp"] + q["Rd"] + q["A"] + q["Tt"], "photons": q["photons"], "finite": finite}
     return os.path.getsize(path)
 
 

@@ -238,8 +238,8 @@ def check_cli(reply, case, photons):
     for name, s in written.items():
         if name.endswith(".h5"):
             check_result(s, case, s["photons"] if photons is None else photons)
-        elif name.endswith(".mco"):
-            check(abs(s["balance"] - 1) < 1e-5 and s["photons"] == photons, f"{name}: {s}", case)
+        elif name.endswith(".mco"):  # MCML's A leaves out the roulette term (zero mean): balance ≈ 1
+            check(s["finite"] and abs(s["balance"] - 1) < 0.01 and s["photons"] == photons, f"{name}: {s}", case)
     check(bool(written), f"exit 0 but no output: {written}", case)
 
 
