@@ -49,6 +49,9 @@ MC_MAX_PENCIL_THETA: float
 MC_MAX_EVENTS_PER_PHOTON: float
 MC_STATE_SCHEME: str
 
+def mc_isa() -> str:
+    """Instruction set of the Monte Carlo lane kernel on this machine: avx512, avx2, neon or scalar."""
+
 def mc_validate_source(kind: str, theta: float, phi: float) -> None: ...
 def mc_validate_run(photons: int, seed: int, threads: int | None = None) -> None: ...
 def mc_validate_tallies(tallies: dict) -> None: ...

@@ -24,7 +24,8 @@ class Histogram:
     ----------
     values : array of bin averages, shape = tuple(len(e) - 1 for e in edges) (an axis named
         ``"order"`` has integer-like edges 0, 1, …, K+1, K+2: the last bin is "more than K").
-    stderr : standard errors of ``values`` from per-photon second moments, same shape.
+    stderr : standard errors of ``values`` (batch means over fixed photon batches), same shape;
+        NaN when the run skipped them (``Tallies(errors=False)``).
     edges : one array of bin edges per axis.
     axes : the axis names, e.g. ``("r",)``, ``("r", "z")``, ``("order", "cos_theta", "phi")``.
     edge_units : unit of each axis ("mm", "rad", "ps", "1", …).

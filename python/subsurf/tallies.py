@@ -54,6 +54,10 @@ class Tallies:
         the Hanrahan–Krueger paths). None disables it.
     spatial : score rd_r, tt_r, a_z, a_rz, fluence_z, fluence_rz (and rd_rt when nt > 0).
     angular : score rd_a, tt_a (and rd_ra, tt_ra when ``spatial`` too).
+    errors : keep standard errors of the histograms (per photon for the escape histograms; batch
+        means over fixed batches of 256 photons for A(z), A(r,z) and fluence, NaN for runs of at
+        most 256 photons; see ``subsurf_core::mc::tally::accum``); False skips them entirely
+        (``stderr`` is NaN) and makes each deposit a single add. The totals always have them.
     """
 
     nr: int = 100
@@ -67,6 +71,7 @@ class Tallies:
     max_order: int | None = None
     spatial: bool = True
     angular: bool = True
+    errors: bool = True
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
@@ -85,7 +90,7 @@ class Tallies:
             set_("brdf", (_integer("brdf[0]", nc), _integer("brdf[1]", nphi)))
         if self.max_order is not None:
             set_("max_order", _integer("max_order", self.max_order))
-        for name in ("spatial", "angular"):
+        for name in ("spatial", "angular", "errors"):
             v = getattr(self, name)
             if not isinstance(v, bool):
                 raise ParameterError(f"tallies.{name} = {v!r} is invalid: must be True or False")

@@ -131,6 +131,12 @@ impl PhotonRng {
         PhotonRng { s: if s == [0; 4] { ZERO_STATE_GUARD } else { s } }
     }
 
+    /// The xoshiro128++ state (the stream continues from it, see [`PhotonRng::from_state`]).
+    #[inline]
+    pub fn state(&self) -> [u32; 4] {
+        self.s
+    }
+
     /// The next 32-bit word of the stream.
     #[inline(always)]
     pub fn next_u32(&mut self) -> u32 {

@@ -64,6 +64,7 @@ fn mc_validate_run(
         seed: u64_arg(seed, "seed", SEED_ALLOWED)?,
         threads,
         source: Source::default(),
+        isa: None,
     };
     cfg.validate().py()
 }
@@ -97,6 +98,8 @@ fn tally_config_from_py(d: &Bound<'_, PyDict>) -> PyResult<TallyConfig> {
         max_order,
         item("spatial")?.extract()?,
         item("angular")?.extract()?,
+        // (absent in states saved before the field existed: errors were always kept)
+        d.get_item("errors")?.map_or(Ok(true), |v| v.extract())?,
     )
     .py()
 }
@@ -134,6 +137,7 @@ fn setup(
         seed: u64_arg(seed, "seed", SEED_ALLOWED)?,
         threads,
         source: source_from_py(&source.0, source.1, source.2).py()?,
+        isa: None,
     };
     cfg.validate().py()?;
     let tallies = tallies.map(tally_config_from_py).transpose()?;
@@ -408,7 +412,15 @@ fn mc_axis_measures<'py>(
     Ok(PyArray1::from_vec(py, k.measures(&edges.as_array().to_vec()).py()?))
 }
 
+/// Name of the instruction set the Monte Carlo lane kernel uses on this machine
+/// (`"avx512"`, `"avx2"`, `"neon"` or `"scalar"`).
+#[pyfunction]
+fn mc_isa() -> &'static str {
+    subsurf_core::mc::lanes::Isa::detect().name()
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(mc_isa, m)?)?;
     m.add_function(wrap_pyfunction!(mc_run, m)?)?;
     m.add_function(wrap_pyfunction!(mc_finish, m)?)?;
     m.add_function(wrap_pyfunction!(mc_merge_states, m)?)?;

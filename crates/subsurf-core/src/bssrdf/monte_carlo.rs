@@ -26,6 +26,8 @@
 use super::cdf::RadialCdf;
 use super::RadialProfile;
 use crate::error::{Error, Result};
+use crate::mc::lanes::LANES;
+use crate::mc::tally::accum::mean_stderr;
 use crate::mc::tally::{Accum, Channel, ChannelState};
 use crate::mc::{run, Packet, RunConfig, Side, Source, Tally};
 use crate::medium::Stack;
@@ -83,7 +85,8 @@ pub fn log_edges(r_min: f64, r_max: f64, per_decade: usize) -> Result<Vec<f64>> 
     Ok(e)
 }
 
-/// Escaping weight on a log radial grid, all orders and order 1, with per-photon moments.
+/// Escaping weight on a log radial grid, all orders and order 1, and its total, with per-photon
+/// moments (a photon escapes once: Σw² per bin; the total per lane, as `mc::tally::totals`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RadialTally {
     edges: Vec<f64>,
@@ -91,8 +94,10 @@ pub struct RadialTally {
     per_ln: f64,
     all: Accum,
     single: Accum,
-    total: Accum,
-    photon: u64,
+    /// The total: a partial score per lane, then Σx and Σx² over photons.
+    total_cur: [f64; LANES],
+    total_s1: f64,
+    total_s2: f64,
     photons: u64,
 }
 
@@ -105,10 +110,11 @@ impl RadialTally {
             ln_rmin: edges[1].ln(),
             per_ln,
             edges,
-            all: Accum::new(n),
-            single: Accum::new(n),
-            total: Accum::new(1),
-            photon: 0,
+            all: Accum::per_photon(n, true),
+            single: Accum::per_photon(n, true),
+            total_cur: [0.0; LANES],
+            total_s1: 0.0,
+            total_s2: 0.0,
             photons: 0,
         }
     }
@@ -138,7 +144,7 @@ impl RadialTally {
         let col = |a: &Accum| -> (Vec<f64>, Vec<f64>) { (0..n).map(|i| a.mean_stderr(i, self.photons)).unzip() };
         let (w, s) = col(&self.all);
         let (w1, s1) = col(&self.single);
-        let (t, ts) = self.total.mean_stderr(0, self.photons);
+        let (t, ts) = mean_stderr(self.total_s1, self.total_s2, self.photons);
         RadialData {
             edges: self.edges.clone(),
             weight: w,
@@ -153,47 +159,50 @@ impl RadialTally {
 }
 
 impl Tally for RadialTally {
+    const POSITIONS: bool = false;
     #[inline]
-    fn begin_photon(&mut self, photon: u64) {
-        self.photon = photon;
-    }
+    fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
     #[inline]
-    fn specular(&mut self, _w: f64) {}
+    fn specular(&mut self, _lane: usize, _w: f64) {}
     #[inline]
-    fn absorb(&mut self, _p: &Packet, _dw: f64) {}
+    fn absorb(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
     #[inline]
-    fn escape(&mut self, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
+    fn escape(&mut self, lane: usize, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
         if side == Side::Top {
             let b = self.bin((p.pos[0] * p.pos[0] + p.pos[1] * p.pos[1]).sqrt());
-            self.all.add(b, w, self.photon);
+            self.all.add(b, w);
             if p.order == 1 {
-                self.single.add(b, w, self.photon);
+                self.single.add(b, w);
             }
-            self.total.add(0, w, self.photon);
+            self.total_cur[lane] += w;
         }
     }
     #[inline]
-    fn end_photon(&mut self) {
+    fn end_photon(&mut self, lane: usize) {
         self.photons += 1;
+        let x = std::mem::take(&mut self.total_cur[lane]);
+        self.total_s1 += x;
+        self.total_s2 += x * x;
     }
     #[inline]
-    fn roulette(&mut self, _p: &Packet, _dw: f64) {}
+    fn roulette(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
     fn channels(&self, out: &mut Vec<Channel>) {
-        for (name, a) in [("profile", &self.all), ("profile_single", &self.single), ("profile_total", &self.total)] {
-            out.push(Channel { name: name.into(), len: a.len(), extremes: false });
+        for (name, len) in [("profile", self.all.len()), ("profile_single", self.single.len()), ("profile_total", 1)] {
+            out.push(Channel { name: name.into(), len, extremes: false });
         }
     }
     fn drain_into(&mut self, state: &mut [ChannelState]) -> Option<usize> {
         let ok = self.all.drain_into(&mut state[0])
             & self.single.drain_into(&mut state[1])
-            & self.total.drain_into(&mut state[2]);
+            & state[2].add(0, self.total_s1, self.total_s2);
+        (self.total_s1, self.total_s2) = (0.0, 0.0);
         self.photons = 0;
         ok.then_some(3)
     }
     fn load_from(&mut self, state: &[ChannelState], photons: u64) -> usize {
         self.all.load_from(&state[0]);
         self.single.load_from(&state[1]);
-        self.total.load_from(&state[2]);
+        (self.total_s1, self.total_s2) = state[2].get(0);
         self.photons = photons;
         3
     }
@@ -315,7 +324,8 @@ impl MonteCarloProfile {
         progress: &AtomicU64,
     ) -> Result<(MonteCarloProfile, bool)> {
         let edges = default_edges(stack, s)?;
-        let cfg = RunConfig { photons: s.photons, seed: s.seed, threads: s.threads, source: Source::default() };
+        let cfg =
+            RunConfig { photons: s.photons, seed: s.seed, threads: s.threads, source: Source::default(), isa: None };
         let out = run(stack, &cfg, || RadialTally::new(edges.clone()), cancel, progress)?;
         if out.photons < 2 {
             return Err(Error::Invalid("monte_carlo: the run was interrupted before two photons were traced".into()));

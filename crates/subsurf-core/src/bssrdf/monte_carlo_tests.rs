@@ -19,7 +19,7 @@ fn total_matches_chandrasekhar() {
     for &(a, photons) in &[(0.3, 3_000_000u64), (0.6, 1_600_000), (0.9, 500_000), (0.99, 150_000), (0.999, 50_000)] {
         let s = McSettings { photons, seed: 7, ..McSettings::default() };
         let edges = default_edges(&semi(a), &s).unwrap();
-        let cfg = RunConfig { photons, seed: 7, threads: None, source: Source::default() };
+        let cfg = RunConfig { photons, seed: 7, threads: None, source: Source::default(), isa: None };
         let out = run(
             &semi(a),
             &cfg,
@@ -58,7 +58,7 @@ fn layered_profile_matches_engine() {
     let edges = default_edges(&stack, &s).unwrap();
     let tc = TallyConfig { nr: 60, dr: 0.05, nz: 1, dz: 1.0, na: 1, ..TallyConfig::default() };
     let set = TallySet::new(&tc, &stack).unwrap();
-    let cfg = RunConfig { photons: s.photons, seed: s.seed, threads: None, source: Source::default() };
+    let cfg = RunConfig { photons: s.photons, seed: s.seed, threads: None, source: Source::default(), isa: None };
     let out = run(
         &stack,
         &cfg,

@@ -114,6 +114,7 @@ pub fn build_point(s: &TableSettings, i: usize, cancel: &AtomicBool, progress: &
         seed: s.seed.wrapping_add(i as u64),
         threads: s.threads,
         source: Source::default(),
+        isa: None,
     };
     let out = run(&s.stack(a)?, &cfg, || RadialTally::new(edges.clone()), cancel, progress)?;
     if out.cancelled {

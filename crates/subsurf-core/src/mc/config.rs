@@ -1,11 +1,18 @@
 //! Run configuration of the Monte Carlo engine: photons, seed, threads, source.
 
+use super::lanes::Isa;
 use super::source::Source;
 use crate::error::{Error, Result};
 
 /// Photons per chunk: the unit of parallel work and of merging. Fixed (independent of the
 /// thread count), so that results are bit-identical for any number of threads.
 pub const CHUNK_PHOTONS: u64 = 4096;
+
+/// Photons per batch of the batch-means standard errors of histograms (see
+/// `mc::tally::accum`): batch k holds photons [k·256, (k+1)·256). It divides
+/// [`CHUNK_PHOTONS`], so chunks hold whole batches and batches are the same for any thread
+/// count or split of the photons; the lane kernel drains its lanes at each batch end.
+pub const BATCH_PHOTONS: u64 = 256;
 
 /// Russian roulette: packets lighter than this fraction of their entering weight 1 − R_sp play
 /// roulette (MCML's `WEIGHT` = 10⁻⁴, there absolute; see `mc::kernel`).
@@ -36,6 +43,9 @@ pub struct RunConfig {
     pub threads: Option<usize>,
     /// The light source.
     pub source: Source,
+    /// Instruction set of the lane kernel; `None` = the best this machine has
+    /// ([`Isa::detect`]). Every choice gives the same bits (see `mc::lanes`).
+    pub isa: Option<Isa>,
 }
 
 impl RunConfig {
@@ -46,7 +56,7 @@ impl RunConfig {
 
     /// A run of `photons` packets with `seed`, all cores, a normal-incidence pencil beam.
     pub fn new(photons: u64, seed: u64) -> Self {
-        RunConfig { photons, seed, threads: None, source: Source::default() }
+        RunConfig { photons, seed, threads: None, source: Source::default(), isa: None }
     }
 
     /// Check every field.
@@ -57,6 +67,11 @@ impl RunConfig {
         if let Some(t) = self.threads {
             if !(1..=MAX_THREADS).contains(&t) {
                 return Err(Error::param_int("threads", t as i128, THREADS_ALLOWED));
+            }
+        }
+        if let Some(isa) = self.isa {
+            if !Isa::available().contains(&isa) {
+                return Err(Error::Invalid(format!("isa: {} is not available on this machine", isa.name())));
             }
         }
         self.source.validate()

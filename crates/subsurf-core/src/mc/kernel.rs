@@ -87,13 +87,13 @@ pub const STOP_POLL_STEPS: u32 = 4096;
 /// HG sampling constants of a layer's single lobe (see [`HgSampler::cos_theta`]).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct HgSampler {
-    one_plus_g2: f64,
-    inv_two_g: f64,
-    one_minus_g2: f64,
-    one_minus_g: f64,
-    two_g: f64,
+    pub(crate) one_plus_g2: f64,
+    pub(crate) inv_two_g: f64,
+    pub(crate) one_minus_g2: f64,
+    pub(crate) one_minus_g: f64,
+    pub(crate) two_g: f64,
     /// |g| < [`G_ISOTROPIC`]: the isotropic formula.
-    isotropic: bool,
+    pub(crate) isotropic: bool,
 }
 
 impl HgSampler {
@@ -112,6 +112,7 @@ impl HgSampler {
     /// [`crate::optics::sample_hg`], with the constants precomputed so that one division
     /// remains): s = (1 − g²)/(1 − g + 2gξ), cos θ = (1 + g² − s²)/(2g).
     #[inline(always)]
+    #[cfg_attr(not(test), allow(dead_code))] // the scalar kernel: the lanes' reference in tests
     fn cos_theta(&self, u: f64) -> f64 {
         if self.isotropic {
             return 2.0 * u - 1.0;
@@ -124,26 +125,26 @@ impl HgSampler {
 /// One layer as the kernel sees it (plain data, precomputed once per run).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct KLayer {
-    z0: f64,
-    z1: f64,
-    n: f64,
-    sigma_t: f64,
-    inv_sigma_t: f64,
+    pub(crate) z0: f64,
+    pub(crate) z1: f64,
+    pub(crate) n: f64,
+    pub(crate) sigma_t: f64,
+    pub(crate) inv_sigma_t: f64,
     /// σa/σt, the fraction of weight deposited per interaction.
-    absorb_frac: f64,
+    pub(crate) absorb_frac: f64,
     /// σs/σt = 1 − σa/σt, the fraction kept.
-    keep_frac: f64,
-    hg: HgSampler,
-    phase: Phase,
+    pub(crate) keep_frac: f64,
+    pub(crate) hg: HgSampler,
+    pub(crate) phase: Phase,
     /// Index above / below the layer (the neighbour's or the ambient's).
-    n_up: f64,
-    n_down: f64,
+    pub(crate) n_up: f64,
+    pub(crate) n_down: f64,
     /// n / n_up and n / n_down (Snell's η).
-    eta_up: f64,
-    eta_down: f64,
+    pub(crate) eta_up: f64,
+    pub(crate) eta_down: f64,
     /// cos of the critical angle towards up / down (0 when n ≤ neighbour: no TIR).
-    cos_crit_up: f64,
-    cos_crit_down: f64,
+    pub(crate) cos_crit_up: f64,
+    pub(crate) cos_crit_down: f64,
 }
 
 impl KLayer {
@@ -165,11 +166,13 @@ impl KLayer {
 /// The stack and source prepared for tracing.
 #[derive(Clone, Debug)]
 pub(crate) struct Kernel {
-    layers: Vec<KLayer>,
-    launcher: Launcher,
+    pub(crate) layers: Vec<KLayer>,
+    pub(crate) launcher: Launcher,
     /// Some layer has σt = 0 (a clear layer): selects the kernel variant that handles it.
+    #[allow(dead_code)] // (selects the scalar kernel's variant; the lane kernel needs no variant)
     pub(crate) any_clear: bool,
     /// Some layer has a phase-function mixture: selects the general phase sampler.
+    #[cfg_attr(not(test), allow(dead_code))] // the scalar kernel: the lanes' reference in tests
     pub(crate) any_mixture: bool,
 }
 
@@ -183,7 +186,7 @@ fn cos_crit(n_i: f64, n_t: f64) -> f64 {
 }
 
 /// What became of a packet at an interface.
-enum Crossing {
+pub(crate) enum Crossing {
     /// Still inside the stack (reflected, or refracted into the neighbouring layer).
     Inside,
     /// Left the stack (already scored).
@@ -226,6 +229,7 @@ impl Kernel {
     /// scattering events, or `None` when `stop` was raised during the history (the tally then
     /// holds part of it). `CLEAR`: handle σt = 0 layers; `MIXTURE`: general phase sampler.
     #[inline]
+    #[cfg_attr(not(test), allow(dead_code))] // the scalar kernel: the lanes' reference in tests
     pub(crate) fn trace<T: Tally, const CLEAR: bool, const MIXTURE: bool>(
         &self,
         seed: u64,
@@ -234,20 +238,21 @@ impl Kernel {
         stop: &AtomicBool,
     ) -> Option<u64> {
         let mut rng = PhotonRng::new(seed, photon);
-        tally.begin_photon(photon);
+        tally.begin_photon(0, photon);
         let (dir, rsp) = self.launcher.launch(&mut rng);
-        tally.specular(rsp);
+        tally.specular(0, rsp);
         let w0 = 1.0 - rsp;
         let mut p = Packet { pos: [0.0; 3], dir, w: w0, layer: 0, order: 0, reflections: 0, path: 0.0 };
         if w0 > 0.0 {
             self.history::<T, CLEAR, MIXTURE>(&mut p, &mut rng, tally, stop)?;
         }
-        tally.end_photon();
+        tally.end_photon(0);
         Some(p.order as u64)
     }
 
     /// The loop of steps of one history (see the module docs); `None` when stopped.
     #[inline(always)]
+    #[cfg_attr(not(test), allow(dead_code))] // the scalar kernel: the lanes' reference in tests
     fn history<T: Tally, const CLEAR: bool, const MIXTURE: bool>(
         &self,
         p: &mut Packet,
@@ -269,20 +274,20 @@ impl Kernel {
             if CLEAR && lay.sigma_t == 0.0 {
                 if dz > 0.0 && lay.z1.is_infinite() {
                     // down a semi-infinite clear layer: transmitted, no interface to refract at
-                    tally.escape(p, Side::Bottom, p.dir, p.w);
+                    tally.escape(0, p, Side::Bottom, p.dir, p.w);
                     return Some(());
                 }
                 hits += 1;
                 if dz == 0.0 || hits > MAX_HITS_WITHOUT_INTERACTION {
-                    tally.roulette(p, p.w); // trapped (see the module docs)
+                    tally.roulette(0, p, p.w); // trapped (see the module docs)
                     return Some(());
                 }
                 if hits > CLEAR_HITS_STEPWISE && lay.z1.is_finite() {
                     let Some(up) = clear_bounces(p, lay, rng) else {
-                        tally.roulette(p, p.w); // both faces reflect totally: trapped
+                        tally.roulette(0, p, p.w); // both faces reflect totally: trapped
                         return Some(());
                     };
-                    match self.transmit(p, lay, up, tally) {
+                    match self.transmit(0, p, lay, up, tally) {
                         Crossing::Escaped => return Some(()),
                         Crossing::Inside => continue,
                     }
@@ -305,7 +310,7 @@ impl Kernel {
                 s_left -= db * lay.sigma_t;
                 hits += 1;
                 if hits > MAX_HITS_WITHOUT_INTERACTION {
-                    tally.roulette(p, p.w); // trapped (see the module docs)
+                    tally.roulette(0, p, p.w); // trapped (see the module docs)
                     return Some(());
                 }
                 match self.at_face(p, lay, up, rng, tally) {
@@ -324,7 +329,7 @@ impl Kernel {
                 let w_new = p.w * lay.keep_frac;
                 let dw = p.w - w_new;
                 p.w = w_new;
-                tally.absorb(p, dw);
+                tally.absorb(0, p, dw);
                 if p.w <= 0.0 {
                     return Some(());
                 }
@@ -336,10 +341,10 @@ impl Kernel {
 
             if p.w < w_min {
                 if rng.uniform() * ROULETTE_M <= 1.0 {
-                    tally.roulette(p, -(ROULETTE_M - 1.0) * p.w);
+                    tally.roulette(0, p, -(ROULETTE_M - 1.0) * p.w);
                     p.w *= ROULETTE_M;
                 } else {
-                    tally.roulette(p, p.w);
+                    tally.roulette(0, p, p.w);
                     return Some(());
                 }
             }
@@ -349,6 +354,7 @@ impl Kernel {
     /// The packet sits on its layer's face up (`up`) or down: all-or-none Fresnel reflection
     /// ([`fresnel_transmits`]) back into the layer, else refraction out of it ([`Kernel::transmit`]).
     #[inline(always)]
+    #[cfg_attr(not(test), allow(dead_code))] // the scalar kernel: the lanes' reference in tests
     fn at_face<T: Tally>(
         &self,
         p: &mut Packet,
@@ -358,7 +364,7 @@ impl Kernel {
         tally: &mut T,
     ) -> Crossing {
         if fresnel_transmits(lay, up, p.dir[2].abs(), rng) {
-            self.transmit(p, lay, up, tally)
+            self.transmit(0, p, lay, up, tally)
         } else {
             p.dir[2] = -p.dir[2];
             p.reflections += 1;
@@ -369,16 +375,23 @@ impl Kernel {
     /// Refract the packet, which sits on its layer's face up (`up`) or down, out of the layer:
     /// an escape from the stack at its top or bottom, else into the neighbouring layer.
     #[inline(always)]
-    fn transmit<T: Tally>(&self, p: &mut Packet, lay: &KLayer, up: bool, tally: &mut T) -> Crossing {
+    pub(crate) fn transmit<T: Tally>(
+        &self,
+        lane: usize,
+        p: &mut Packet,
+        lay: &KLayer,
+        up: bool,
+        tally: &mut T,
+    ) -> Crossing {
         let (_, cos_t) = lay.fresnel(up, p.dir[2].abs());
         let eta = if up { lay.eta_up } else { lay.eta_down };
         let nd = [p.dir[0] * eta, p.dir[1] * eta, if up { -cos_t } else { cos_t }];
         if up && p.layer == 0 {
-            tally.escape(p, Side::Top, nd, p.w);
+            tally.escape(lane, p, Side::Top, nd, p.w);
             return Crossing::Escaped;
         }
         if !up && p.layer + 1 == self.layers.len() {
-            tally.escape(p, Side::Bottom, nd, p.w);
+            tally.escape(lane, p, Side::Bottom, nd, p.w);
             return Crossing::Escaped;
         }
         p.dir = nd;

@@ -2,6 +2,7 @@
 //! direction update and HG constants, the clear-layer bounce law, roulette bounds, stopping.
 
 use super::*;
+use crate::mc::lanes::{Isa, LANES};
 use crate::mc::packet::Side;
 use crate::mc::source::MAX_PENCIL_THETA;
 use crate::mc::tally::{Channel, ChannelState};
@@ -112,38 +113,39 @@ fn grazing_clear_slab_transmits() {
     assert!((t.energy_balance() - 1.0).abs() < 1e-12);
 }
 
-/// Per-photon bookkeeping of a tally: what escaped, what was absorbed and the roulette term.
+/// Per-photon bookkeeping of a tally (one photon per lane at a time): what escaped, what was
+/// absorbed and the roulette term.
 #[derive(Default)]
 struct Ledger {
-    w0: f64,
-    escaped: f64,
-    absorbed: f64,
-    roulette: f64,
+    w0: [f64; LANES],
+    escaped: [f64; LANES],
+    absorbed: [f64; LANES],
+    roulette: [f64; LANES],
     worst_excess: f64,
     worst_balance: f64,
     negative_deposit: bool,
 }
 
 impl Tally for Ledger {
-    fn begin_photon(&mut self, _photon: u64) {
-        (self.w0, self.escaped, self.absorbed, self.roulette) = (1.0, 0.0, 0.0, 0.0);
+    fn begin_photon(&mut self, lane: usize, _photon: u64) {
+        (self.w0[lane], self.escaped[lane], self.absorbed[lane], self.roulette[lane]) = (1.0, 0.0, 0.0, 0.0);
     }
-    fn specular(&mut self, w: f64) {
-        self.w0 = 1.0 - w;
+    fn specular(&mut self, lane: usize, w: f64) {
+        self.w0[lane] = 1.0 - w;
     }
-    fn absorb(&mut self, _p: &Packet, dw: f64) {
+    fn absorb(&mut self, lane: usize, _p: &Packet, dw: f64) {
         self.negative_deposit |= dw < 0.0;
-        self.absorbed += dw;
+        self.absorbed[lane] += dw;
     }
-    fn roulette(&mut self, _p: &Packet, dw: f64) {
-        self.roulette += dw;
+    fn roulette(&mut self, lane: usize, _p: &Packet, dw: f64) {
+        self.roulette[lane] += dw;
     }
-    fn escape(&mut self, _p: &Packet, _side: Side, _dir_out: [f64; 3], w: f64) {
-        self.escaped += w;
+    fn escape(&mut self, lane: usize, _p: &Packet, _side: Side, _dir_out: [f64; 3], w: f64) {
+        self.escaped[lane] += w;
     }
-    fn end_photon(&mut self) {
-        self.worst_excess = self.worst_excess.max(self.escaped - self.w0);
-        let balance = self.escaped + self.absorbed + self.roulette - self.w0;
+    fn end_photon(&mut self, lane: usize) {
+        self.worst_excess = self.worst_excess.max(self.escaped[lane] - self.w0[lane]);
+        let balance = self.escaped[lane] + self.absorbed[lane] + self.roulette[lane] - self.w0[lane];
         self.worst_balance = self.worst_balance.max(balance.abs());
     }
     fn channels(&self, _out: &mut Vec<Channel>) {}
@@ -177,6 +179,8 @@ fn per_photon_balance_and_roulette_bounds() {
             for i in 0..3000 {
                 k.trace::<_, true, false>(7, i, &mut l, &stop).unwrap();
             }
+            // and the lane kernel that runs
+            crate::mc::lanes::trace_range(Isa::detect(), &k, 7, 0..3000, &mut l, &stop).unwrap();
             assert!(l.worst_excess <= 1e-15, "θ = {theta}: a photon left with {} more than w0", l.worst_excess);
             assert!(l.worst_balance <= 1e-15, "θ = {theta}: imbalance {}", l.worst_balance);
             assert!(!l.negative_deposit);
@@ -194,4 +198,6 @@ fn stop_interrupts_a_history() {
     // photons whose history is longer than one poll interval are interrupted
     let interrupted = (0..200).filter(|&i| k.trace::<_, false, false>(1, i, &mut t, &stop).is_none()).count();
     assert!(interrupted > 0);
+    // the lane kernel polls every STOP_POLL_STEPS lane steps too
+    assert!(crate::mc::lanes::trace_range(Isa::detect(), &k, 1, 0..200, &mut t, &stop).is_none());
 }

@@ -17,6 +17,7 @@
 pub mod config;
 pub mod cost;
 mod kernel;
+pub mod lanes;
 pub mod packet;
 pub mod run;
 pub mod source;

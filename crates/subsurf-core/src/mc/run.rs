@@ -16,12 +16,17 @@
 //! tally configuration whose copies, exact sums and results would not fit in the available
 //! memory.
 //!
-//! Cancellation: `cancel` is polled before each chunk, before each photon and every
-//! [`STOP_POLL_STEPS`](super::kernel::STOP_POLL_STEPS) steps inside a history; a chunk
-//! interrupted midway is discarded. `progress` counts traced photons (published every 64).
+//! Each chunk is traced by the lane kernel (`mc::lanes`): a photon's history does not depend on
+//! its lane or the instruction set, and the lanes' deposits into the chunk's tally are made in
+//! an order fixed by the chunk alone, so chunk sums stay a pure function of the chunk.
+//!
+//! Cancellation: `cancel` is polled before each chunk, before each batch and every
+//! [`STOP_POLL_STEPS`](super::kernel::STOP_POLL_STEPS) lane steps; a chunk interrupted midway
+//! is discarded. `progress` counts traced photons (published after each batch or slice).
 
-use super::config::{RunConfig, CHUNK_PHOTONS};
+use super::config::{RunConfig, BATCH_PHOTONS, CHUNK_PHOTONS};
 use super::kernel::Kernel;
+use super::lanes::{trace_range, Isa};
 use super::state::TallyState;
 use super::tally::{Channel, Tally};
 use crate::error::{Error, Result};
@@ -49,8 +54,6 @@ pub const CHUNK_BYTES_PER_BIN: u64 = 32;
 /// Bytes per bin held once per run: exact sums (72), the tally they are loaded into (32), the
 /// finished histogram (16) and, in Python, its arrays and the exported state (16 + 72).
 pub const RUN_BYTES_PER_BIN: u64 = 208;
-/// Photons between two updates of the progress counter.
-const PROGRESS_EVERY: u64 = 64;
 
 /// Bytes a run of `layout` on `threads` threads needs at most (see the module docs).
 pub fn memory_estimate(layout: &[Channel], threads: usize) -> u64 {
@@ -94,8 +97,14 @@ pub fn check_memory(layout: &[Channel], threads: usize, available: Option<u64>) 
     )))
 }
 
-/// Trace photons `range` into `tally`; `None` if cancelled midway.
-fn trace_chunk<T: Tally, const CLEAR: bool, const MIXTURE: bool>(
+/// Photons between two progress updates of a run without batches (the lanes drain there).
+const SLICE_PHOTONS: u64 = 1024;
+
+/// Trace photons `range` into `tally` with the lane kernel (`mc::lanes`), batch by batch
+/// ([`BATCH_PHOTONS`]) when the tally keeps batch means, else in slices of
+/// [`SLICE_PHOTONS`]; `None` if cancelled midway.
+fn trace_chunk<T: Tally>(
+    isa: Isa,
     k: &Kernel,
     seed: u64,
     range: std::ops::Range<u64>,
@@ -103,20 +112,23 @@ fn trace_chunk<T: Tally, const CLEAR: bool, const MIXTURE: bool>(
     cancel: &AtomicBool,
     progress: &AtomicU64,
 ) -> Option<u64> {
+    let batched = tally.batched();
+    let slice = if batched { BATCH_PHOTONS } else { SLICE_PHOTONS };
     let mut events = 0;
-    let mut unpublished = 0;
-    for i in range {
+    let mut a = range.start;
+    while a < range.end {
         if cancel.load(Ordering::Relaxed) {
             return None;
         }
-        events += k.trace::<T, CLEAR, MIXTURE>(seed, i, tally, cancel)?;
-        unpublished += 1;
-        if unpublished == PROGRESS_EVERY {
-            progress.fetch_add(unpublished, Ordering::Relaxed);
-            unpublished = 0;
+        // Batches start at multiples of their size (chunks are multiples of it).
+        let b = ((a / slice + 1) * slice).min(range.end);
+        events += trace_range(isa, k, seed, a..b, tally, cancel)?;
+        if batched {
+            tally.end_batch(b - a);
         }
+        progress.fetch_add(b - a, Ordering::Relaxed);
+        a = b;
     }
-    progress.fetch_add(unpublished, Ordering::Relaxed);
     Some(events)
 }
 
@@ -200,6 +212,7 @@ where
         return Err(Error::Invalid("state: its tallies differ from this run's".into()));
     }
     let kernel = Kernel::new(stack, cfg.source);
+    let isa = cfg.isa.unwrap_or_else(Isa::detect);
     let (c0, c1) = (state.end / CHUNK_PHOTONS, end.div_ceil(CHUNK_PHOTONS));
     let window = 2 * threads as u64;
     let next = AtomicU64::new(c0);
@@ -242,12 +255,7 @@ where
         .unwrap_or_else(&make_tally);
         let range = c * CHUNK_PHOTONS..((c + 1) * CHUNK_PHOTONS).min(end);
         let photons = range.end - range.start;
-        let ev = match (kernel.any_clear, kernel.any_mixture) {
-            (false, false) => trace_chunk::<T, false, false>(&kernel, seed, range, &mut tally, cancel, progress),
-            (false, true) => trace_chunk::<T, false, true>(&kernel, seed, range, &mut tally, cancel, progress),
-            (true, false) => trace_chunk::<T, true, false>(&kernel, seed, range, &mut tally, cancel, progress),
-            (true, true) => trace_chunk::<T, true, true>(&kernel, seed, range, &mut tally, cancel, progress),
-        };
+        let ev = trace_chunk(isa, &kernel, seed, range, &mut tally, cancel, progress);
         let Some(events) = ev else { return }; // cancelled midway: the chunk is dropped
         let mut g = commit.lock().expect("no panics while committing");
         g.pending.insert(c, (tally, photons, events));

@@ -22,7 +22,9 @@ use crate::medium::Stack;
 
 /// Version of the exact-state format (chunk size and fixed-point formats); states of another
 /// scheme are refused.
-pub const SCHEME: &str = "subsurf-state-1: chunks of 4096 photons; S1 4x64-bit fixed point (2^-176), S2 5x64 (2^-240)";
+pub const SCHEME: &str =
+    "subsurf-state-2: chunks of 4096 photons; S1 4x64-bit fixed point (2^-176), S2 5x64 (2^-240); \
+                          S2 of histograms over batches of 256 photons";
 
 /// The exact state of photons [`start`, `end`) of a run.
 ///
@@ -271,6 +273,7 @@ pub fn fingerprint(stack: &Stack, source: &Source, seed: u64, tallies: Option<&T
             h.word(c.max_order.map_or(u64::MAX, |k| k as u64));
             h.word(c.spatial as u64);
             h.word(c.angular as u64);
+            h.word(c.errors as u64);
         }
     }
     h.0

@@ -137,58 +137,6 @@ fn cancel_and_bad_input() {
     assert!(run(&s, &cfg, || (), &cancel, &progress).is_err());
 }
 
-/// Not a test: `cargo test -p subsurf-core bench_kernel -- --ignored --nocapture` prints the
-/// single-thread kernel speed (Totals tally) for the cases (a), (c), (d), per second of
-/// this thread's CPU time (the machine may be shared) and of wall time.
-#[test]
-#[ignore]
-fn bench_kernel() {
-    let layer = |n, mua, mus, g, d| Layer::new(n, mua, mus, g, d).unwrap();
-    let cases = [
-        ("a", Stack::new(vec![layer(1.0, 1.0, 9.0, 0.75, 0.2)], 1.0, 1.0).unwrap(), 400_000),
-        (
-            "c",
-            Stack::new(
-                vec![
-                    layer(1.4, 0.1, 10.0, 0.9, 0.1),
-                    layer(1.4, 0.05, 15.0, 0.85, 2.0),
-                    layer(1.4, 0.02, 12.0, 0.9, 10.0),
-                ],
-                1.0,
-                1.0,
-            )
-            .unwrap(),
-            8_000,
-        ),
-        ("d", Stack::new(vec![layer(1.4, 0.01, 10.0, 0.9, 100.0)], 1.0, 1.0).unwrap(), 3_000),
-    ];
-    for (name, s, n) in cases {
-        // Traced on this thread, to read its own CPU time.
-        let k = super::kernel::Kernel::new(&s, Source::default());
-        let mut t = Totals::new(s.layers.len());
-        let (t0, c0) = (std::time::Instant::now(), cpu_ns());
-        let mut events = 0;
-        for i in 0..n {
-            events += k.trace::<Totals, false, false>(1, i, &mut t, &AtomicBool::new(false)).unwrap();
-        }
-        let (dt, cpu) = (t0.elapsed().as_secs_f64(), (cpu_ns() - c0) as f64 * 1e-9);
-        println!(
-            "case {name}: {:.3e} events/s of CPU time ({:.3e} wall), {:.3e} photons/s of CPU time ({events} events)",
-            events as f64 / cpu,
-            events as f64 / dt,
-            n as f64 / cpu,
-        );
-    }
-}
-
-/// CPU time of the calling thread in ns, from /proc/thread-self/schedstat (Linux; 0 elsewhere).
-fn cpu_ns() -> u64 {
-    std::fs::read_to_string("/proc/thread-self/schedstat")
-        .ok()
-        .and_then(|s| s.split_whitespace().next().and_then(|x| x.parse().ok()))
-        .unwrap_or(0)
-}
-
 /// Inputs from the fuzz campaign that hung a run or gave a wrong answer: each is now refused
 /// (naming the field) or traced correctly, and none takes long.
 #[test]
@@ -288,7 +236,10 @@ fn exact_merge_is_partition_and_thread_independent() {
     part.end = st.end;
     part.events = st.events;
     part.channels = st.channels.clone();
-    assert_eq!(part, range(0, st.end, 1), "the partial state is the state of its prefix");
+    // (on a busy machine the chunks before the hook may still be in flight when it fires: then
+    // the prefix is empty)
+    let prefix = if st.end == 0 { TallyState::new(layout.clone(), fp, 0).unwrap() } else { range(0, st.end, 1) };
+    assert_eq!(part, prefix, "the partial state is the state of its prefix");
     assert!(!extend(&s, &cfg, &mut part, make, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap());
     assert_eq!(part, whole);
 }
@@ -323,17 +274,17 @@ struct StopAt<'a> {
 }
 
 impl Tally for StopAt<'_> {
-    fn begin_photon(&mut self, photon: u64) {
+    fn begin_photon(&mut self, _lane: usize, photon: u64) {
         if photon == self.at {
             assert!(!self.panic, "a bug in a tally");
             self.flag.store(true, std::sync::atomic::Ordering::Relaxed);
         }
     }
-    fn specular(&mut self, _w: f64) {}
-    fn absorb(&mut self, _p: &Packet, _dw: f64) {}
-    fn roulette(&mut self, _p: &Packet, _dw: f64) {}
-    fn escape(&mut self, _p: &Packet, _side: Side, _dir_out: [f64; 3], _w: f64) {}
-    fn end_photon(&mut self) {}
+    fn specular(&mut self, _lane: usize, _w: f64) {}
+    fn absorb(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
+    fn roulette(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
+    fn escape(&mut self, _lane: usize, _p: &Packet, _side: Side, _dir_out: [f64; 3], _w: f64) {}
+    fn end_photon(&mut self, _lane: usize) {}
     fn channels(&self, _out: &mut Vec<super::tally::Channel>) {}
     fn drain_into(&mut self, _state: &mut [super::tally::ChannelState]) -> Option<usize> {
         Some(0)

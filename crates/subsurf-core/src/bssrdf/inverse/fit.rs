@@ -163,6 +163,7 @@ impl SlabTable {
                     seed: seed.wrapping_add((i * t.taus.len() + j) as u64),
                     threads: None,
                     source: Source::default(),
+                    isa: None,
                 };
                 let out = run(&s, &cfg, || Totals::new(1), &AtomicBool::new(false), &AtomicU64::new(0))?;
                 let (r, rs) = out.tally.get(Total::Diffuse);

@@ -41,7 +41,7 @@ fn monte_carlo_appearance_reproduces_colour() {
         assert!((1.0 / l.sigma_t() - mfp[i]).abs() < 1e-12);
         let s = Stack::new(vec![*l], 1.0, 1.0).unwrap();
         let photons = (300_000.0 * (0.6 / colour[i]).powi(2)) as u64;
-        let cfg = RunConfig { photons, seed: 900 + i as u64, threads: None, source: Source::default() };
+        let cfg = RunConfig { photons, seed: 900 + i as u64, threads: None, source: Source::default(), isa: None };
         let out = run(&s, &cfg, || Totals::new(1), &AtomicBool::new(false), &AtomicU64::new(0)).unwrap();
         let (rd, se) = out.tally.get(Total::Diffuse);
         assert!(4.0 * se < 0.005 * colour[i], "channel {i}: check too noisy ({se})");
@@ -125,7 +125,7 @@ fn slab_fit_round_trips() {
     let taus: Vec<f64> = (0..5).map(|i| tau * (0.8 + 0.1 * i as f64)).collect();
     let table = SlabTable::build(g, n, 1.0, 1.0, albedos, taus, 40_000, 1).unwrap();
     let s = Stack::new(vec![crate::medium::Layer::new(n, mua, musp / (1.0 - g), g, d).unwrap()], 1.0, 1.0).unwrap();
-    let cfg = RunConfig { photons: 40_000, seed: 77, threads: None, source: Source::default() };
+    let cfg = RunConfig { photons: 40_000, seed: 77, threads: None, source: Source::default(), isa: None };
     let out = run(&s, &cfg, || Totals::new(1), &AtomicBool::new(false), &AtomicU64::new(0)).unwrap();
     let (rd, rs) = out.tally.get(Total::Diffuse);
     let (tt, ts) = out.tally.get(Total::Transmittance);

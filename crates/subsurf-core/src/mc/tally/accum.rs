@@ -1,81 +1,116 @@
-//! [`Accum`]: an array of bins that keeps, per bin, the sum of the scores and the sum of the
-//! squares of the *per-photon* scores, so that every bin has a standard error from the
-//! per-photon second moment (the batch-free estimator used e.g. by MCML 2.0 and MCX).
+//! [`Accum`]: an array of bins with batch-means standard errors (or none at all).
 //!
-//! A photon may score into the same bin many times (absorption along its path). The per-photon
-//! score Xᵢ of a bin is the sum of those deposits; the standard error of the bin mean needs
-//! Σ Xᵢ². Each bin therefore keeps the current photon's partial sum and the id of the photon
-//! that owns it; when another photon first touches the bin, the partial is squared into the
-//! second moment ("lazy flush"). This is O(1) per deposit, with no per-photon sweep over the
-//! bins. [`Accum::drain_into`] squares the outstanding partials when the chunk is merged.
+//! Photons are grouped in fixed batches of [`BATCH_PHOTONS`] consecutive indices (batch k =
+//! photons [k·B, (k+1)·B), cut at the run's last photon; B divides the chunk size, so a chunk
+//! holds whole batches). The run closes a batch with [`Accum::end_batch`] once all its photons
+//! have ended. Each bin keeps the running batch total Tₖ in `cur` (one add per deposit, no
+//! per-photon bookkeeping, so interleaved lanes need nothing special), and at the end of batch
+//! k folds it into S₁ = Σ Tₖ and Q = Σ Tₖ²/nₖ (nₖ photons in batch k). With N photons in
+//! K = ⌈N/B⌉ batches, the estimate is x̄ = S₁/N and the standard error of x̄ is √(σ̂²/N) with
+//! σ̂² = (Q − N x̄²)/(K − 1), an unbiased estimate of the per-photon variance σ² for *any* batch
+//! sizes: Tₖ − nₖ x̄ has variance nₖ σ² (1 − nₖ/N), so E[Σ (Tₖ − nₖx̄)²/nₖ] = σ² Σ (1 − nₖ/N)
+//! = (K − 1) σ², and Σ (Tₖ − nₖx̄)²/nₖ = Q − N x̄². (Batches of one photon give back the
+//! per-photon formula √((S₂/N − x̄²)/(N − 1)); the method of batch means, e.g. Kalos &
+//! Whitlock, *Monte Carlo Methods*, 2nd ed., §3.3.) A bin touched for the first time in a
+//! batch is listed, so closing a batch costs the bins it touched, not the whole grid. Without
+//! errors, deposits go straight into S₁.
+//!
+//! The exact state of a run ([`super::ChannelState`]) holds S₁ and Q of every bin (in its
+//! `s1` and `s2`): chunk sums are drained into it exactly, so batch means are as
+//! partition-independent as the sums themselves.
+//!
+//! Escape tallies need no batches ([`Accum::per_photon`]): a photon escapes once, so its score
+//! in a bin is the weight of that one escape and Q = Σ w² is the exact per-photon second
+//! moment (batches of one photon, K = N), at the cost of one multiply per escape.
 
-/// Owner id meaning "no partial pending".
-const NONE: u64 = u64::MAX;
+pub use crate::mc::config::BATCH_PHOTONS;
 
-/// One bin: Σ deposits, Σ (per-photon score)², the pending photon's partial score and its id.
-/// 32 bytes, so one deposit touches one cache line.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C)]
-struct Cell {
-    sum: f64,
-    sum2: f64,
-    cur: f64,
-    owner: u64,
-}
-
-const EMPTY: Cell = Cell { sum: 0.0, sum2: 0.0, cur: 0.0, owner: NONE };
-
-/// A flat array of bins with per-photon second moments (see the module docs).
+/// A flat array of bins (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Accum {
-    cells: Vec<Cell>,
+    s1: Vec<f64>,
+    /// Σ Tₖ²/nₖ (empty without errors).
+    q: Vec<f64>,
+    /// Current batch totals (empty without errors).
+    cur: Vec<f64>,
+    /// Bins deposited into in the current batch (may repeat; closing a batch zeroes `cur`).
+    touched: Vec<u32>,
+    /// At most one deposit per photon (escapes): Q = Σ x², no batches.
+    single: bool,
 }
 
 impl Accum {
-    /// `n` empty bins (`n = 0` gives a disabled accumulator that must not be deposited into).
-    pub fn new(n: usize) -> Self {
-        Accum { cells: vec![EMPTY; n] }
+    /// `n` empty bins, with batch-means errors if `errors` (`n = 0` gives a disabled
+    /// accumulator that must not be deposited into).
+    pub fn new(n: usize, errors: bool) -> Self {
+        let e = if errors { n } else { 0 };
+        Accum { s1: vec![0.0; n], q: vec![0.0; e], cur: vec![0.0; e], touched: Vec::new(), single: false }
+    }
+
+    /// `n` empty bins that each photon deposits into at most once (escapes), with exact
+    /// per-photon errors if `errors` (see the module docs).
+    pub fn per_photon(n: usize, errors: bool) -> Self {
+        let e = if errors { n } else { 0 };
+        Accum { s1: vec![0.0; n], q: vec![0.0; e], cur: Vec::new(), touched: Vec::new(), single: errors }
     }
 
     /// Number of bins.
     #[inline]
     pub fn len(&self) -> usize {
-        self.cells.len()
+        self.s1.len()
     }
 
     /// Whether there are no bins (a disabled tally).
     #[inline]
     pub fn is_empty(&self) -> bool {
-        self.cells.is_empty()
+        self.s1.is_empty()
     }
 
-    /// Add `x` to bin `bin` on behalf of photon `photon` (a global photon index, never `u64::MAX`).
-    /// The caller guarantees `bin < len()`.
+    /// Whether standard errors are kept.
     #[inline]
-    pub fn add(&mut self, bin: usize, x: f64, photon: u64) {
-        let c = &mut self.cells[bin];
-        c.sum += x;
-        if c.owner == photon {
-            c.cur += x;
+    pub fn has_errors(&self) -> bool {
+        !self.q.is_empty()
+    }
+
+    /// Add `x` to bin `bin` (the caller guarantees `bin < len()`).
+    #[inline]
+    pub fn add(&mut self, bin: usize, x: f64) {
+        if self.single {
+            self.s1[bin] += x;
+            self.q[bin] += x * x;
+        } else if self.cur.is_empty() {
+            self.s1[bin] += x;
         } else {
-            c.sum2 += c.cur * c.cur;
-            c.cur = x;
-            c.owner = photon;
+            let c = &mut self.cur[bin];
+            if *c == 0.0 {
+                self.touched.push(bin as u32);
+            }
+            *c += x;
         }
     }
 
-    /// Add every bin's (S₁, S₂) exactly into `state` (same length) and clear the bins for the
-    /// next chunk. `false` if a sum is outside the exact range.
+    /// Close the current batch of `photons` photons (see the module docs).
+    pub fn end_batch(&mut self, photons: u64) {
+        let inv_n = 1.0 / photons.max(1) as f64;
+        for &b in &self.touched {
+            let b = b as usize;
+            let t = std::mem::take(&mut self.cur[b]);
+            self.s1[b] += t;
+            self.q[b] += t * t * inv_n;
+        }
+        self.touched.clear();
+    }
+
+    /// Add every bin's (S₁, Q) exactly into `state` (same length) and clear the bins for the
+    /// next chunk (whose batches are all closed). `false` if a sum is outside the exact range.
     pub fn drain_into(&mut self, state: &mut super::ChannelState) -> bool {
         debug_assert_eq!(self.len(), state.s1.len());
+        debug_assert!(self.touched.is_empty(), "drain with an open batch");
         let mut ok = true;
-        for (i, c) in self.cells.iter_mut().enumerate() {
-            if c.owner != NONE {
-                ok &= state.add(i, c.sum, c.sum2 + c.cur * c.cur);
-                *c = EMPTY;
-            } else if c.sum != 0.0 || c.sum2 != 0.0 {
-                ok &= state.add(i, c.sum, c.sum2);
-                *c = EMPTY;
+        for i in 0..self.s1.len() {
+            let (s1, q) = (std::mem::take(&mut self.s1[i]), self.q.get_mut(i).map_or(0.0, std::mem::take));
+            if s1 != 0.0 || q != 0.0 {
+                ok &= state.add(i, s1, q);
             }
         }
         ok
@@ -84,31 +119,47 @@ impl Accum {
     /// Set every bin to the exact sums of `state`, rounded to f64 (for normalisation).
     pub fn load_from(&mut self, state: &super::ChannelState) {
         debug_assert_eq!(self.len(), state.s1.len());
-        for (i, c) in self.cells.iter_mut().enumerate() {
-            let (sum, sum2) = state.get(i);
-            *c = Cell { sum, sum2, cur: 0.0, owner: NONE };
+        for i in 0..self.s1.len() {
+            let (s1, q) = state.get(i);
+            self.s1[i] = s1;
+            if let Some(x) = self.q.get_mut(i) {
+                *x = q;
+            }
         }
     }
 
-    /// Σ of all deposits in bin `i`.
+    /// Σ of all deposits in bin `i` (closed batches).
     #[inline]
     pub fn sum(&self, i: usize) -> f64 {
-        self.cells[i].sum
+        self.s1[i]
     }
 
-    /// Σ over photons of the squared per-photon score of bin `i`, including the pending partial.
-    #[inline]
-    pub fn sum2(&self, i: usize) -> f64 {
-        let c = &self.cells[i];
-        c.sum2 + if c.owner != NONE { c.cur * c.cur } else { 0.0 }
-    }
-
-    /// Mean per photon and its standard error for bin `i` over `n` photons:
-    /// m = S₁/n, se = √((S₂/n − m²)/(n − 1)) (NaN for n < 2; 0 if rounding makes the variance
-    /// negative).
+    /// Mean per photon of bin `i` over `n` photons (in ⌈n / [`BATCH_PHOTONS`]⌉ batches) and its
+    /// standard error (NaN without errors or with fewer than 2 batches; 0 if rounding makes the
+    /// variance negative).
     pub fn mean_stderr(&self, i: usize, n: u64) -> (f64, f64) {
-        mean_stderr(self.sum(i), self.sum2(i), n)
+        if !self.has_errors() {
+            return (self.s1[i] / n as f64, f64::NAN);
+        }
+        let batches = if self.single { n } else { n.div_ceil(BATCH_PHOTONS) };
+        batch_mean_stderr(self.s1[i], self.q[i], n, batches)
     }
+}
+
+/// Mean and standard error from batch sums: S₁ = Σ Tₖ (`s1`), Q = Σ Tₖ²/nₖ (`q`), N photons
+/// (`n`) in K batches (`batches`): x̄ = S₁/N, se = √((Q − N x̄²)/((K − 1) N)) (see the module
+/// docs; with one-photon batches, Q = Σ x² and K = N, this is [`mean_stderr`]).
+pub fn batch_mean_stderr(s1: f64, q: f64, n: u64, batches: u64) -> (f64, f64) {
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    let nf = n as f64;
+    let m = s1 / nf;
+    if batches < 2 {
+        return (m, f64::NAN);
+    }
+    let var = ((q - nf * m * m) / (batches - 1) as f64).max(0.0);
+    (m, (var / nf).sqrt())
 }
 
 pub use super::totals::mean_stderr;
@@ -134,81 +185,123 @@ mod tests {
         ev
     }
 
-    /// Brute force: per-photon per-bin scores in a dense matrix.
+    /// Brute force: per-batch per-bin totals, then S₁ and Σ T²/n.
     fn brute(ev: &[(u64, usize, f64)], n_photons: u64, bins: usize) -> Vec<(f64, f64)> {
-        let mut m = vec![vec![0.0; bins]; n_photons as usize];
-        for &(p, b, x) in ev {
-            m[p as usize][b] += x;
+        let b = BATCH_PHOTONS;
+        let nb = n_photons.div_ceil(b) as usize;
+        let mut t = vec![vec![0.0; bins]; nb];
+        for &(p, bin, x) in ev {
+            t[(p / b) as usize][bin] += x;
         }
         (0..bins)
-            .map(|b| {
-                let s1: f64 = m.iter().map(|r| r[b]).sum();
-                let s2: f64 = m.iter().map(|r| r[b] * r[b]).sum();
-                (s1, s2)
+            .map(|bin| {
+                let s1: f64 = t.iter().map(|r| r[bin]).sum();
+                let q: f64 = (0..nb)
+                    .map(|k| {
+                        let nk = (n_photons - k as u64 * b).min(b) as f64;
+                        t[k][bin] * t[k][bin] / nk
+                    })
+                    .sum();
+                (s1, q)
             })
             .collect()
+    }
+
+    /// An accumulator fed photons [lo, hi) batch by batch (as the run does).
+    fn fill(ev: &[(u64, usize, f64)], lo: u64, hi: u64, bins: usize, errors: bool) -> Accum {
+        let b = BATCH_PHOTONS;
+        let mut a = Accum::new(bins, errors);
+        let mut k = lo / b;
+        for &(p, bin, x) in ev.iter().filter(|e| e.0 >= lo && e.0 < hi) {
+            while p / b > k {
+                a.end_batch(b);
+                k += 1;
+            }
+            a.add(bin, x);
+        }
+        while k * b < hi {
+            a.end_batch((hi - k * b).min(b));
+            k += 1;
+        }
+        a
     }
 
     fn channel(bins: usize) -> ChannelState {
         ChannelState::new(&Channel { name: "x".into(), len: bins, extremes: false })
     }
 
+    /// Batch sums (the last batch short) against brute force, through the exact state; the
+    /// error-free mode keeps the same sums.
     #[test]
-    fn matches_brute_force_second_moments() {
-        let (n, bins) = (500, 13);
+    fn matches_brute_force_batch_moments() {
+        let (n, bins) = (5 * BATCH_PHOTONS + 37, 13);
         let ev = events(n, bins, 7);
-        let mut a = Accum::new(bins);
-        for &(p, b, x) in &ev {
-            a.add(b, x, p);
-        }
+        let mut a = fill(&ev, 0, n, bins, true);
         let want = brute(&ev, n, bins);
-        for b in 0..bins {
-            let (s1, s2) = want[b];
-            assert!((a.sum(b) - s1).abs() < 1e-12 * (1.0 + s1.abs()), "bin {b}");
-            assert!((a.sum2(b) - s2).abs() < 1e-12 * (1.0 + s2), "bin {b}");
-        }
-        // draining into exact sums and loading back keeps the moments and clears the bins
         let mut st = channel(bins);
         assert!(a.drain_into(&mut st));
-        assert!((0..bins).all(|b| a.sum(b) == 0.0 && a.sum2(b) == 0.0));
+        assert!((0..bins).all(|b| a.sum(b) == 0.0));
         a.load_from(&st);
+        let mut plain = fill(&ev, 0, n, bins, false);
         for b in 0..bins {
-            let (s1, s2) = want[b];
+            let (s1, q) = want[b];
             assert!((a.sum(b) - s1).abs() < 1e-12 * (1.0 + s1.abs()), "bin {b}");
-            assert!((a.sum2(b) - s2).abs() < 1e-12 * (1.0 + s2), "bin {b}");
+            assert!((a.q[b] - q).abs() < 1e-12 * (1.0 + q), "bin {b}");
+            assert!((plain.sum(b) - s1).abs() < 1e-12 * (1.0 + s1.abs()), "bin {b}");
         }
+        let mut st = channel(bins);
+        assert!(plain.drain_into(&mut st));
+        plain.load_from(&st);
+        assert!(plain.mean_stderr(0, n).1.is_nan());
     }
 
+    /// Batches of one photon give the per-photon formula; a hand-made case.
     #[test]
     fn stderr_formula() {
         // samples 1, 2, 3, 0 (one photon scored nothing): mean 1.5, sample variance 5/3,
         // stderr √(5/3/4).
-        let mut a = Accum::new(1);
-        a.add(0, 1.0, 0);
-        a.add(0, 1.5, 1);
-        a.add(0, 0.5, 1);
-        a.add(0, 3.0, 2);
-        let (m, se) = a.mean_stderr(0, 4);
+        let (s1, q) = (6.0, 1.0 + 4.0 + 9.0);
+        let (m, se) = batch_mean_stderr(s1, q, 4, 4);
         assert_eq!(m, 1.5);
         assert!((se - (5.0f64 / 3.0 / 4.0).sqrt()).abs() < 1e-15);
-        assert!(mean_stderr(1.0, 1.0, 1).1.is_nan());
+        assert_eq!(mean_stderr(14.0, 14.0, 4), batch_mean_stderr(14.0, 14.0, 4, 4));
+        assert!(batch_mean_stderr(1.0, 1.0, 8, 1).1.is_nan());
+        // A deposit that cancels to exactly 0 and is touched again is listed twice: harmless.
+        let mut a = Accum::new(2, true);
+        for x in [1.0, -1.0, 2.0] {
+            a.add(1, x);
+        }
+        a.end_batch(2);
+        assert_eq!((a.sum(1), a.q[1]), (2.0, 2.0));
     }
 
-    /// Chunks drained into exact sums in any grouping and order give the same bits.
+    /// One deposit per photon: the per-photon formula, whatever the batches.
+    #[test]
+    fn per_photon_accumulator() {
+        let mut a = Accum::per_photon(2, true);
+        for x in [1.0, 2.0, 3.0] {
+            a.add(1, x);
+        }
+        a.end_batch(4); // nothing to close
+        let (m, se) = a.mean_stderr(1, 4);
+        assert_eq!((m, se), mean_stderr(6.0, 14.0, 4));
+        assert!(Accum::per_photon(2, false).mean_stderr(0, 4).1.is_nan());
+    }
+
+    /// Chunks (whole batches) drained into exact sums in any grouping and order give the same
+    /// bits.
     #[test]
     fn exact_merge_of_chunks_is_partition_independent() {
-        let (n, bins) = (900, 5);
+        let b = BATCH_PHOTONS;
+        let (n, bins) = (9 * b, 5);
         let ev = events(n, bins, 11);
         let chunk = |lo: u64, hi: u64| {
-            let mut a = Accum::new(bins);
-            for &(p, b, x) in ev.iter().filter(|e| e.0 >= lo && e.0 < hi) {
-                a.add(b, x, p);
-            }
+            let mut a = fill(&ev, lo, hi, bins, true);
             let mut st = channel(bins);
             assert!(a.drain_into(&mut st));
             st
         };
-        let (c0, c1, c2) = (chunk(0, 300), chunk(300, 600), chunk(600, 900));
+        let (c0, c1, c2) = (chunk(0, 3 * b), chunk(3 * b, 6 * b), chunk(6 * b, 9 * b));
         let mut left = c0.clone();
         left.merge(&c1);
         left.merge(&c2);
@@ -218,10 +311,10 @@ mod tests {
         other.merge(&right);
         assert_eq!(left, other, "exact sums must not depend on grouping or order");
         let want = brute(&ev, n, bins);
-        for b in 0..bins {
-            let (s1, s2) = left.get(b);
-            assert!((s1 - want[b].0).abs() < 1e-12 * (1.0 + s1.abs()));
-            assert!((s2 - want[b].1).abs() < 1e-12 * (1.0 + s2));
+        for bin in 0..bins {
+            let (s1, q) = left.get(bin);
+            assert!((s1 - want[bin].0).abs() < 1e-12 * (1.0 + s1.abs()));
+            assert!((q - want[bin].1).abs() < 1e-12 * (1.0 + q));
         }
     }
 }

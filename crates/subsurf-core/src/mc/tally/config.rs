@@ -43,6 +43,9 @@ pub struct TallyConfig {
     pub spatial: bool,
     /// R(θ), T(θ) (and R(r,θ), T(r,θ) with `spatial`).
     pub angular: bool,
+    /// Keep standard errors of the histograms (batch means, see [`super::accum`]); `false`
+    /// skips them entirely (stderr NaN) and makes every deposit a single add.
+    pub errors: bool,
 }
 
 impl Default for TallyConfig {
@@ -60,6 +63,7 @@ impl Default for TallyConfig {
             max_order: None,
             spatial: true,
             angular: true,
+            errors: true,
         }
     }
 }
@@ -123,6 +127,7 @@ impl TallyConfig {
         max_order: Option<f64>,
         spatial: bool,
         angular: bool,
+        errors: bool,
     ) -> Result<TallyConfig> {
         let brdf = match brdf {
             Some((c, p)) => Some((count_from("tallies.brdf[0]", c, 1)?, count_from("tallies.brdf[1]", p, 1)?)),
@@ -145,6 +150,7 @@ impl TallyConfig {
             max_order,
             spatial,
             angular,
+            errors,
         };
         c.validate()?;
         Ok(c)
@@ -216,8 +222,9 @@ mod tests {
             c.nz = 10_000
         })
         .contains("a_rz"));
-        let num =
-            |nr: f64, k: Option<f64>| TallyConfig::from_numbers(nr, 0.1, 1.0, 0.1, 1.0, 0.0, 1.0, None, k, true, true);
+        let num = |nr: f64, k: Option<f64>| {
+            TallyConfig::from_numbers(nr, 0.1, 1.0, 0.1, 1.0, 0.0, 1.0, None, k, true, true, true)
+        };
         assert!(num(-1.0, None).unwrap_err().to_string().starts_with("tallies.nr = -1 is out of range"));
         assert!(num(1e20, None).unwrap_err().to_string().starts_with("tallies.nr = 100000000000000000000 is out"));
         assert!(num(2.5, None).is_err() && num(3.0, None).is_ok());

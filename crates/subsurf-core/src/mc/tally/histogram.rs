@@ -184,16 +184,15 @@ impl Axis {
     }
 }
 
-/// Bin index ⌊x / w⌋ clamped to `[0, n − 1]` (the last bin collects overflow, as MCML).
-#[inline]
+/// Bin index ⌊x / w⌋ clamped to `[0, n − 1]` (the last bin collects overflow, as MCML);
+/// negative and NaN give 0. `n` ≥ 1 and below 2³² (grids are limited to 10⁷ bins).
+#[inline(always)]
 pub fn bin_clamped(x: f64, inv_w: f64, n: usize) -> usize {
-    // `as usize` saturates: negative and NaN give 0.
-    let i = (x * inv_w) as usize;
-    if i >= n {
-        n - 1
-    } else {
-        i
-    }
+    // Clamped in floating point (`max` maps NaN to 0), then a plain truncation: unlike the
+    // saturating `as`, it vectorises (the bins of all lanes are computed at once).
+    let v = (x * inv_w).max(0.0).min((n - 1) as f64);
+    // SAFETY: v is finite and in [0, n − 1] ⊂ [0, 2³²), so the truncation is defined.
+    unsafe { v.to_int_unchecked::<u32>() as usize }
 }
 
 /// Exact solid angle of the ring θ ∈ [θ₀, θ₁]: 2π (cos θ₀ − cos θ₁), sr. MCML's `Rd_a`

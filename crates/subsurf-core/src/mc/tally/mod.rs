@@ -1,8 +1,10 @@
 //! Tallies: what the kernel scores. The kernel is generic over [`Tally`] (static dispatch,
 //! monomorphised per tally set, so a run that asks only for totals pays nothing for grids).
 //!
-//! Standard errors come from per-photon second moments: every tally sees
-//! [`Tally::begin_photon`] / [`Tally::end_photon`] around each photon's history.
+//! Standard errors: the totals keep per-photon second moments (a partial score per lane, between
+//! [`Tally::begin_photon`] and [`Tally::end_photon`]); histograms keep batch means over fixed
+//! photon batches ([`accum`]), closed by [`Tally::end_batch`] when every photon of the batch
+//! has ended.
 //!
 //! Merging: a tally scores one chunk of photons in f64 (a fixed, sequential order), then
 //! [`Tally::drain_into`] adds its sums *exactly* into the run's [`ChannelState`]s (fixed-point,
@@ -17,8 +19,52 @@ pub mod histogram;
 pub mod set;
 pub mod totals;
 
+use super::lanes::LANES;
 use super::packet::{Packet, Side};
 use exact::{Sum1, Sum2};
+
+/// The physical absorption deposits of one step of the lane kernel: lane `i` deposits `dep[i]`
+/// at (`x[i]`, `y[i]`, `z[i]`) in layer `layer[i]` when bit `i` of `mask` is set. Handed to
+/// [`Tally::absorb_lanes`] so that a tally can compute its bins for all lanes at once.
+#[derive(Clone, Copy, Debug)]
+pub struct Deposits<'a> {
+    pub x: &'a [f64; LANES],
+    pub y: &'a [f64; LANES],
+    pub z: &'a [f64; LANES],
+    pub layer: &'a [u32; LANES],
+    pub dep: &'a [f64; LANES],
+    pub mask: u32,
+}
+
+impl Deposits<'_> {
+    /// The lanes with a deposit, in increasing order.
+    #[inline]
+    pub fn lanes(&self) -> impl Iterator<Item = usize> {
+        let mut m = self.mask;
+        std::iter::from_fn(move || {
+            (m != 0).then(|| {
+                let i = m.trailing_zeros() as usize;
+                m &= m - 1;
+                i
+            })
+        })
+    }
+
+    /// The packet of lane `i` as [`Tally::absorb`] sees it (position and layer; the rest is not
+    /// known here and set to neutral values).
+    #[inline]
+    pub fn packet(&self, i: usize) -> Packet {
+        Packet {
+            pos: [self.x[i], self.y[i], self.z[i]],
+            dir: [0.0, 0.0, 1.0],
+            w: 0.0,
+            layer: self.layer[i] as usize,
+            order: 0,
+            reflections: 0,
+            path: 0.0,
+        }
+    }
+}
 
 pub use accum::Accum;
 pub use config::TallyConfig;
@@ -99,26 +145,50 @@ impl ChannelState {
 }
 
 /// Receiver of the kernel's events. All weights are in units of the launched packet weight (1).
+///
+/// The lane kernel (`mc::lanes`) follows up to [`LANES`] photon histories at once, so every
+/// event names its lane: between `begin_photon(lane, …)` and `end_photon(lane)` the events of
+/// that lane belong to one photon, while events of different lanes interleave.
 pub trait Tally: Send {
-    /// A new photon history starts; `photon` is its global index (0 … N−1).
-    fn begin_photon(&mut self, photon: u64);
+    /// Whether [`Tally::absorb`] needs each deposit with its position. `false` (the totals):
+    /// the kernel may add up a lane's deposits in one layer and report them together, with the
+    /// packet where the sum is handed over (its `layer` is right, its position is not).
+    const POSITIONS: bool = true;
+    /// Whether the tally needs [`Tally::end_batch`] calls (batch-means standard errors); the
+    /// kernel then traces each batch of [`crate::mc::config::BATCH_PHOTONS`] to its end
+    /// before starting the next.
+    fn batched(&self) -> bool {
+        false
+    }
+    /// Lane `lane` starts a new photon history; `photon` is its global index (0 … N−1).
+    fn begin_photon(&mut self, lane: usize, photon: u64);
     /// Weight reflected specularly at the top surface on launch.
-    fn specular(&mut self, w: f64);
+    fn specular(&mut self, lane: usize, w: f64);
     /// Weight `dw ≥ 0` physically absorbed (w σa/σt at an interaction) at the packet's position
     /// `p.pos` in layer `p.layer`.
-    fn absorb(&mut self, p: &Packet, dw: f64);
+    fn absorb(&mut self, lane: usize, p: &Packet, dw: f64);
+    /// The physical deposits of one lane step (see [`Deposits`]); by default one
+    /// [`Tally::absorb`] per lane. Absorption tallies override it to bin all lanes at once.
+    #[inline]
+    fn absorb_lanes(&mut self, d: &Deposits) {
+        for i in d.lanes() {
+            self.absorb(i, &d.packet(i), d.dep[i]);
+        }
+    }
     /// Weight `dw` removed from (dw > 0) or added to (dw < 0) the packet by Russian roulette —
     /// its zero-mean control term, so that energy balance holds exactly in every run — or the
     /// weight of a packet that can never leave (see `mc::kernel`). Not absorption: the totals
     /// book it in `absorbed` (which is then 1 − R_sp − R_d − T exactly, and never negative),
     /// the histograms and per-layer absorption do not.
-    fn roulette(&mut self, p: &Packet, dw: f64);
+    fn roulette(&mut self, lane: usize, p: &Packet, dw: f64);
     /// The packet leaves through `side` with weight `w`. `p` is its state at the exit point
     /// (inside, before refraction); `dir_out` is its unit direction in the ambient medium after
     /// refraction (`dir_out[2] < 0` for `Side::Top`, `> 0` for `Side::Bottom`).
-    fn escape(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64);
-    /// The current photon history has ended.
-    fn end_photon(&mut self);
+    fn escape(&mut self, lane: usize, p: &Packet, side: Side, dir_out: [f64; 3], w: f64);
+    /// The history on lane `lane` has ended.
+    fn end_photon(&mut self, lane: usize);
+    /// The photons of one batch (`photons` of them, all ended) are done (see [`accum`]).
+    fn end_batch(&mut self, _photons: u64) {}
     /// Append the descriptions of this tally's channels to `out` (fixed for a configuration).
     fn channels(&self, out: &mut Vec<Channel>);
     /// Add this tally's sums exactly into `state` (its own channels first, in the order of
@@ -132,18 +202,19 @@ pub trait Tally: Send {
 
 /// The empty tally: scores nothing (for runs that need only the engine's own counters).
 impl Tally for () {
+    const POSITIONS: bool = false;
     #[inline]
-    fn begin_photon(&mut self, _photon: u64) {}
+    fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
     #[inline]
-    fn specular(&mut self, _w: f64) {}
+    fn specular(&mut self, _lane: usize, _w: f64) {}
     #[inline]
-    fn absorb(&mut self, _p: &Packet, _dw: f64) {}
+    fn absorb(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
     #[inline]
-    fn roulette(&mut self, _p: &Packet, _dw: f64) {}
+    fn roulette(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
     #[inline]
-    fn escape(&mut self, _p: &Packet, _side: Side, _dir_out: [f64; 3], _w: f64) {}
+    fn escape(&mut self, _lane: usize, _p: &Packet, _side: Side, _dir_out: [f64; 3], _w: f64) {}
     #[inline]
-    fn end_photon(&mut self) {}
+    fn end_photon(&mut self, _lane: usize) {}
     fn channels(&self, _out: &mut Vec<Channel>) {}
     fn drain_into(&mut self, _state: &mut [ChannelState]) -> Option<usize> {
         Some(0)
@@ -155,35 +226,49 @@ impl Tally for () {
 
 /// Two tallies side by side, e.g. `(Totals, TallySet)`: each sees every event.
 impl<A: Tally, B: Tally> Tally for (A, B) {
-    #[inline]
-    fn begin_photon(&mut self, photon: u64) {
-        self.0.begin_photon(photon);
-        self.1.begin_photon(photon);
+    const POSITIONS: bool = A::POSITIONS || B::POSITIONS;
+    fn batched(&self) -> bool {
+        self.0.batched() || self.1.batched()
     }
     #[inline]
-    fn specular(&mut self, w: f64) {
-        self.0.specular(w);
-        self.1.specular(w);
+    fn begin_photon(&mut self, lane: usize, photon: u64) {
+        self.0.begin_photon(lane, photon);
+        self.1.begin_photon(lane, photon);
     }
     #[inline]
-    fn absorb(&mut self, p: &Packet, dw: f64) {
-        self.0.absorb(p, dw);
-        self.1.absorb(p, dw);
+    fn specular(&mut self, lane: usize, w: f64) {
+        self.0.specular(lane, w);
+        self.1.specular(lane, w);
     }
     #[inline]
-    fn roulette(&mut self, p: &Packet, dw: f64) {
-        self.0.roulette(p, dw);
-        self.1.roulette(p, dw);
+    fn absorb(&mut self, lane: usize, p: &Packet, dw: f64) {
+        self.0.absorb(lane, p, dw);
+        self.1.absorb(lane, p, dw);
+    }
+    #[inline(always)]
+    fn absorb_lanes(&mut self, d: &Deposits) {
+        self.0.absorb_lanes(d);
+        self.1.absorb_lanes(d);
     }
     #[inline]
-    fn escape(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
-        self.0.escape(p, side, dir_out, w);
-        self.1.escape(p, side, dir_out, w);
+    fn roulette(&mut self, lane: usize, p: &Packet, dw: f64) {
+        self.0.roulette(lane, p, dw);
+        self.1.roulette(lane, p, dw);
     }
     #[inline]
-    fn end_photon(&mut self) {
-        self.0.end_photon();
-        self.1.end_photon();
+    fn escape(&mut self, lane: usize, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
+        self.0.escape(lane, p, side, dir_out, w);
+        self.1.escape(lane, p, side, dir_out, w);
+    }
+    #[inline]
+    fn end_photon(&mut self, lane: usize) {
+        self.0.end_photon(lane);
+        self.1.end_photon(lane);
+    }
+    #[inline]
+    fn end_batch(&mut self, photons: u64) {
+        self.0.end_batch(photons);
+        self.1.end_batch(photons);
     }
     fn channels(&self, out: &mut Vec<Channel>) {
         self.0.channels(out);

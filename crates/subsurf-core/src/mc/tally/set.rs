@@ -43,8 +43,10 @@ use std::f64::consts::PI;
 use super::accum::Accum;
 use super::config::TallyConfig;
 use super::histogram::{bin_clamped, histogram, Axis, AxisKind, HistogramOut};
+use super::Deposits;
 use super::{Channel, ChannelState, Tally};
 use crate::error::Result;
+use crate::mc::lanes::LANES;
 use crate::mc::packet::{Packet, Side};
 use crate::medium::Stack;
 
@@ -197,7 +199,6 @@ const N_ACC: usize = A_Z + 4;
 #[derive(Clone, Debug, PartialEq)]
 pub struct TallySet {
     cfg: TallyConfig,
-    photon: u64,
     inv_dr: f64,
     inv_dz: f64,
     inv_da: f64,
@@ -216,7 +217,17 @@ pub struct TallySet {
     /// The accumulators: rd side, tt side (each in [`SIDE_SPECS`] order), then a_z, a_rz and the
     /// straddling fluence sums; empty when disabled.
     acc: Vec<Accum>,
+    /// Per lane, the (r, z) bin of its latest absorption deposits and their sum, not yet added
+    /// to a_z/a_rz: consecutive deposits of a lane often fall in one bin (deep or far photons in
+    /// the overflow bins), and adding them up per lane avoids a chain of dependent
+    /// read-modify-writes on that bin. Flushed when the lane moves to another bin, at each
+    /// batch end and before draining.
+    pend_bin: [usize; LANES],
+    pend: [f64; LANES],
 }
+
+/// No pending deposit.
+const NO_BIN: usize = usize::MAX;
 
 /// The name or description of spec `text` for side `side` (0 = rd, 1 = tt).
 fn expand(text: &str, side: usize, max_order: u32) -> String {
@@ -242,7 +253,6 @@ impl TallySet {
         let mua_min = if mua_min.is_finite() { mua_min } else { 1.0 };
         let mut t = TallySet {
             cfg: *cfg,
-            photon: u64::MAX - 1,
             inv_dr: 1.0 / cfg.dr,
             inv_dz: 1.0 / cfg.dz,
             inv_da: 1.0 / cfg.da(),
@@ -255,8 +265,20 @@ impl TallySet {
             bounds: stack.boundaries(),
             bin_mua: Vec::new(),
             acc: Vec::new(),
+            pend_bin: [NO_BIN; LANES],
+            pend: [0.0; LANES],
         };
-        t.acc = (0..N_ACC).map(|i| Accum::new(if Self::enabled(cfg, i) { Self::bins(cfg, i) } else { 0 })).collect();
+        // Escape tallies (both sides) get exact per-photon errors, absorption grids batch means.
+        t.acc = (0..N_ACC)
+            .map(|i| {
+                let n = if Self::enabled(cfg, i) { Self::bins(cfg, i) } else { 0 };
+                if i < A_Z {
+                    Accum::per_photon(n, cfg.errors)
+                } else {
+                    Accum::new(n, cfg.errors)
+                }
+            })
+            .collect();
         if cfg.spatial {
             t.bin_mua = (0..cfg.nz)
                 .map(|iz| {
@@ -269,6 +291,24 @@ impl TallySet {
                 .collect();
         }
         Ok(t)
+    }
+
+    /// Add `dw` to the absorption bin `irz` (= ir · nz + iz) of a_rz and to a_z.
+    #[inline]
+    fn add_rz(&mut self, irz: usize, dw: f64) {
+        let iz = irz % self.cfg.nz;
+        self.acc[A_Z].add(iz, dw);
+        self.acc[A_RZ].add(irz, dw);
+    }
+
+    /// Add lane `i`'s pending deposits to the grids.
+    #[inline]
+    fn flush_lane(&mut self, i: usize) {
+        if self.pend_bin[i] != NO_BIN {
+            self.add_rz(self.pend_bin[i], self.pend[i]);
+            self.pend_bin[i] = NO_BIN;
+            self.pend[i] = 0.0;
+        }
     }
 
     /// The spec of accumulator `i` and its side (0 = rd, 1 = tt; 0 for the absorption ones).
@@ -373,6 +413,13 @@ impl TallySet {
     /// Normalise everything into histograms for a run of `photons` photons (see the module docs
     /// for each normalisation). Only the enabled tallies are returned.
     pub fn finalize(&self, photons: u64) -> Vec<HistogramOut> {
+        if self.pend_bin.iter().any(|&b| b != NO_BIN) {
+            let mut t = self.clone();
+            for i in 0..LANES {
+                t.flush_lane(i);
+            }
+            return t.finalize(photons);
+        }
         let mut out: Vec<HistogramOut> =
             (0..PHI_Z).filter(|&i| Self::enabled(&self.cfg, i)).map(|i| self.histogram_of(i, photons, 1.0)).collect();
         if !Self::enabled(&self.cfg, PHI_Z) {
@@ -408,67 +455,93 @@ impl TallySet {
 }
 
 impl Tally for TallySet {
-    #[inline]
-    fn begin_photon(&mut self, photon: u64) {
-        self.photon = photon;
+    /// Only the absorption grids need batches (escape tallies have per-photon errors).
+    fn batched(&self) -> bool {
+        self.cfg.errors && !self.acc[A_Z].is_empty()
     }
 
     #[inline]
-    fn specular(&mut self, _w: f64) {}
+    fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
 
     #[inline]
-    fn absorb(&mut self, p: &Packet, dw: f64) {
-        if self.acc[A_Z].is_empty() {
+    fn specular(&mut self, _lane: usize, _w: f64) {}
+
+    #[inline]
+    fn absorb(&mut self, lane: usize, p: &Packet, dw: f64) {
+        let layer = [p.layer as u32; LANES];
+        let (mut x, mut y, mut z, mut dep) = ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        (x[lane], y[lane], z[lane], dep[lane]) = (p.pos[0], p.pos[1], p.pos[2], dw);
+        self.absorb_lanes(&Deposits { x: &x, y: &y, z: &z, layer: &layer, dep: &dep, mask: 1 << lane });
+    }
+
+    /// Bins of all lanes first (a loop LLVM vectorises), then the scattered adds.
+    #[inline(always)]
+    fn absorb_lanes(&mut self, d: &Deposits) {
+        if self.acc[A_Z].is_empty() || d.mask == 0 {
             return;
         }
-        let (c, ph) = (&self.cfg, self.photon);
-        let iz = bin_clamped(p.pos[2], self.inv_dz, c.nz);
-        let ir = bin_clamped(p.pos[0].hypot(p.pos[1]), self.inv_dr, c.nr);
-        let irz = ir * c.nz + iz;
-        self.acc[A_Z].add(iz, dw, ph);
-        self.acc[A_RZ].add(irz, dw, ph);
-        let scale = self.fluence_scale.get(p.layer).copied().unwrap_or(0.0);
-        if scale > 0.0 && self.bin_mua[iz] < 0.0 {
-            self.acc[PHI_Z].add(iz, dw * scale, ph);
-            self.acc[PHI_RZ].add(irz, dw * scale, ph);
+        let (nz, nr) = (self.cfg.nz, self.cfg.nr);
+        let (mut iz, mut irz) = ([0usize; LANES], [0usize; LANES]);
+        for i in 0..LANES {
+            let r = (d.x[i] * d.x[i] + d.y[i] * d.y[i]).sqrt();
+            let z = bin_clamped(d.z[i], self.inv_dz, nz);
+            iz[i] = z;
+            irz[i] = bin_clamped(r, self.inv_dr, nr) * nz + z;
+        }
+        for i in d.lanes() {
+            let dw = d.dep[i];
+            if self.pend_bin[i] == irz[i] {
+                self.pend[i] += dw;
+            } else {
+                self.flush_lane(i);
+                self.pend_bin[i] = irz[i];
+                self.pend[i] = dw;
+            }
+            if self.bin_mua[iz[i]] < 0.0 {
+                let scale = self.fluence_scale.get(d.layer[i] as usize).copied().unwrap_or(0.0);
+                if scale > 0.0 {
+                    self.acc[PHI_Z].add(iz[i], dw * scale);
+                    self.acc[PHI_RZ].add(irz[i], dw * scale);
+                }
+            }
         }
     }
 
     #[inline]
-    fn roulette(&mut self, _p: &Packet, _dw: f64) {}
+    fn roulette(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
 
     #[inline]
-    fn escape(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
-        let (c, ph) = (&self.cfg, self.photon);
+    fn escape(&mut self, _lane: usize, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
+        let c = &self.cfg;
         let s = match side {
             Side::Top => &mut self.acc[..PER_SIDE],
             Side::Bottom => &mut self.acc[PER_SIDE..2 * PER_SIDE],
         };
-        let ir = bin_clamped(p.pos[0].hypot(p.pos[1]), self.inv_dr, c.nr);
+        let ir = bin_clamped((p.pos[0] * p.pos[0] + p.pos[1] * p.pos[1]).sqrt(), self.inv_dr, c.nr);
         let mu = dir_out[2].abs().min(1.0);
         if !s[R].is_empty() {
-            s[R].add(ir, w, ph);
+            s[R].add(ir, w);
         }
         if !s[A].is_empty() {
             let ia = bin_clamped(mu.acos(), self.inv_da, c.na);
-            s[A].add(ia, w, ph);
+            s[A].add(ia, w);
             if !s[RA].is_empty() {
-                s[RA].add(ir * c.na + ia, w, ph);
+                s[RA].add(ir * c.na + ia, w);
             }
         }
         if !s[T].is_empty() {
             let it = bin_clamped(p.path / C_MM_PER_PS, self.inv_dt, c.nt);
-            s[T].add(it, w, ph);
+            s[T].add(it, w);
             if !s[RT].is_empty() {
-                s[RT].add(ir * c.nt + it, w, ph);
+                s[RT].add(ir * c.nt + it, w);
             }
         }
         let ko = p.order.min(self.max_order + 1) as usize;
         let direct1 = p.order == 1 && p.reflections == 0;
         if !s[ORDER].is_empty() {
-            s[ORDER].add(ko, w, ph);
+            s[ORDER].add(ko, w);
             if direct1 {
-                s[SINGLE].add(0, w, ph);
+                s[SINGLE].add(0, w);
             }
         }
         if !s[BSDF].is_empty() {
@@ -479,19 +552,28 @@ impl Tally for TallySet {
             }
             let ip = bin_clamped(phi, self.n_phi as f64 / (2.0 * PI), self.n_phi);
             let b = ic * self.n_phi + ip;
-            s[BSDF].add(b, w, ph);
+            s[BSDF].add(b, w);
             if !s[ORDER].is_empty() {
                 let nb = s[BSDF].len();
-                s[BSDF_ORDER].add(ko * nb + b, w, ph);
+                s[BSDF_ORDER].add(ko * nb + b, w);
                 if direct1 {
-                    s[BSDF_SINGLE].add(b, w, ph);
+                    s[BSDF_SINGLE].add(b, w);
                 }
             }
         }
     }
 
     #[inline]
-    fn end_photon(&mut self) {}
+    fn end_photon(&mut self, _lane: usize) {}
+
+    fn end_batch(&mut self, photons: u64) {
+        for i in 0..LANES {
+            self.flush_lane(i);
+        }
+        for a in &mut self.acc {
+            a.end_batch(photons);
+        }
+    }
 
     fn channels(&self, out: &mut Vec<Channel>) {
         for (i, a) in self.acc.iter().enumerate().filter(|(_, a)| !a.is_empty()) {
@@ -501,6 +583,10 @@ impl Tally for TallySet {
     }
 
     fn drain_into(&mut self, state: &mut [ChannelState]) -> Option<usize> {
+        // Pending deposits remain only without errors (a batch end flushes them): plain sums.
+        for i in 0..LANES {
+            self.flush_lane(i);
+        }
         let mut k = 0;
         let mut ok = true;
         for a in self.acc.iter_mut().filter(|a| !a.is_empty()) {

@@ -2,6 +2,7 @@
 //! identities checked exactly, bin placement, standard errors against brute force, merging.
 
 use super::*;
+use crate::mc::config::BATCH_PHOTONS;
 use crate::medium::Layer;
 use crate::stats::SplitMix64;
 
@@ -31,6 +32,7 @@ fn config() -> TallyConfig {
         max_order: Some(3),
         spatial: true,
         angular: true,
+        errors: true,
     }
 }
 
@@ -55,8 +57,9 @@ struct Truth {
 fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut Truth) {
     let s = stack();
     let mut st = SplitMix64::new(seed);
+    let end = photons.end;
     for ph in photons {
-        t.begin_photon(ph);
+        t.begin_photon(0, ph);
         for _ in 0..(st.next_f64() * 5.0) as usize {
             let z = st.next_f64() * 0.2; // beyond the 0.12 mm grid sometimes
             let layer = if z < 0.0625 {
@@ -68,7 +71,7 @@ fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut T
             };
             let r = st.next_f64() * 0.25;
             let dw = st.next_f64() * 0.3 - 0.05;
-            t.absorb(&packet([r * 0.6, r * 0.8, z], layer, 1, 0, 0.0), dw);
+            t.absorb(0, &packet([r * 0.6, r * 0.8, z], layer, 1, 0, 0.0), dw);
             truth.absorbed += dw;
             if s.layers[layer].mua > 0.0 {
                 truth.fluence_plane += dw / s.layers[layer].mua;
@@ -85,8 +88,9 @@ fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut T
         let path = st.next_f64() * 1.5; // up to 5 ps, beyond the 4 ps grid
         let dz = if top { -mu } else { mu };
         let p = packet([r, 0.0, if top { 0.0 } else { 1.0 }], 0, order, refl, path);
-        t.escape(&p, if top { Side::Top } else { Side::Bottom }, [sin * phi.cos(), sin * phi.sin(), dz], w);
-        t.end_photon();
+        t.escape(0, &p, if top { Side::Top } else { Side::Bottom }, [sin * phi.cos(), sin * phi.sin(), dz], w);
+        t.end_photon(0);
+        close_batch(t, ph, end);
         if top {
             truth.top += w;
             truth.top_order[order.min(4) as usize] += w;
@@ -99,6 +103,14 @@ fn run(t: &mut TallySet, photons: std::ops::Range<u64>, seed: u64, truth: &mut T
                 truth.bottom_single += w;
             }
         }
+    }
+}
+
+/// Close the batch photon `ph` ends, as the run does: at each multiple of [`BATCH_PHOTONS`]
+/// and at the end of the range.
+fn close_batch(t: &mut TallySet, ph: u64, end: u64) {
+    if (ph + 1).is_multiple_of(BATCH_PHOTONS) || ph + 1 == end {
+        t.end_batch(ph + 1 - (ph / BATCH_PHOTONS) * BATCH_PHOTONS);
     }
 }
 
@@ -205,13 +217,14 @@ fn normalisations_integrate_to_totals() {
 fn bin_placement_by_hand() {
     let cfg = config();
     let mut t = TallySet::new(&cfg, &stack()).unwrap();
-    t.begin_photon(0);
+    t.begin_photon(0, 0);
     // r = 0.05 mm → bin 2 (edges 0.04, 0.06); exit θ = 40° → bin 2 of 15° bins; t = 0.6/c ≈ 2.0 ps → bin 4
     let th = 40f64.to_radians();
     let dir = [th.sin() * (-0.5f64).cos(), th.sin() * (-0.5f64).sin(), -th.cos()]; // φ = 2π − 0.5
-    t.escape(&packet([0.03, 0.04, 0.0], 0, 1, 0, 0.6), Side::Top, dir, 0.5);
-    t.absorb(&packet([0.0, 0.5, 0.3], 2, 1, 0, 0.0), 0.25); // r, z overflow → last bins
-    t.end_photon();
+    t.escape(0, &packet([0.03, 0.04, 0.0], 0, 1, 0, 0.6), Side::Top, dir, 0.5);
+    t.absorb(0, &packet([0.0, 0.5, 0.3], 2, 1, 0, 0.0), 0.25); // r, z overflow → last bins
+    t.end_photon(0);
+    t.end_batch(1);
     let h = t.finalize(4);
     let area2 = PI * 0.02 * 0.02 * 5.0;
     let rd_r = get(&h, "rd_r");
@@ -242,31 +255,35 @@ fn bin_placement_by_hand() {
 
 #[test]
 fn stderr_matches_brute_force() {
-    // Two deposits per photon in the same r bin for some photons: the per-photon score is the
-    // sum, and the stderr must use Σ(per-photon score)², not Σ(deposit)².
+    // Several deposits per photon, some in the same bin; the stderr is the batch-means one
+    // (batches of BATCH_PHOTONS photons, the last one short), computed here by brute force.
     let cfg = config();
     let s = stack();
     let mut t = TallySet::new(&cfg, &s).unwrap();
-    let n = 300u64;
+    let n = 3 * BATCH_PHOTONS + 44;
     let mut st = SplitMix64::new(5);
-    let mut scores = vec![[0.0f64; 12]; n as usize];
+    let nb = n.div_ceil(BATCH_PHOTONS) as usize;
+    let mut totals = vec![[0.0f64; 12]; nb];
     for ph in 0..n {
-        t.begin_photon(ph);
+        t.begin_photon(0, ph);
         for _ in 0..3 {
             let z = st.next_f64() * 0.045; // depth bins 0..2, layer 0
             let dw = st.next_f64();
-            t.absorb(&packet([0.0, 0.0, z], 0, 0, 0, 0.0), dw);
-            scores[ph as usize][(z / cfg.dz) as usize] += dw;
+            t.absorb(0, &packet([0.0, 0.0, z], 0, 0, 0, 0.0), dw);
+            totals[(ph / BATCH_PHOTONS) as usize][(z / cfg.dz) as usize] += dw;
         }
-        t.end_photon();
+        t.end_photon(0);
+        close_batch(&mut t, ph, n);
     }
     let h = t.finalize(n);
     let az = get(&h, "a_z");
     let nf = n as f64;
     for iz in 0..3 {
-        let m = scores.iter().map(|x| x[iz]).sum::<f64>() / nf;
-        let var = scores.iter().map(|x| (x[iz] - m).powi(2)).sum::<f64>() / (nf - 1.0);
-        let se = (var / nf).sqrt() / cfg.dz;
+        let s1: f64 = totals.iter().map(|x| x[iz]).sum();
+        let q: f64 =
+            (0..nb).map(|k| totals[k][iz].powi(2) / (n - k as u64 * BATCH_PHOTONS).min(BATCH_PHOTONS) as f64).sum();
+        let m = s1 / nf;
+        let se = ((q - nf * m * m) / (nb as f64 - 1.0) / nf).sqrt() / cfg.dz;
         assert!(close(az.values[iz], m / cfg.dz));
         assert!((az.stderr[iz] - se).abs() < 1e-10 * se, "{} {se}", az.stderr[iz]);
     }
@@ -282,7 +299,10 @@ fn exact_merge_is_partition_independent_and_matches_a_single_tally() {
     let mut whole = TallySet::new(&cfg, &s).unwrap();
     let mut truth = Truth::default();
     // same seeds per chunk so the photons are identical
-    let chunks: Vec<(std::ops::Range<u64>, u64)> = vec![(0..100, 1), (100..250, 2), (250..400, 3)];
+    // (chunks of a run hold whole batches)
+    let b = BATCH_PHOTONS;
+    let chunks: Vec<(std::ops::Range<u64>, u64)> = vec![(0..b, 1), (b..3 * b, 2), (3 * b..3 * b + 144, 3)];
+    let n = 3 * b + 144;
     for (r, seed) in &chunks {
         run(&mut whole, r.clone(), *seed, &mut truth);
     }
@@ -308,12 +328,12 @@ fn exact_merge_is_partition_independent_and_matches_a_single_tally() {
             }
         }
         let mut t = TallySet::new(&cfg, &s).unwrap();
-        t.load_from(&acc, 400);
-        t.finalize(400)
+        t.load_from(&acc, n);
+        t.finalize(n)
     };
     let (ha, hb) = (fold(&[0, 1, 2]), fold(&[2, 0, 1]));
     assert!(ha.iter().zip(&hb).all(|(a, b)| a.same_bits(b)), "exact merge must not depend on the order");
-    let hw = whole.finalize(400);
+    let hw = whole.finalize(n);
     assert_eq!(ha.len(), hw.len());
     for (x, y) in ha.iter().zip(&hw) {
         assert_eq!(x.name, y.name);
@@ -350,9 +370,9 @@ fn switches_select_histograms() {
     // a disabled TallySet ignores events without touching memory
     cfg = TallyConfig { spatial: false, angular: false, ..TallyConfig::default() };
     let mut t = TallySet::new(&cfg, &stack()).unwrap();
-    t.begin_photon(0);
-    t.absorb(&packet([0.0, 0.0, 0.1], 0, 0, 0, 0.0), 1.0);
-    t.escape(&packet([0.0, 0.0, 0.0], 0, 0, 0, 0.0), Side::Top, [0.0, 0.0, -1.0], 1.0);
+    t.begin_photon(0, 0);
+    t.absorb(0, &packet([0.0, 0.0, 0.1], 0, 0, 0, 0.0), 1.0);
+    t.escape(0, &packet([0.0, 0.0, 0.0], 0, 0, 0, 0.0), Side::Top, [0.0, 0.0, -1.0], 1.0);
     assert!(t.finalize(1).is_empty());
     let bad = TallyConfig { nr: 0, ..TallyConfig::default() };
     assert!(TallySet::new(&bad, &stack()).unwrap_err().to_string().starts_with("tallies.nr"));
@@ -368,15 +388,16 @@ fn fluence_in_a_bin_straddling_two_absorbing_layers() {
     .unwrap();
     let cfg = TallyConfig { nr: 2, dr: 0.1, nz: 3, dz: 0.01, ..TallyConfig::default() };
     let mut t = TallySet::new(&cfg, &s).unwrap();
-    t.begin_photon(0);
-    t.absorb(&packet([0.0, 0.0, 0.005], 0, 1, 0, 0.0), 0.2); // bin 0, layer 0
-    t.absorb(&packet([0.0, 0.0, 0.012], 0, 1, 0, 0.0), 0.3); // bin 1, layer 0
-    t.absorb(&packet([0.0, 0.0, 0.018], 1, 1, 0, 0.0), 0.4); // bin 1, layer 1
-    t.absorb(&packet([0.0, 0.0, 0.5], 1, 1, 0, 0.0), 0.8); // bin 2 (overflow), layer 1
-    t.end_photon();
-    t.begin_photon(1);
-    t.absorb(&packet([0.0, 0.0, 0.019], 1, 1, 0, 0.0), 0.4); // bin 1, layer 1
-    t.end_photon();
+    t.begin_photon(0, 0);
+    t.absorb(0, &packet([0.0, 0.0, 0.005], 0, 1, 0, 0.0), 0.2); // bin 0, layer 0
+    t.absorb(0, &packet([0.0, 0.0, 0.012], 0, 1, 0, 0.0), 0.3); // bin 1, layer 0
+    t.absorb(0, &packet([0.0, 0.0, 0.018], 1, 1, 0, 0.0), 0.4); // bin 1, layer 1
+    t.absorb(0, &packet([0.0, 0.0, 0.5], 1, 1, 0, 0.0), 0.8); // bin 2 (overflow), layer 1
+    t.end_photon(0);
+    t.begin_photon(0, 1);
+    t.absorb(0, &packet([0.0, 0.0, 0.019], 1, 1, 0, 0.0), 0.4); // bin 1, layer 1
+    t.end_photon(0);
+    t.end_batch(2);
     let h = t.finalize(2);
     let (fz, frz) = (get(&h, "fluence_z"), get(&h, "fluence_rz"));
     let want = [0.2 / 1.0, 0.3 / 1.0 + 0.4 / 4.0 + 0.4 / 4.0, 0.8 / 4.0].map(|x| x / 2.0 / 0.01);
@@ -385,8 +406,6 @@ fn fluence_in_a_bin_straddling_two_absorbing_layers() {
         assert!(close(frz.values[iz], want[iz] / (PI * 0.01)), "rz bin {iz}");
         assert_eq!(frz.values[3 + iz], 0.0);
     }
-    // stderr of the straddling bin from its per-photon scores 0.4 and 0.1: sample variance
-    // 0.045, se = √(0.045/2) = 0.15, over dz:
-    let se = 0.15 / 0.01;
-    assert!((fz.stderr[1] - se).abs() < 1e-9 * se, "{} {se}", fz.stderr[1]);
+    // two photons are one batch: no standard error (see `accum`)
+    assert!(fz.stderr[1].is_nan());
 }

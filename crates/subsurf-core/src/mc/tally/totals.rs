@@ -19,7 +19,8 @@
 //! and a survivor never weighs more than 10⁻³ of it, a photon never leaves with more than it
 //! brought, so `absorbed` is never negative either.
 
-use super::{Channel, ChannelState, Tally};
+use super::{Channel, ChannelState, Deposits, Tally};
+use crate::mc::lanes::LANES;
 use crate::mc::packet::{Packet, Side};
 
 /// Index of each total in the accumulator arrays.
@@ -66,8 +67,10 @@ pub const TOTAL_NAMES: [&str; NQ] = [
 pub struct Totals {
     photons: u64,
     layers: usize,
-    /// The current photon's scores: the [`Total`]s, and the physical absorption per layer.
-    cur: [f64; NQ],
+    /// Each lane's current photon's scores: the [`Total`]s, and (lane-major,
+    /// `cur_layer[lane · layers + layer]`) the physical absorption per layer. Zero between
+    /// photons: `end_photon` clears them as it reads them.
+    cur: [[f64; NQ]; LANES],
     cur_layer: Vec<f64>,
     /// Over photons, slots of the [`Total`]s then of the layers: Σx, Σx², and the bounds of x
     /// (a chunk keeps only whether x was the same for every photon — cheaper than min/max per
@@ -102,8 +105,8 @@ impl Totals {
         Totals {
             photons: 0,
             layers,
-            cur: [0.0; NQ],
-            cur_layer: vec![0.0; layers],
+            cur: [[0.0; NQ]; LANES],
+            cur_layer: vec![0.0; layers * LANES],
             sum: vec![0.0; n],
             sum2: vec![0.0; n],
             min: vec![f64::INFINITY; n],
@@ -155,50 +158,67 @@ impl Totals {
 }
 
 impl Tally for Totals {
+    const POSITIONS: bool = false;
     #[inline]
-    fn begin_photon(&mut self, _photon: u64) {
-        self.cur = [0.0; NQ];
-        self.cur_layer.fill(0.0);
+    fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
+    #[inline]
+    fn specular(&mut self, lane: usize, w: f64) {
+        self.cur[lane][Total::Specular as usize] += w;
     }
     #[inline]
-    fn specular(&mut self, w: f64) {
-        self.cur[Total::Specular as usize] += w;
+    fn absorb(&mut self, lane: usize, p: &Packet, dw: f64) {
+        self.cur_layer[lane * self.layers + p.layer] += dw;
+    }
+    #[inline(always)]
+    fn absorb_lanes(&mut self, d: &Deposits) {
+        for i in d.lanes() {
+            self.cur_layer[i * self.layers + d.layer[i] as usize] += d.dep[i];
+        }
     }
     #[inline]
-    fn absorb(&mut self, p: &Packet, dw: f64) {
-        self.cur_layer[p.layer] += dw;
+    fn roulette(&mut self, lane: usize, _p: &Packet, dw: f64) {
+        self.cur[lane][Total::Roulette as usize] += dw;
     }
     #[inline]
-    fn roulette(&mut self, _p: &Packet, dw: f64) {
-        self.cur[Total::Roulette as usize] += dw;
-    }
-    #[inline]
-    fn escape(&mut self, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
+    fn escape(&mut self, lane: usize, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
+        let cur = &mut self.cur[lane];
         match side {
-            Side::Top => self.cur[Total::Diffuse as usize] += w,
+            Side::Top => cur[Total::Diffuse as usize] += w,
             Side::Bottom => {
-                self.cur[Total::Transmittance as usize] += w;
+                cur[Total::Transmittance as usize] += w;
                 if p.order == 0 {
-                    self.cur[Total::Unscattered as usize] += w;
+                    cur[Total::Unscattered as usize] += w;
                 }
             }
         }
     }
     #[inline]
-    fn end_photon(&mut self) {
+    fn end_photon(&mut self, lane: usize) {
         self.photons += 1;
-        let physical: f64 = self.cur_layer.iter().sum();
-        self.cur[Total::Absorbed as usize] = physical + self.cur[Total::Roulette as usize];
+        let nl = self.layers;
         let first = self.photons == 1;
-        for (i, &x) in self.cur.iter().chain(&self.cur_layer).enumerate() {
-            self.sum[i] += x;
-            self.sum2[i] += x * x;
+        let score = |i: usize, x: f64, sum: &mut [f64], sum2: &mut [f64], min: &mut [f64], max: &mut [f64]| {
+            sum[i] += x;
+            sum2[i] += x * x;
             if first {
-                (self.min[i], self.max[i]) = (x, x);
-            } else if x != self.min[i] {
-                (self.min[i], self.max[i]) = (f64::NEG_INFINITY, f64::INFINITY);
+                (min[i], max[i]) = (x, x);
+            } else if x != min[i] {
+                (min[i], max[i]) = (f64::NEG_INFINITY, f64::INFINITY);
             }
+        };
+        let (sum, sum2, min, max) = (&mut self.sum, &mut self.sum2, &mut self.min, &mut self.max);
+        let mut physical = 0.0;
+        for j in 0..nl {
+            let x = std::mem::take(&mut self.cur_layer[lane * nl + j]);
+            physical += x;
+            score(NQ + j, x, sum, sum2, min, max);
         }
+        let cur = &mut self.cur[lane];
+        cur[Total::Absorbed as usize] = physical + cur[Total::Roulette as usize];
+        for (i, &x) in cur.iter().enumerate() {
+            score(i, x, sum, sum2, min, max);
+        }
+        *cur = [0.0; NQ];
     }
     fn channels(&self, out: &mut Vec<Channel>) {
         out.extend(Totals::layout(self.layers));
@@ -244,11 +264,11 @@ mod tests {
         let mut t = Totals::new(1);
         let p = pkt();
         for x in [1.0, 0.0, 0.0, 1.0] {
-            t.begin_photon(0);
-            t.specular(0.25);
-            t.escape(&p, Side::Top, p.dir, x);
-            t.absorb(&p, 1.0 - x);
-            t.end_photon();
+            t.begin_photon(0, 0);
+            t.specular(0, 0.25);
+            t.escape(0, &p, Side::Top, p.dir, x);
+            t.absorb(0, &p, 1.0 - x);
+            t.end_photon(0);
         }
         let (m, se) = t.get(Total::Diffuse);
         assert_eq!(m, 0.5);
@@ -273,12 +293,12 @@ mod tests {
     fn roulette_is_in_the_total_not_in_the_layers() {
         let mut t = Totals::new(2);
         let mut p = pkt();
-        t.begin_photon(0);
-        t.absorb(&p, 0.75);
+        t.begin_photon(0, 0);
+        t.absorb(0, &p, 0.75);
         p.layer = 1;
-        t.roulette(&p, -0.25);
-        t.escape(&p, Side::Top, p.dir, 0.5);
-        t.end_photon();
+        t.roulette(0, &p, -0.25);
+        t.escape(0, &p, Side::Top, p.dir, 0.5);
+        t.end_photon(0);
         assert_eq!(t.get(Total::Absorbed).0, 0.5);
         assert_eq!(t.get(Total::Roulette).0, -0.25);
         assert_eq!(t.absorbed_per_layer()[1].0, 0.0);

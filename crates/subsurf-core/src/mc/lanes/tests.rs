@@ -1,0 +1,327 @@
+//! Tests of the lane kernel: its sampling (χ²), the same bits on every instruction set,
+//! agreement with the scalar reference kernel, coverage of the standard errors, and the
+//! benchmarks of the kernel alone and of whole runs.
+
+use super::*;
+use crate::mc::kernel::Kernel;
+use crate::mc::source::Source;
+use crate::mc::tally::totals::Totals;
+use crate::medium::{Layer, Stack};
+use std::sync::atomic::AtomicBool;
+
+fn layer(n: f64, mua: f64, mus: f64, g: f64, d: f64) -> Layer {
+    Layer::new(n, mua, mus, g, d).unwrap()
+}
+
+use crate::mc::tally::totals::Total;
+use crate::mc::tally::{HistogramOut, TallyConfig, TallySet};
+use crate::mc::{run, RunConfig};
+use crate::optics::Phase;
+use crate::rng::{u32_to_open01, PhotonRng};
+use crate::stats::{chi2_test_cos_phi, graded_cos_edges, sidak_alpha, uniform_edges};
+use std::f64::consts::PI;
+use std::sync::atomic::AtomicU64;
+
+/// The lane kernel's scattering (HG cos θ by [`hg_cos`], azimuth from one 32-bit word and
+/// MCML's update by [`spin_word`], the code the kernel's loop inlines) against the HG pdf ×
+/// uniform φ, in the frame of the incident direction: χ² on a graded (cos θ, φ) grid, 4 HG
+/// values × 2 incident directions (one at normal incidence, |uz| > 1 − 10⁻¹², which takes the
+/// special form) at overall α = 0.01 (Šidák), 2·10⁵ samples each.
+#[test]
+fn lane_scattering_chi2() {
+    let alpha = sidak_alpha(0.01, 8).unwrap();
+    let s = 1.0 / 3.0f64.sqrt();
+    let dirs = [[0.0, 0.0, -1.0], [s, -s, s]];
+    for (k, g) in [0.0, 0.75, 0.95, -0.5].into_iter().enumerate() {
+        let phase = Phase::hg(g).unwrap();
+        let kc = [1.0 + g * g, 0.5 / g, (1.0 - g) * (1.0 + g), 1.0 - g, 2.0 * g];
+        for (j, d) in dirs.into_iter().enumerate() {
+            // An orthonormal frame (t1, t2, d).
+            let t1 = if d[2].abs() > 0.9 { [1.0, 0.0, 0.0] } else { [s, s, 0.0] };
+            let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+            let t1n = {
+                let p = dot(t1, d);
+                let v = [t1[0] - p * d[0], t1[1] - p * d[1], t1[2] - p * d[2]];
+                let l = dot(v, v).sqrt();
+                [v[0] / l, v[1] / l, v[2] / l]
+            };
+            let t2 = [d[1] * t1n[2] - d[2] * t1n[1], d[2] * t1n[0] - d[0] * t1n[2], d[0] * t1n[1] - d[1] * t1n[0]];
+            let mut rng = PhotonRng::new(40 + k as u64, j as u64);
+            let samples: Vec<(f64, f64)> = (0..200_000)
+                .map(|_| {
+                    let ct = hg_cos(kc, g == 0.0, u32_to_open01(rng.next_u32()));
+                    let e = spin_word(d[0], d[1], d[2], ct, rng.next_u32());
+                    let e = [e.0, e.1, e.2];
+                    let p = dot(e, t2).atan2(dot(e, t1n));
+                    (dot(e, d).clamp(-1.0, 1.0), if p < 0.0 { p + 2.0 * PI } else { p })
+                })
+                .collect();
+            let edges = graded_cos_edges(12, 16, 1e-5).unwrap();
+            let r =
+                chi2_test_cos_phi(&samples, &|c, _| phase.pdf(c), &edges, &uniform_edges(0.0, 2.0 * PI, 8)).unwrap();
+            assert!(r.p_value > alpha, "g = {g}, direction {d:?}: {r:?}");
+        }
+    }
+}
+
+/// A stack with every feature the kernel branches on: a clear layer, mismatched indices,
+/// a phase-function mixture, a semi-infinite bottom.
+fn hard_stack() -> Stack {
+    let mix = Phase::mixture(&[(0.7, 0.9), (0.3, -0.3)]).unwrap();
+    Stack::new(
+        vec![
+            layer(1.5, 0.0, 0.0, 0.0, 0.1),
+            layer(1.4, 0.5, 20.0, 0.8, 0.3),
+            Layer::with_phase(1.33, 0.2, 10.0, mix, 0.5).unwrap(),
+            layer(1.45, 0.05, 5.0, 0.0, f64::INFINITY),
+        ],
+        1.0,
+        1.2,
+    )
+    .unwrap()
+}
+
+fn every_tally() -> TallyConfig {
+    TallyConfig {
+        nr: 20,
+        dr: 0.1,
+        nz: 20,
+        dz: 0.05,
+        na: 6,
+        nt: 10,
+        dt: 2.0,
+        brdf: Some((4, 3)),
+        max_order: Some(3),
+        ..TallyConfig::default()
+    }
+}
+
+fn run_all(s: &Stack, cfg: &RunConfig, tc: &TallyConfig) -> (Totals, Vec<HistogramOut>, u64) {
+    let nl = s.layers.len();
+    let set = TallySet::new(tc, s).unwrap();
+    let out = run(s, cfg, || (Totals::new(nl), set.clone()), &AtomicBool::new(false), &AtomicU64::new(0)).unwrap();
+    let h = out.tally.1.finalize(out.photons);
+    (out.tally.0, h, out.events)
+}
+
+/// Every instruction set this machine has gives the same bits (totals, every histogram and
+/// its errors, events) for every source, and so does any thread count.
+#[test]
+fn same_bits_on_every_instruction_set_and_thread_count() {
+    let s = hard_stack();
+    for source in [Source::default(), Source::Pencil { theta: 1.2, phi: 0.4 }, Source::Diffuse] {
+        let mut cfg = RunConfig::new(6_000, 3);
+        cfg.source = source;
+        cfg.threads = Some(1);
+        let reference = run_all(&s, &cfg, &every_tally());
+        assert!((reference.0.energy_balance() - 1.0).abs() < 1e-12);
+        for isa in Isa::available() {
+            for threads in [1, 2] {
+                cfg.isa = Some(isa);
+                cfg.threads = Some(threads);
+                let other = run_all(&s, &cfg, &every_tally());
+                assert_eq!(other.0, reference.0, "{isa:?}, {threads} threads: totals");
+                assert_eq!(other.2, reference.2, "{isa:?}: events");
+                for (a, b) in other.1.iter().zip(&reference.1) {
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&a.values), bits(&b.values), "{isa:?}: {}", a.name);
+                    assert_eq!(bits(&a.stderr), bits(&b.stderr), "{isa:?}: {} stderr", a.name);
+                }
+            }
+        }
+    }
+}
+
+/// The lane kernel and the scalar reference kernel (`mc::kernel`, the same physics with the
+/// azimuth drawn from a disc point) agree on every total and per-layer absorption of the hard
+/// stack within 4 combined standard errors (independent runs: different seeds); the
+/// transmittance is exactly 0 for both (semi-infinite bottom).
+#[test]
+fn lanes_agree_with_scalar_reference() {
+    let s = hard_stack();
+    let nl = s.layers.len();
+    let n = 60_000;
+    let mut cfg = RunConfig::new(n, 21);
+    cfg.source = Source::Pencil { theta: 0.5, phi: 0.0 };
+    let lanes = run(&s, &cfg, || Totals::new(nl), &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().tally;
+    let k = Kernel::new(&s, cfg.source);
+    let mut scalar = Totals::new(nl);
+    for i in 0..n {
+        k.trace::<Totals, true, true>(22, i, &mut scalar, &AtomicBool::new(false)).unwrap();
+    }
+    let check = |name: &str, (a, sa): (f64, f64), (b, sb): (f64, f64)| {
+        let se = (sa * sa + sb * sb).sqrt();
+        assert!((a == b && se == 0.0) || (a - b).abs() < 4.0 * se, "{name}: lanes {a} ± {sa}, scalar {b} ± {sb}");
+    };
+    for (name, q) in [("Rd", Total::Diffuse), ("Tt", Total::Transmittance), ("A", Total::Absorbed)] {
+        check(name, lanes.get(q), scalar.get(q));
+    }
+    for (j, (a, b)) in lanes.absorbed_per_layer().into_iter().zip(scalar.absorbed_per_layer()).enumerate() {
+        if j > 0 {
+            check(&format!("A layer {j}"), a, b);
+        }
+    }
+}
+
+/// Coverage of the standard errors: 200 independent runs (seeds) of the van de Hulst slab
+/// (Rd = 0.09739, Tt = 0.66096, A = 1 − Rd − Tt, MCML paper Table 2) with 16384 photons each;
+/// the fraction of runs whose estimate lies within 1 (2) reported standard errors of the exact
+/// value must match 68.3 % (95.4 %) within 3 binomial standard errors (3.3 % and 1.5 % points
+/// for 200 runs). Checked for the per-photon errors of the totals and of an escape histogram
+/// (rd_r, one bin over the whole surface), and for the batch-means errors of an absorption
+/// histogram (a_z, one bin over the whole slab: its
+/// physical deposits, whose mean is A since roulette's term has mean 0; 64 batches of 256
+/// photons, so the t-distribution of the estimate, 67.9 % and 95.0 % for 63 degrees of
+/// freedom, is within the tolerance of the normal one).
+#[test]
+fn standard_errors_cover_the_exact_values() {
+    let s = Stack::new(vec![layer(1.0, 1.0, 9.0, 0.75, 0.2)], 1.0, 1.0).unwrap();
+    let (rd, tt) = (0.09739, 0.66096);
+    let tc =
+        TallyConfig { nr: 1, dr: 1e3, nz: 1, dz: 1.0, na: 1, spatial: true, angular: true, ..TallyConfig::default() };
+    let area = PI * 1e6;
+    let runs = 200;
+    let mut inside = [[0u32; 2]; 4];
+    for seed in 0..runs {
+        let mut cfg = RunConfig::new(16_384, 1000 + seed);
+        cfg.threads = Some(1);
+        let (t, h, _) = run_all(&s, &cfg, &tc);
+        let get = |name: &str| h.iter().find(|x| x.name == name).unwrap();
+        let (r, a) = (get("rd_r"), get("a_z"));
+        let est = [
+            (t.get(Total::Diffuse), rd),
+            (t.get(Total::Transmittance), tt),
+            ((r.values[0] * area, r.stderr[0] * area), rd),
+            ((a.values[0], a.stderr[0]), 1.0 - rd - tt),
+        ];
+        for (k, ((m, se), exact)) in est.into_iter().enumerate() {
+            for (j, z) in [1.0, 2.0].into_iter().enumerate() {
+                inside[k][j] += ((m - exact).abs() < z * se) as u32;
+            }
+        }
+    }
+    let names = ["Rd (per photon)", "Tt (per photon)", "rd_r (per photon)", "a_z (batch means)"];
+    for (k, name) in names.iter().enumerate() {
+        for (j, p) in [0.6827, 0.9545].into_iter().enumerate() {
+            let f = inside[k][j] as f64 / runs as f64;
+            println!("{name}: {f:.3} of the runs within {} σ (expected {p})", j + 1);
+            let tol = 3.0 * (p * (1.0 - p) / runs as f64).sqrt();
+            assert!((f - p).abs() < tol, "{name}: {f} of the runs within {} σ (expected {p} ± {tol})", j + 1);
+        }
+    }
+}
+
+/// The benchmark cases (a), (c), (d) of `make bench`.
+pub(crate) fn bench_cases() -> Vec<(&'static str, Stack, u64)> {
+    vec![
+        ("a", Stack::new(vec![layer(1.0, 1.0, 9.0, 0.75, 0.2)], 1.0, 1.0).unwrap(), 400_000),
+        (
+            "c",
+            Stack::new(
+                vec![
+                    layer(1.4, 0.1, 10.0, 0.9, 0.1),
+                    layer(1.4, 0.05, 15.0, 0.85, 2.0),
+                    layer(1.4, 0.02, 12.0, 0.9, 10.0),
+                ],
+                1.0,
+                1.0,
+            )
+            .unwrap(),
+            8_000,
+        ),
+        ("d", Stack::new(vec![layer(1.4, 0.01, 10.0, 0.9, 100.0)], 1.0, 1.0).unwrap(), 3_000),
+    ]
+}
+
+/// CPU time of the calling thread in ns, from /proc/thread-self/schedstat (Linux; 0 elsewhere).
+fn cpu_ns() -> u64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().and_then(|x| x.parse().ok()))
+        .unwrap_or(0)
+}
+
+/// Not a test: `cargo test -p subsurf-core bench_lanes -- --ignored --nocapture` prints the
+/// single-thread speed of the lane kernel on each instruction set and of the scalar reference
+/// (Totals tally), per second of this thread's CPU time.
+#[test]
+#[ignore]
+fn bench_lanes() {
+    let filter = std::env::var("BENCH_CASE").unwrap_or_default();
+    for (name, s, n) in bench_cases() {
+        if !filter.is_empty() && !filter.contains(name) {
+            continue;
+        }
+        let k = Kernel::new(&s, Source::default());
+        let nl = s.layers.len();
+        let mut line = format!("case {name}:");
+        let isa_filter = std::env::var("BENCH_ISA").unwrap_or_default();
+        for isa in Isa::available() {
+            if !isa_filter.is_empty() && isa.name() != isa_filter {
+                continue;
+            }
+            let mut t = Totals::new(nl);
+            let c0 = cpu_ns();
+            let ev = trace_range(isa, &k, 1, 0..n, &mut t, &AtomicBool::new(false)).unwrap();
+            let cpu = (cpu_ns() - c0) as f64 * 1e-9;
+            line +=
+                &format!(" {} {:.3e} ev/s ({:.3e} ph/s, {ev} events);", isa.name(), ev as f64 / cpu, n as f64 / cpu);
+        }
+        if !isa_filter.is_empty() {
+            println!("{line}");
+            continue;
+        }
+        let mut t = Totals::new(nl);
+        let c0 = cpu_ns();
+        let mut ev = 0;
+        for i in 0..n {
+            ev += k.trace::<Totals, false, false>(1, i, &mut t, &AtomicBool::new(false)).unwrap();
+        }
+        let cpu = (cpu_ns() - c0) as f64 * 1e-9;
+        line += &format!(" scalar reference {:.3e} ev/s", ev as f64 / cpu);
+        println!("{line}");
+    }
+}
+
+/// CPU time of the whole process (all threads), s, from /proc/self/stat (Linux; 0 elsewhere).
+fn process_cpu_s() -> f64 {
+    std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|s| {
+            let f: Vec<&str> = s.rsplit(')').next()?.split_whitespace().collect();
+            Some((f[11].parse::<f64>().ok()? + f[12].parse::<f64>().ok()?) / 100.0)
+        })
+        .unwrap_or(0.0)
+}
+
+/// Not a test: `cargo test --release -p subsurf-core bench_runs -- --ignored --nocapture` prints
+/// events per CPU-second of whole runs (`mc::run`, 1 thread) with the totals and with MCML's
+/// tally set (100 × 0.01 mm in r and z, 30 angles), with and without errors.
+#[test]
+#[ignore]
+fn bench_runs() {
+    use crate::mc::tally::{TallyConfig, TallySet};
+    use crate::mc::{run, RunConfig};
+    use std::sync::atomic::AtomicU64;
+    let filter = std::env::var("BENCH_CASE").unwrap_or_default();
+    for (name, s, n) in bench_cases() {
+        if !filter.is_empty() && !filter.contains(name) {
+            continue;
+        }
+        let nl = s.layers.len();
+        let mut cfg = RunConfig::new(n * 4, 1);
+        cfg.threads = Some(1);
+        let (stop, done) = (AtomicBool::new(false), AtomicU64::new(0));
+        let mut line = format!("case {name}:");
+        let c0 = process_cpu_s();
+        let ev = run(&s, &cfg, || Totals::new(nl), &stop, &done).unwrap().events;
+        line += &format!(" totals {:.3e} ev/CPU-s;", ev as f64 / (process_cpu_s() - c0));
+        for errors in [true, false] {
+            let set = TallySet::new(&TallyConfig { errors, ..TallyConfig::default() }, &s).unwrap();
+            let c0 = process_cpu_s();
+            let ev = run(&s, &cfg, || (Totals::new(nl), set.clone()), &stop, &done).unwrap().events;
+            line += &format!(" mcml set (errors {errors}) {:.3e} ev/CPU-s;", ev as f64 / (process_cpu_s() - c0));
+        }
+        println!("{line}");
+    }
+}
