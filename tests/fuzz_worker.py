@@ -29,15 +29,26 @@ import warnings
 
 import numpy as np
 
+#: Histograms whose errors are batch means over 256-photon batches (docs/architecture.md).
+BATCH_MEANS = ("a_z", "a_rz", "fluence_z", "fluence_rz")
+
+
+def errors_may_be_nan(name: str, photons: int, errors: bool) -> bool:
+    """The documented cases of NaN histogram errors: ``Tallies(errors=False)``, batch means of
+    N ≤ 256 photons, per-photon errors of N = 1."""
+    return not errors or photons <= (256 if name in BATCH_MEANS else 1)
+
 
 def summary(res) -> dict:
     """What the properties check about a result."""
     totals = [getattr(res, n) for n in ("specular_reflectance", "diffuse_reflectance", "transmittance", "absorbed")]
     errs = [getattr(res, n + "_stderr") for n in ("specular_reflectance", "diffuse_reflectance", "transmittance")]
+    tallies = res.config.get("tallies") or {}
     hist_nan = sorted(
         k
         for k, h in res.histograms.items()
-        if not k.startswith("fluence") and not (np.isfinite(h.values).all() and np.isfinite(h.stderr).all())
+        if not (k.startswith("fluence") or np.isfinite(h.values).all())  # fluence: NaN where μa = 0
+        or not (errors_may_be_nan(k, res.photons, tallies.get("errors", True)) or np.isfinite(h.stderr).all())
     )
     return {
         "totals": totals,

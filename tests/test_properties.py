@@ -114,7 +114,7 @@ def sources():
     n_below=real(1.0, 2.0, 1.0),
     source=sources(),
     tallies=tallies(),
-    photons=st.integers(1 if CAMPAIGN else 2, 40),  # 1 photon: NaN standard errors (core)
+    photons=st.integers(1, 40),
     seed=st.integers(0, 2**64 - 1),
 )
 def test_simulate_ends_in_a_result_or_a_parameter_error(
