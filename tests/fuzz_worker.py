@@ -5,6 +5,7 @@ kills and restarts this process — instead of taking the test session down.
 Protocol: length-prefixed pickles, ``(job, payload)`` on stdin, one reply each on stdout. Jobs:
 
 * ``("simulate", dict)`` — build Layers/Stack/source/Tallies from plain values and simulate;
+* ``("estimate", dict)`` — the core's estimate of scattering events per photon for that stack;
 * ``("cli", (argv, files))`` — write ``files`` ({name: bytes}) to a fresh directory, run
   ``subsurf.cli.main(argv)`` there, and report status, stdout, stderr and the files it wrote;
 * ``("load", (original, damaged))`` — load two results files given as bytes and compare them.
@@ -62,11 +63,24 @@ def summary(res) -> dict:
     }
 
 
-def simulate(p: dict):
+def stack_of(p: dict):
     import subsurf
 
     layers = [subsurf.Layer(*l[:5], phase=l[5]) for l in p["layers"]]
-    stack = subsurf.Stack(layers, n_above=p["n_above"], n_below=p["n_below"])
+    return subsurf.Stack(layers, n_above=p["n_above"], n_below=p["n_below"])
+
+
+def estimate(p: dict):
+    """The core's estimate of scattering events per photon (its refusal of endless histories)."""
+    from subsurf import _core
+
+    return ("ok", _core.mc_expected_events(*stack_of(p)._to_core()))
+
+
+def simulate(p: dict):
+    import subsurf
+
+    stack = stack_of(p)
     src = p["source"]
     source = subsurf.DiffuseIllumination() if src is None else subsurf.PencilBeam(*src)
     tallies = None if p["tallies"] is None else subsurf.Tallies(**p["tallies"])
@@ -133,7 +147,7 @@ def load(payload):
         return ("ok", {"equal": rio.results_equal(ref, back)})
 
 
-JOBS = {"simulate": simulate, "cli": cli, "load": load}
+JOBS = {"estimate": estimate, "simulate": simulate, "cli": cli, "load": load}
 
 
 def main() -> None:
