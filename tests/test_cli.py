@@ -163,7 +163,9 @@ def test_demo_small(tmp_path, cli, one_line_error):
 
 def test_every_command_is_registered():
     sub = next(a for a in cli.build_parser()._actions if a.dest == "command")
-    assert list(sub.choices) == ["simulate", "mcml", "profile", "fit", "materials", "plot", "merge", "demo"]
+    assert list(sub.choices) == [
+        *("simulate", "sweep", "mcml", "profile", "fit", "materials", "plot", "merge", "demo", "render")
+    ]
     assert [m.__name__.rpartition(".")[2] for m in cli.COMMANDS] == list(sub.choices)
 
 

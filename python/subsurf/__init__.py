@@ -27,6 +27,8 @@ _EXPORTS = {
     "simulate": "mc",
     "simulate_range": "mc",
     "TallyState": "state",
+    "SweepResult": "sweeps",
+    "sweep": "sweeps",
     "Histogram": "result",
     "Result": "result",
     "Tallies": "tallies",
@@ -35,7 +37,10 @@ _EXPORTS = {
     "save": "io",
 }
 #: Submodules reachable as attributes (``subsurf.diffusion``) without importing them first.
-_SUBMODULES = ("bssrdf", "diffusion", "hk", "materials", "optics", "testing", "io", "plot", "mcml", "config", "state")
+_SUBMODULES = (
+    *("bssrdf", "diffusion", "hk", "materials", "optics", "testing", "io", "plot", "mcml", "config", "state"),
+    *("render", "sweeps", "cluster"),
+)
 
 __all__ = sorted(set(_EXPORTS) | {"bssrdf", "diffusion", "hk", "materials", "optics", "testing"})
 
@@ -64,4 +69,5 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .medium import Component, Layer, Stack, mix  # noqa: F401
     from .result import Histogram, Result  # noqa: F401
     from .state import TallyState  # noqa: F401
+    from .sweeps import SweepResult, sweep  # noqa: F401
     from .tallies import Tallies  # noqa: F401

@@ -185,16 +185,17 @@ class ProfileTable:
 
 class SlabTable:
     @staticmethod
-    def build(
+    def from_totals(
         g: float,
         n: float,
         n_above: float,
         n_below: float,
         albedos: list[float],
         taus: list[float],
-        photons: int,
-        seed: int,
-    ) -> SlabTable: ...
+        totals: list[tuple[float, float, float, float]],
+    ) -> SlabTable:
+        """totals: (rd, rd_stderr, tt, tt_stderr) per (albedo, tau), row-major"""
+
     def totals(self, albedo: float, tau: float) -> tuple[float, float]: ...
 
 def bssrdf_models() -> list[str]: ...
@@ -209,11 +210,30 @@ def bssrdf_stack_profile(
     max_rel_err: float,
     r_min: float | None = None,
     r_max: float | None = None,
-) -> Profile: ...
+    progress: Callable[[int, int], object] | None = None,
+) -> Profile:
+    """Monte Carlo: interruptible (KeyboardInterrupt)"""
+
 def bssrdf_normalized_diffusion(albedo: float, mfp: float, variant: str) -> Profile: ...
 def bssrdf_chandrasekhar_reflectance(a: float) -> float: ...
 def bssrdf_table_defaults(g: float, eta: float, n_albedos: int) -> dict: ...
-def bssrdf_table_point(settings: dict, index: int) -> dict: ...
+def bssrdf_table_point(settings: dict, index: int, progress: Callable[[int, int], object] | None = None) -> dict:
+    """interruptible (KeyboardInterrupt)"""
+
+def bssrdf_slab_point(
+    g: float,
+    n: float,
+    n_above: float,
+    n_below: float,
+    a: float,
+    tau: float,
+    photons: int,
+    seed: int,
+    threads: int | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> tuple[float, float, float, float]:
+    """(rd, rd_stderr, tt, tt_stderr); interruptible (KeyboardInterrupt)"""
+
 def bssrdf_material_from_appearance(
     albedo: list[float], mfp: list[float], eta: float, g: float, model_name: str, table: ProfileTable | None = None
 ) -> list[tuple[float, float, float, float]]:
@@ -252,3 +272,52 @@ def bssrdf_fit_slab_totals(
     initial: tuple[float, float],
     table: SlabTable | None = None,
 ) -> dict: ...
+
+# --- render (crates/subsurf-py/src/render.rs); scene dicts come from subsurf.render.Scene._to_core
+
+class RenderJob:
+    """A scene prepared for one method; render_pass adds samples (GIL released)."""
+
+    def __init__(
+        self,
+        scene: dict,
+        method: str,
+        seed: int,
+        threads: int | None = None,
+        hierarchical: tuple[float, float, int, int] | None = None,
+    ) -> None: ...
+    def render_pass(self, n: int) -> int:
+        """Render n more samples per pixel; returns the total so far."""
+    def image(self) -> np.ndarray:
+        """Mean radiance, shape (height, width, 3)."""
+    @property
+    def spp(self) -> int: ...
+    @property
+    def dropped(self) -> int: ...
+
+def render_shape(
+    kind: str,
+    a: Sequence[float],
+    b: Sequence[float] | None = None,
+    c: float = 0.0,
+    d: float = 0.0,
+    level: int = 4,
+    nu: int = 64,
+    nv: int = 32,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(positions (N, 3), triangles (M, 3)) of a built-in shape."""
+
+def render_mesh_info(mesh: dict, name: str) -> tuple[bool, int, float, float]:
+    """(closed, open_edges, area, volume) of a validated mesh."""
+
+def render_walk_simulate(
+    scene: dict,
+    source: tuple[str, Sequence[float], Sequence[float]],
+    photons: int,
+    seed: int,
+    channel: int = 0,
+    voxels: tuple[Sequence[float], Sequence[float], Sequence[int]] | None = None,
+    threads: int | None = None,
+) -> dict: ...
+def render_bvh_benchmark(scene: dict, n: int) -> tuple[float, float]:
+    """(incoherent, camera) closest-hit rays/s on one thread."""

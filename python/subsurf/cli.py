@@ -19,7 +19,7 @@ import sys
 import threading
 import warnings
 
-from .commands import demo, fit, materials, mcml, merge, plot, profile, simulate
+from .commands import demo, fit, materials, mcml, merge, plot, profile, render, simulate, sweep
 from .runner import EXIT_BAD_INPUT, EXIT_INTERRUPTED, Interrupted, UserError
 
 EXIT_TERMINATED = 128 + signal.SIGTERM
@@ -33,7 +33,7 @@ class _Parser(argparse.ArgumentParser):
 #: Every sub-command, in the order ``subsurf --help`` lists them. A new one is a module under
 #: ``subsurf/commands/`` (``add_parser(sub)`` and ``run(args)``, see :mod:`subsurf.commands`) and one
 #: entry here.
-COMMANDS = (simulate, mcml, profile, fit, materials, plot, merge, demo)
+COMMANDS = (simulate, sweep, mcml, profile, fit, materials, plot, merge, demo, render)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -96,7 +96,7 @@ def main(argv=None) -> int:
         except Terminated:
             sys.stderr.write("subsurf: terminated\n")
             return EXIT_TERMINATED
-        except (UserError, ValueError, OSError) as e:  # ValueError: subsurf.ParameterError and the file errors
+        except (UserError, ValueError, OSError) as e:  # ParameterError and file errors; OSError: ClusterError
             if os.environ.get("SUBSURF_DEBUG"):
                 raise
             sys.stderr.write(f"subsurf: error: {_message(e)}\n")

@@ -108,4 +108,7 @@ def run(out_dir: str = "out", photons: int | None = None, threads: int | None = 
         f"{dermis.diffuse_reflectance_stderr:.1g}, dipole {dipole:.4f}"
     )
     print(f"wrote {written[0]}, {written[1]} and {png} ({time.monotonic() - t0:.1f} s)")
-    return 0
+    from .render.demo import run as render_demo
+
+    img = render_demo(out_dir, threads=threads, quiet=quiet, quick=photons < DEFAULT_PHOTONS)
+    return runner.EXIT_INTERRUPTED if img.partial else 0

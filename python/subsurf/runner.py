@@ -14,6 +14,7 @@ behaviour:
 
 from __future__ import annotations
 
+import contextlib
 import os
 import warnings
 
@@ -80,3 +81,23 @@ def default_output(config_path: str, output: str | None, ext: str = ".h5") -> st
     if os.path.isabs(output):
         return output
     return os.path.join(os.path.dirname(config_path), output)
+
+
+@contextlib.contextmanager
+def scheduler_client(a):
+    """A Dask client for ``--scheduler`` (closed at the end), or None (see :mod:`subsurf.cluster`)."""
+    if not getattr(a, "scheduler", None):
+        yield None
+        return
+    from .cluster import connect
+
+    if not (a.connect_timeout > 0):
+        raise UserError(f"--connect-timeout = {a.connect_timeout:g} is out of range: must be > 0 (seconds)")
+    try:
+        client = connect(a.scheduler, timeout=a.connect_timeout)
+    except ImportError as e:  # no dask.distributed: say how to get it, in one line
+        raise UserError(str(e)) from None
+    try:
+        yield client
+    finally:
+        client.close()

@@ -12,6 +12,7 @@
 //! - [`hk`]: Hanrahan–Krueger first-order (single-scattering) BRDF/BTDF.
 //! - [`bssrdf`]: radial BSSRDF profiles behind one trait, [`bssrdf::RadialProfile`].
 //! - [`diffusion`]: the Jensen et al. dipole and d'Eon's better dipole.
+//! - [`render`]: images of translucent meshes (hierarchical, probe and random-walk methods).
 //! - [`stats`]: χ² goodness-of-fit kit and quadrature for testing samplers.
 
 pub mod bssrdf;
@@ -21,6 +22,7 @@ pub mod hk;
 pub mod mc;
 pub mod medium;
 pub mod optics;
+pub mod render;
 pub mod rng;
 pub mod stats;
 

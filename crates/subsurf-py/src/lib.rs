@@ -12,6 +12,8 @@ mod hk;
 mod mc;
 mod medium;
 mod optics;
+mod render;
+mod wait;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -22,6 +24,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     mc::register(m)?;
     hk::register(m)?;
     diffusion::register(m)?;
+    render::register(m)?;
     bssrdf::register(m)?;
     Ok(())
 }

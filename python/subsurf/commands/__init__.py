@@ -16,7 +16,7 @@ from typing import Callable
 
 from ..runner import UserError as CommandError
 
-__all__ = ["CommandError", "integer", "add_force", "add_quiet", "U64_MAX"]
+__all__ = ["CommandError", "integer", "add_force", "add_quiet", "add_scheduler_options", "U64_MAX"]
 
 #: The engine counts photons, seeds and threads in 64-bit integers.
 U64_MAX = 2**64 - 1
@@ -44,3 +44,16 @@ def add_force(p: argparse.ArgumentParser, what: str) -> None:
 
 def add_quiet(p: argparse.ArgumentParser) -> None:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or table")
+
+
+def add_scheduler_options(p: argparse.ArgumentParser) -> None:
+    """``--scheduler`` and ``--connect-timeout`` of the commands that can run on a Dask cluster
+    (see :func:`subsurf.runner.scheduler_client`)."""
+    p.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:PORT",
+        help="run on the Dask cluster of this scheduler (pip install 'subsurf[cluster]'; docs/cluster.md)",
+    )
+    p.add_argument(
+        "--connect-timeout", type=float, default=10.0, metavar="SECONDS", help="wait this long for the scheduler"
+    )

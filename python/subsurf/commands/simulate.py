@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from . import U64_MAX, add_force, add_quiet, integer
+from . import U64_MAX, add_force, add_quiet, add_scheduler_options, integer
 
 
 def add_parser(sub) -> None:
@@ -12,10 +12,15 @@ def add_parser(sub) -> None:
     s.add_argument("config", metavar="CONFIG.toml")
     s.add_argument("--photons", type=integer("--photons", 1, U64_MAX), help="override the number of photons")
     s.add_argument("--seed", type=integer("--seed", 0, U64_MAX), help="override the seed")
-    s.add_argument("--threads", type=integer("--threads", 1, U64_MAX), help="worker threads (default: all cores)")
+    s.add_argument(
+        "--threads",
+        type=integer("--threads", 1, U64_MAX),
+        help="worker threads (default: all cores; with --scheduler: per task, 1)",
+    )
     s.add_argument("-o", "--output", metavar="RESULT.h5", help="results file (default: CONFIG.h5)")
     add_force(s, "results file")
     add_quiet(s)
+    add_scheduler_options(s)
     s.set_defaults(func=run)
 
 
@@ -30,7 +35,10 @@ def run(a) -> int:
             kw[key] = getattr(a, key)
     out = a.output or runner.default_output(a.config, cfg.output)
     atomic.check_target(out, force=a.force, inputs=(a.config,))  # before the run: a refusal costs nothing
-    result = runner.simulate(cfg.stack, label="simulate", quiet=a.quiet, **kw)
+    with runner.scheduler_client(a) as client:
+        if client is not None:
+            kw["client"] = client
+        result = runner.simulate(cfg.stack, label="simulate", quiet=a.quiet, **kw)
     result.config["config_file"] = os.path.abspath(a.config)
     path, held = runner.save_result(result, out, force=a.force, inputs=(a.config,))
     if not a.quiet:

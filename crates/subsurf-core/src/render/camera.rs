@@ -1,0 +1,74 @@
+//! The pinhole camera.
+
+use super::math::{cross, dot, length, normalize, sub, V3};
+use crate::error::{Error, Result};
+
+/// A pinhole camera at `position` looking at `look_at`, `fov_deg` the vertical field of view.
+#[derive(Clone, Debug)]
+pub struct Camera {
+    pub position: V3,
+    pub width: usize,
+    pub height: usize,
+    /// Right, up and forward unit vectors.
+    right: V3,
+    up: V3,
+    forward: V3,
+    /// tan(fov/2).
+    tan_half: f64,
+}
+
+impl Camera {
+    /// Validate and build. Errors: non-finite vectors, `look_at` = `position`, `up` parallel to
+    /// the view direction, fov outside (0, 180) degrees, a zero or huge resolution.
+    pub fn new(position: V3, look_at: V3, up: V3, fov_deg: f64, width: usize, height: usize) -> Result<Camera> {
+        for (name, v) in [("camera.position", position), ("camera.look_at", look_at), ("camera.up", up)] {
+            if let Some(c) = v.iter().find(|c| !c.is_finite()) {
+                return Err(Error::param(name, *c, "finite coordinates"));
+            }
+        }
+        let f = sub(look_at, position);
+        if !(length(f) > 0.0) {
+            return Err(Error::Invalid("camera.look_at: must differ from camera.position".into()));
+        }
+        let forward = normalize(f);
+        let r = cross(forward, up);
+        if !(length(r) > 1e-9 * length(up)) || length(up) == 0.0 {
+            return Err(Error::Invalid("camera.up: must be non-zero and not parallel to the view direction".into()));
+        }
+        if !(fov_deg > 0.0 && fov_deg < 180.0) {
+            return Err(Error::param("camera.fov", fov_deg, "in (0, 180) degrees"));
+        }
+        for (name, n) in [("camera.width", width), ("camera.height", height)] {
+            if n == 0 || n > 1 << 15 {
+                return Err(Error::param(name, n as f64, "an integer in [1, 32768] (pixels)"));
+            }
+        }
+        let right = normalize(r);
+        let upv = cross(right, forward);
+        Ok(Camera { position, width, height, right, up: upv, forward, tan_half: (fov_deg.to_radians() / 2.0).tan() })
+    }
+
+    /// Unit direction through the image point (x, y) in pixels (x right, y down; pixel centres
+    /// at k + 0.5).
+    pub fn ray(&self, x: f64, y: f64) -> V3 {
+        let aspect = self.width as f64 / self.height as f64;
+        let sx = (2.0 * x / self.width as f64 - 1.0) * self.tan_half * aspect;
+        let sy = (1.0 - 2.0 * y / self.height as f64) * self.tan_half;
+        let d = [
+            self.forward[0] + sx * self.right[0] + sy * self.up[0],
+            self.forward[1] + sx * self.right[1] + sy * self.up[1],
+            self.forward[2] + sx * self.right[2] + sy * self.up[2],
+        ];
+        normalize(d)
+    }
+
+    /// The viewing direction.
+    pub fn forward(&self) -> V3 {
+        self.forward
+    }
+
+    /// Cosine between the viewing direction and `d`.
+    pub fn cos_to(&self, d: V3) -> f64 {
+        dot(self.forward, d)
+    }
+}

@@ -1,0 +1,144 @@
+//! The progressive renderer: passes of samples per pixel over the image, reproducible for any
+//! thread count.
+//!
+//! Sample `s` of pixel `i` (row-major index) draws from the stream `PhotonRng::new(seed,
+//! (s << 32) | i)` ([`crate::rng`]): a counter-based stream per (pixel, sample), so the image
+//! does not depend on how rows are scheduled. Each pass adds its per-pixel sums (formed in
+//! sample order) to the accumulator, so an image of N spp is the same number whether it was
+//! rendered in one pass or many, and a cancelled render keeps every completed pass.
+
+use super::hierarchical::{Hierarchical, HierarchicalParams};
+use super::math::Rgb;
+use super::probe::Probe;
+use super::random_walk::RandomWalk;
+use super::scene::Scene;
+use super::shade::{trace, Translucency};
+use crate::error::{Error, Result};
+use crate::rng::PhotonRng;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+
+/// The way the translucent term is computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Jensen & Buhler (2002): irradiance samples and an octree.
+    Hierarchical,
+    /// pbrt-v4's probe-ray importance sampling of the profile.
+    Probe,
+    /// Brute-force volumetric random walk inside the closed mesh.
+    RandomWalk,
+}
+
+impl Method {
+    pub const NAMES: [&'static str; 3] = ["hierarchical", "probe", "random_walk"];
+
+    /// Parse a method name; errors list the valid names.
+    pub fn from_name(name: &str) -> Result<Method> {
+        match name {
+            "hierarchical" => Ok(Method::Hierarchical),
+            "probe" => Ok(Method::Probe),
+            "random_walk" => Ok(Method::RandomWalk),
+            other => Err(Error::Invalid(format!("method = {other:?} is unknown: must be one of {:?}", Method::NAMES))),
+        }
+    }
+}
+
+/// A scene prepared for one method.
+pub struct Renderer {
+    pub scene: Arc<Scene>,
+    tr: Box<dyn Translucency>,
+    seed: u64,
+    /// Samples whose radiance was not finite (dropped; should stay 0).
+    pub dropped: AtomicU64,
+}
+
+impl Renderer {
+    /// Prepare `scene` for `method` (the hierarchical method computes its irradiance samples
+    /// and octree here). Errors: random_walk on an open translucent mesh, bad parameters.
+    pub fn new(scene: Arc<Scene>, method: Method, seed: u64, hp: &HierarchicalParams) -> Result<Renderer> {
+        if scene.camera.is_none() {
+            return Err(Error::Invalid("camera: the scene has no camera; add one to render an image".into()));
+        }
+        let tr: Box<dyn Translucency> = match method {
+            Method::Hierarchical => Box::new(Hierarchical::new(&scene, hp, seed)?),
+            Method::Probe => Box::new(Probe::new(&scene)),
+            Method::RandomWalk => {
+                scene.require_closed_translucent("method random_walk")?;
+                Box::new(RandomWalk::new(&scene))
+            }
+        };
+        Ok(Renderer { scene, tr, seed, dropped: AtomicU64::new(0) })
+    }
+
+    fn camera(&self) -> &super::camera::Camera {
+        self.scene.camera.as_ref().expect("checked in new")
+    }
+
+    /// A renderer with a given translucent term (tests compare variants of a method with it).
+    pub fn from_parts(scene: Arc<Scene>, tr: Box<dyn Translucency>, seed: u64) -> Renderer {
+        Renderer { scene, tr, seed, dropped: AtomicU64::new(0) }
+    }
+
+    /// One sample of pixel (x, y): the radiance through a jittered point of the pixel.
+    pub fn sample(&self, x: usize, y: usize, s: u32) -> Rgb {
+        let cam = self.camera();
+        let idx = (y * cam.width + x) as u64;
+        let mut rng = PhotonRng::new(self.seed, ((s as u64) << 32) | idx);
+        let d = cam.ray(x as f64 + rng.uniform(), y as f64 + rng.uniform());
+        let l = trace(&self.scene, cam.position, d, u32::MAX, 0, &mut rng, self.tr.as_ref());
+        if l.iter().all(|v| v.is_finite()) {
+            l
+        } else {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+            [0.0; 3]
+        }
+    }
+
+    /// Add samples `s0 .. s1` of every pixel to `accum` (row-major, 3 floats per pixel: sums
+    /// of radiance). Returns false (leaving `accum` untouched) if `cancel` was set meanwhile.
+    pub fn pass(&self, s0: u32, s1: u32, accum: &mut [f64], cancel: &AtomicBool) -> bool {
+        let (w, h) = (self.camera().width, self.camera().height);
+        assert_eq!(accum.len(), w * h * 3, "accumulator size");
+        let rows: Vec<Option<Vec<f64>>> = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                if cancel.load(Ordering::Relaxed) {
+                    return None;
+                }
+                let mut row = vec![0.0; w * 3];
+                for x in 0..w {
+                    for s in s0..s1 {
+                        let l = self.sample(x, y, s);
+                        for k in 0..3 {
+                            row[3 * x + k] += l[k];
+                        }
+                    }
+                }
+                Some(row)
+            })
+            .collect();
+        if rows.iter().any(|r| r.is_none()) {
+            return false;
+        }
+        for (y, r) in rows.into_iter().enumerate() {
+            for (a, v) in accum[y * w * 3..(y + 1) * w * 3].iter_mut().zip(r.expect("checked")) {
+                *a += v;
+            }
+        }
+        true
+    }
+}
+
+/// Run `f` on a pool of `threads` worker threads (all cores for `None`).
+pub fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
+    match threads {
+        None => Ok(f()),
+        Some(0) => Err(Error::param("threads", 0.0, "an integer >= 1")),
+        Some(t) => rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build()
+            .map(|p| p.install(f))
+            .map_err(|e| Error::Invalid(format!("threads = {t}: cannot start the thread pool: {e}"))),
+    }
+}

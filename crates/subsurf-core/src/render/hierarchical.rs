@@ -1,0 +1,341 @@
+//! `hierarchical`: H. W. Jensen and J. Buhler, "A rapid hierarchical rendering technique for
+//! translucent materials", ACM TOG 21(3) (SIGGRAPH 2002).
+//!
+//! 1. Irradiance samples spread evenly over each translucent object: every triangle is cut
+//!    into k² congruent sub-triangles (k = ⌈√A / Δ⌉) and a sample sits at each centroid,
+//!    carrying the sub-triangle's area. The spacing Δ is `spacing` × the smallest median
+//!    radius of the object's profiles (the radius holding half of R_d's energy), so the
+//!    density follows the mean free path as in the paper (§3.1).
+//! 2. The transmitted irradiance E_t = ∫ F_t L_i cos dω at each sample from every light
+//!    (shadow rays, `light_samples` each) and the environment (`env_samples` cosine rays).
+//! 3. An octree over the samples; each node keeps its area, its power Σ E_t A per channel and
+//!    the power-weighted centroid (§3.2).
+//! 4. At a shading point x_o the tree is walked: a node is used as a whole when its solid
+//!    angle ΔΩ = A_node/‖x_o − centroid‖² is below `epsilon` and x_o is outside its box
+//!    (the paper's error criterion, §3.3); otherwise its children (or samples) are visited.
+//!    M_o = Σ R_d(‖x_o − x_j‖) P_j, and L_o = F_t(η, ω_o) M_o /(π c(η)) (see `material`),
+//!    plus the single-scattering term S⁽¹⁾ ([`super::shade::single_scattering`]).
+
+use super::accel::Hit;
+use super::material::Translucent;
+use super::math::{add, dot, length, madd, mul, scale, sub, Rgb, V3};
+use super::scene::Scene;
+use super::shade::{direct_irradiance, ft, single_scattering, tint, Translucency};
+use crate::error::{Error, Result};
+use crate::rng::PhotonRng;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// Settings of the hierarchical method.
+#[derive(Clone, Copy, Debug)]
+pub struct HierarchicalParams {
+    /// Sample spacing as a fraction of the smallest median profile radius.
+    pub spacing: f64,
+    /// Largest solid angle (sr) of a node used as a cluster.
+    pub epsilon: f64,
+    /// Cosine-weighted environment rays per irradiance sample.
+    pub env_samples: u32,
+    /// Samples of each light per irradiance sample.
+    pub light_samples: u32,
+    /// Most irradiance samples per object (Δ grows to respect it).
+    pub max_samples: usize,
+}
+
+impl Default for HierarchicalParams {
+    fn default() -> Self {
+        HierarchicalParams { spacing: 0.35, epsilon: 0.05, env_samples: 64, light_samples: 16, max_samples: 2_000_000 }
+    }
+}
+
+impl HierarchicalParams {
+    pub fn validate(&self) -> Result<()> {
+        if !(self.spacing > 0.0 && self.spacing.is_finite()) {
+            return Err(Error::param("hierarchical.spacing", self.spacing, "a finite number > 0"));
+        }
+        if !(self.epsilon >= 0.0 && self.epsilon.is_finite()) {
+            return Err(Error::param("hierarchical.epsilon", self.epsilon, "a finite number >= 0 (sr)"));
+        }
+        if self.light_samples == 0 || self.max_samples == 0 {
+            return Err(Error::Invalid("hierarchical.light_samples and max_samples must be >= 1".into()));
+        }
+        Ok(())
+    }
+}
+
+/// One irradiance sample.
+#[derive(Clone, Copy, Debug)]
+pub struct Sample {
+    pub p: V3,
+    pub area: f64,
+    /// Transmitted irradiance E_t per channel.
+    pub e: Rgb,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    lo: V3,
+    hi: V3,
+    area: f64,
+    power: Rgb,
+    centroid: V3,
+    /// Children `first .. first + count` (nodes) or samples (leaf).
+    first: u32,
+    count: u32,
+    leaf: bool,
+}
+
+/// The samples of one object and their octree.
+pub struct Tree {
+    pub samples: Vec<Sample>,
+    nodes: Vec<Node>,
+}
+
+const LEAF_SIZE: usize = 8;
+
+impl Tree {
+    fn build(mut samples: Vec<Sample>) -> Tree {
+        let mut nodes = vec![];
+        let n = samples.len();
+        build_node(&mut samples, 0, n, &mut nodes, 0);
+        Tree { samples, nodes }
+    }
+
+    /// Σ R_d(‖x − x_j‖) E_j A_j with clusters under `epsilon` (0: exact all-pairs sum).
+    pub fn exitance(&self, m: &Translucent, x: V3, epsilon: f64) -> Rgb {
+        let mut acc = [0.0; 3];
+        let rd = |r: f64| -> Rgb { std::array::from_fn(|k| m.profiles[k].rd(r)) };
+        let mut stack = vec![0u32];
+        while let Some(i) = stack.pop() {
+            let nd = &self.nodes[i as usize];
+            if nd.leaf {
+                for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
+                    let r = length(sub(x, s.p));
+                    // Within a sample's own disc (radius a = √(A/π)) the point value R_d(r) is
+                    // replaced by R_d's mean over the disc about x, total·cdf(a)/(πa²): profiles
+                    // with single scattering diverge as r → 0, and a shading point landing on a
+                    // sample would otherwise get an arbitrarily large term.
+                    let a2 = s.area / PI;
+                    let w: Rgb = if r * r < a2 {
+                        let a = a2.sqrt();
+                        std::array::from_fn(|k| m.profiles[k].total() * m.profiles[k].cdf(a) / s.area)
+                    } else {
+                        rd(r)
+                    };
+                    acc = add(acc, scale(mul(w, s.e), s.area));
+                }
+                continue;
+            }
+            let d = sub(x, nd.centroid);
+            let d2 = dot(d, d);
+            let inside = (0..3).all(|k| x[k] >= nd.lo[k] && x[k] <= nd.hi[k]);
+            if !inside && nd.area < epsilon * d2 {
+                acc = add(acc, mul(rd(d2.sqrt()), nd.power));
+            } else {
+                stack.extend(nd.first..nd.first + nd.count);
+            }
+        }
+        acc
+    }
+}
+
+fn build_node(s: &mut [Sample], a: usize, b: usize, nodes: &mut Vec<Node>, depth: u32) -> u32 {
+    let idx = nodes.len() as u32;
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let (mut area, mut power, mut wsum, mut c, mut ca) = (0.0, [0.0; 3], 0.0, [0.0; 3], [0.0; 3]);
+    for x in &s[a..b] {
+        for k in 0..3 {
+            lo[k] = lo[k].min(x.p[k]);
+            hi[k] = hi[k].max(x.p[k]);
+        }
+        area += x.area;
+        power = madd(power, x.e, x.area);
+        let w = (x.e[0] + x.e[1] + x.e[2]) * x.area;
+        wsum += w;
+        c = madd(c, x.p, w);
+        ca = madd(ca, x.p, x.area);
+    }
+    let centroid = if wsum > 0.0 { scale(c, 1.0 / wsum) } else { scale(ca, 1.0 / area.max(1e-300)) };
+    nodes.push(Node { lo, hi, area, power, centroid, first: a as u32, count: (b - a) as u32, leaf: true });
+    if b - a <= LEAF_SIZE || depth > 40 || (0..3).all(|k| hi[k] - lo[k] <= 0.0) {
+        return idx;
+    }
+    // Partition into octants about the box centre (in place, one axis at a time).
+    let mid: V3 = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+    let mut bounds = vec![a, b];
+    for k in 0..3 {
+        let mut nb = vec![a];
+        for w in bounds.windows(2) {
+            let part = &mut s[w[0]..w[1]];
+            let mut i = 0;
+            for j in 0..part.len() {
+                if part[j].p[k] < mid[k] {
+                    part.swap(i, j);
+                    i += 1;
+                }
+            }
+            nb.push(w[0] + i);
+            nb.push(w[1]);
+        }
+        nb.dedup();
+        bounds = nb;
+    }
+    let ranges: Vec<(usize, usize)> = bounds.windows(2).map(|w| (w[0], w[1])).filter(|r| r.1 > r.0).collect();
+    if ranges.len() < 2 {
+        return idx;
+    }
+    // Children must be contiguous: reserve their slots first, then fill them.
+    let first = nodes.len() as u32;
+    let placeholder = nodes[idx as usize];
+    nodes.extend(std::iter::repeat_n(placeholder, ranges.len()));
+    for (j, &(ra, rb)) in ranges.iter().enumerate() {
+        let child_start = nodes.len();
+        let built = build_node(s, ra, rb, nodes, depth + 1);
+        // The subtree root was appended at `built`; move it into its reserved slot.
+        nodes[first as usize + j] = nodes[built as usize];
+        debug_assert_eq!(built as usize, child_start);
+    }
+    let nd = &mut nodes[idx as usize];
+    nd.leaf = false;
+    nd.first = first;
+    nd.count = ranges.len() as u32;
+    idx
+}
+
+/// The hierarchical method: one octree per translucent object.
+pub struct Hierarchical {
+    pub trees: Vec<Option<Tree>>,
+    pub params: HierarchicalParams,
+}
+
+impl Hierarchical {
+    /// Place the samples, compute their irradiance (in parallel, reproducibly: sample j uses
+    /// the stream (seed ⊕ 0x4a42_2002, j)) and build the trees.
+    pub fn new(scene: &Scene, params: &HierarchicalParams, seed: u64) -> Result<Hierarchical> {
+        params.validate()?;
+        let mut trees = Vec::with_capacity(scene.objects.len());
+        let mut base = 0u64;
+        for (oi, o) in scene.objects.iter().enumerate() {
+            let Some(m) = scene.material(oi).translucent() else {
+                trees.push(None);
+                continue;
+            };
+            let median = (0..3).map(|k| m.profiles[k].radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min);
+            let total = o.mesh.total_area();
+            let mut delta = params.spacing * median;
+            if !(delta > 0.0) || total / (delta * delta) > params.max_samples as f64 {
+                delta = (total / params.max_samples as f64).sqrt();
+            }
+            let spots = place_samples(scene, oi, delta);
+            let n = spots.len() as u64;
+            let samples: Vec<Sample> = spots
+                .into_par_iter()
+                .enumerate()
+                .map(|(j, (h, area))| {
+                    let mut rng = PhotonRng::new(seed ^ 0x4a42_2002, base + j as u64);
+                    let mut e = [0.0; 3];
+                    for _ in 0..params.light_samples {
+                        e = add(e, direct_irradiance(scene, &h, Some(m.eta), true, 0, &mut rng));
+                    }
+                    e = scale(e, 1.0 / params.light_samples as f64);
+                    let env = direct_irradiance(scene, &h, Some(m.eta), false, params.env_samples, &mut rng);
+                    Sample { p: h.p, area, e: add(e, env) }
+                })
+                .collect();
+            base += n;
+            trees.push(Some(Tree::build(samples)));
+        }
+        Ok(Hierarchical { trees, params: *params })
+    }
+}
+
+/// The irradiance samples of object `oi` as hits, with their areas: triangles larger than Δ²
+/// are cut into k² congruent sub-triangles (a sample at each centroid); smaller ones are visited
+/// in Morton order of their centroids and a sample is placed (at the centroid) each time the
+/// running area passes a multiple of Δ² (systematic sampling along a space-filling curve), so a
+/// finely tessellated mesh gets about area/Δ² evenly spread samples, not one per triangle.
+fn place_samples(scene: &Scene, oi: usize, delta: f64) -> Vec<(Hit, f64)> {
+    let acc = &scene.accel;
+    let mut out = vec![];
+    let mut small = vec![];
+    for (gi, t) in acc.tris.iter().enumerate() {
+        if t.object as usize != oi {
+            continue;
+        }
+        let a = acc.area(gi);
+        let k = ((a.sqrt() / delta).ceil() as usize).max(1);
+        if k == 1 {
+            small.push(gi);
+            continue;
+        }
+        let sub_area = a / (k * k) as f64;
+        let kf = k as f64;
+        let mut push = |b1: f64, b2: f64| {
+            let p = acc.point(gi, b1, b2);
+            out.push((Hit { t: 0.0, tri: gi as u32, object: oi, b1, b2, p, n: t.n }, sub_area));
+        };
+        for i in 0..k {
+            for j in 0..k - i {
+                push((i as f64 + 1.0 / 3.0) / kf, (j as f64 + 1.0 / 3.0) / kf);
+                if j + 1 < k - i {
+                    push((i as f64 + 2.0 / 3.0) / kf, (j as f64 + 2.0 / 3.0) / kf);
+                }
+            }
+        }
+    }
+    let third = 1.0 / 3.0;
+    let key = |gi: usize| morton(acc, acc.point(gi, third, third));
+    small.sort_by_cached_key(|&gi| key(gi));
+    let cell = delta * delta;
+    let (mut run, mut next, mut placed) = (0.0, 0.5 * cell, 0usize);
+    let sample = |gi: usize, area: f64| {
+        let p = acc.point(gi, third, third);
+        (Hit { t: 0.0, tri: gi as u32, object: oi, b1: third, b2: third, p, n: acc.tris[gi].n }, area)
+    };
+    for &gi in &small {
+        run += acc.area(gi);
+        while run >= next {
+            out.push(sample(gi, cell));
+            placed += 1;
+            next += cell;
+        }
+    }
+    // The area not yet assigned (|·| ≤ Δ²/2) goes to the last sample, so the areas sum exactly.
+    if placed > 0 {
+        out.last_mut().expect("placed > 0").1 += run - placed as f64 * cell;
+    } else if let Some(&gi) = small.first() {
+        out.push(sample(gi, run));
+    }
+    out
+}
+
+/// 63-bit Morton code of `p` in the scene's bounding box (21 bits per axis).
+fn morton(acc: &super::accel::Accel, p: V3) -> u64 {
+    let spread = |mut x: u64| {
+        x &= 0x1f_ffff;
+        x = (x | x << 32) & 0x1f00000000ffff;
+        x = (x | x << 16) & 0x1f0000ff0000ff;
+        x = (x | x << 8) & 0x100f00f00f00f00f;
+        x = (x | x << 4) & 0x10c30c30c30c30c3;
+        (x | x << 2) & 0x1249249249249249
+    };
+    let q = |k: usize| {
+        let f = (p[k] - acc.lo[k]) / (acc.hi[k] - acc.lo[k]).max(1e-300);
+        (f.clamp(0.0, 1.0) * 2_097_151.0) as u64
+    };
+    spread(q(0)) | spread(q(1)) << 1 | spread(q(2)) << 2
+}
+
+impl Translucency for Hierarchical {
+    fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, _depth: u32, rng: &mut PhotonRng) -> Rgb {
+        let (Some(m), Some(tree)) = (scene.material(hit.object).translucent(), self.trees[hit.object].as_ref()) else {
+            return [0.0; 3];
+        };
+        let mo = tree.exitance(m, hit.p, self.params.epsilon);
+        let f = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm);
+        let mut l = scale(mul(mo, tint(scene, hit)), f);
+        if m.single_scattering {
+            l = add(l, single_scattering(scene, m, hit, wo, rng));
+        }
+        l
+    }
+}

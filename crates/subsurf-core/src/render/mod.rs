@@ -1,0 +1,41 @@
+//! Rendering translucent objects: the seed's eq. (1.10),
+//! L_o(x_o, ω_o) = ∫_A ∫_2π S(x_i, ω_i; x_o, ω_o) L_i(x_i, ω_i) (n·ω_i) dω_i dA(x_i),
+//! on triangle meshes, with three ways to compute the translucent term:
+//!
+//! - [`hierarchical`]: Jensen & Buhler (2002), irradiance samples and an octree;
+//! - [`probe`]: pbrt-v4's probe-ray importance sampling of the profile (unbiased);
+//! - [`random_walk`]: volumetric path tracing inside the closed mesh (no diffusion assumption).
+//!
+//! The BSSRDF methods use any profile behind [`crate::bssrdf::RadialProfile`], one per colour
+//! channel ([`material`]). Scenes ([`scene`]) hold meshes ([`mesh`], [`shapes`]), lights
+//! ([`light`]), a constant environment and a pinhole [`camera`]; rays are traced with a BVH
+//! ([`accel`]). [`driver`] renders progressively, reproducibly for any thread count;
+//! [`walk_sim`] exposes the random walk as a simulation (pencil beam or illumination on a
+//! mesh, exitance per triangle, absorption on a voxel grid).
+
+pub mod accel;
+pub mod camera;
+pub mod driver;
+pub mod facet_nee;
+pub mod hierarchical;
+pub mod light;
+pub mod material;
+pub mod math;
+pub mod mesh;
+pub mod probe;
+pub mod random_walk;
+pub mod scene;
+pub mod shade;
+pub mod shapes;
+pub mod walk_sim;
+
+#[cfg(test)]
+mod tests;
+
+pub use camera::Camera;
+pub use driver::{with_threads, Method, Renderer};
+pub use hierarchical::HierarchicalParams;
+pub use light::Light;
+pub use material::{Material, Translucent};
+pub use mesh::Mesh;
+pub use scene::{Object, Scene};

@@ -1,0 +1,139 @@
+//! The scene: objects (meshes with a material), lights, a constant environment, the camera,
+//! and the BVH over all triangles.
+
+use super::accel::Accel;
+use super::camera::Camera;
+use super::light::Light;
+use super::material::Material;
+use super::math::{dot, Rgb, V3};
+use super::mesh::Mesh;
+use crate::error::{Error, Result};
+
+/// One object: a mesh and the index of its material.
+#[derive(Clone, Debug)]
+pub struct Object {
+    /// Name used in errors (`objects[1]` or the user's name).
+    pub name: String,
+    pub mesh: Mesh,
+    pub material: usize,
+}
+
+/// A scene ready to render.
+pub struct Scene {
+    pub objects: Vec<Object>,
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    /// Constant environment radiance per channel (W mm⁻² sr⁻¹).
+    pub environment: Rgb,
+    /// The camera (None for simulations that need no image).
+    pub camera: Option<Camera>,
+    pub accel: Accel,
+}
+
+/// Directions for the point-in-mesh parity test (irrational-ish, to avoid edges and vertices).
+const PARITY_DIRS: [V3; 3] = [[0.5377, 0.1832, 0.8230], [-0.6915, 0.6404, -0.3341], [0.1238, -0.9717, 0.2012]];
+
+impl Scene {
+    /// Validate and build the BVH. Errors: a material index out of range, a negative
+    /// environment, the camera inside a closed object.
+    pub fn new(
+        objects: Vec<Object>,
+        materials: Vec<Material>,
+        lights: Vec<Light>,
+        environment: Rgb,
+        camera: Option<Camera>,
+    ) -> Result<Scene> {
+        if objects.is_empty() {
+            return Err(Error::Invalid("objects: the scene has no objects".into()));
+        }
+        for o in &objects {
+            if o.material >= materials.len() {
+                return Err(Error::Invalid(format!(
+                    "{}.material: index {} but only {} materials",
+                    o.name,
+                    o.material,
+                    materials.len()
+                )));
+            }
+        }
+        for (k, &e) in environment.iter().enumerate() {
+            if !(e.is_finite() && e >= 0.0) {
+                return Err(Error::param(format!("environment.radiance[{k}]"), e, "a finite number >= 0"));
+            }
+        }
+        let meshes: Vec<&Mesh> = objects.iter().map(|o| &o.mesh).collect();
+        let accel = Accel::new(&meshes);
+        let scene = Scene { objects, materials, lights, environment, camera, accel };
+        if let Some(cam) = &scene.camera {
+            if let Some(name) = scene.enclosing_object(cam.position) {
+                return Err(Error::Invalid(format!(
+                    "camera.position: the camera is inside {name}; move it outside the object"
+                )));
+            }
+        }
+        Ok(scene)
+    }
+
+    /// The name of a closed object containing `p`, if any (majority of three parity counts).
+    pub fn enclosing_object(&self, p: V3) -> Option<String> {
+        for (oi, o) in self.objects.iter().enumerate() {
+            if !o.mesh.closed {
+                continue;
+            }
+            let votes =
+                PARITY_DIRS.iter().filter(|&&d| self.crossings(p, super::math::normalize(d), oi) % 2 == 1).count();
+            if votes >= 2 {
+                return Some(o.name.clone());
+            }
+        }
+        None
+    }
+
+    fn crossings(&self, p: V3, d: V3, object: usize) -> usize {
+        let (mut o, mut skip, mut n) = (p, u32::MAX, 0);
+        while let Some(h) = self.accel.intersect(o, d, f64::INFINITY, skip) {
+            if h.object == object {
+                n += 1;
+            }
+            o = h.p;
+            skip = h.tri;
+            if n > 100_000 {
+                break;
+            }
+        }
+        n
+    }
+
+    /// `Ok` if every translucent object's mesh is closed (random walks need an inside).
+    pub fn require_closed_translucent(&self, method: &str) -> Result<()> {
+        for o in &self.objects {
+            if matches!(self.materials[o.material], Material::Translucent(_)) {
+                o.mesh.require_closed(&o.name, method)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Material of object `i`.
+    #[inline]
+    pub fn material(&self, object: usize) -> &Material {
+        &self.materials[self.objects[object].material]
+    }
+
+    /// The nearest area-light emission along (o, d) before `tmax`.
+    pub fn light_hit(&self, o: V3, d: V3, tmax: f64) -> Option<(f64, Rgb)> {
+        let mut best: Option<(f64, Rgb)> = None;
+        for l in &self.lights {
+            if let Some((t, le)) = l.hit(o, d, best.map_or(tmax, |b| b.0)) {
+                best = Some((t, le));
+            }
+        }
+        best
+    }
+
+    /// Whether the unit direction `d` leaves through the front of the surface with normal `n`.
+    #[inline]
+    pub fn front(d: V3, n: V3) -> bool {
+        dot(d, n) > 0.0
+    }
+}

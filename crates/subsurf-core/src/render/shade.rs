@@ -1,0 +1,139 @@
+//! What the three methods share outside the translucent objects: tracing a ray through the
+//! scene (environment, area-light emission, Lambertian surfaces with direct lighting, Fresnel
+//! reflection off translucent surfaces), direct (transmitted) irradiance at a surface point,
+//! and the single-scattering term S⁽¹⁾.
+//!
+//! Light transport outside the objects is direct lighting: lights and the environment seen
+//! with shadow rays, plus the specular paths of the smooth dielectric boundaries (up to
+//! [`MAX_DEPTH`] bounces). Each method supplies the translucent term through [`Translucency`].
+
+use super::accel::Hit;
+use super::material::{Material, Translucent};
+use super::math::{add, dot, madd, mul, neg, scale, Frame, Rgb, V3};
+use super::scene::Scene;
+pub use crate::diffusion::bssrdf::ft;
+use crate::hk::single_scattering_brdf;
+use crate::optics::{fr_dielectric, reflect, sample_cosine_hemisphere};
+use crate::rng::PhotonRng;
+use std::f64::consts::PI;
+
+/// Most specular bounces (and nested translucent evaluations) on one camera path.
+pub const MAX_DEPTH: u32 = 6;
+
+/// A method's light transmitted through a translucent surface: radiance leaving `hit`
+/// towards `wo` (unit, on the outside), *not* counting the Fresnel-reflected part.
+pub trait Translucency: Send + Sync {
+    fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb;
+}
+
+/// Radiance arriving at `o` from direction `d` (unit), the first surface after skipping
+/// triangle `skip`.
+pub fn trace(scene: &Scene, o: V3, d: V3, skip: u32, depth: u32, rng: &mut PhotonRng, tr: &dyn Translucency) -> Rgb {
+    let hit = scene.accel.intersect(o, d, f64::INFINITY, skip);
+    let tmax = hit.map_or(f64::INFINITY, |h| h.t);
+    if let Some((_, le)) = scene.light_hit(o, d, tmax) {
+        return le;
+    }
+    let Some(h) = hit else {
+        return scene.environment;
+    };
+    let wo = neg(d);
+    if dot(wo, h.n) <= 0.0 {
+        return [0.0; 3]; // the back of a surface (open meshes are one-sided)
+    }
+    match scene.material(h.object) {
+        Material::Lambertian(albedo) => {
+            let e = direct_irradiance(scene, &h, None, true, 1, rng);
+            scale(mul(*albedo, e), 1.0 / PI)
+        }
+        Material::Translucent(m) => {
+            let cos_o = dot(wo, h.n);
+            let fr = fr_dielectric(cos_o, 1.0, m.eta);
+            let mut l = tr.radiance(scene, &h, wo, depth, rng);
+            if depth < MAX_DEPTH && fr > 0.0 {
+                let r = reflect(d, h.n);
+                let lr = trace(scene, h.p, r, h.tri, depth + 1, rng, tr);
+                l = add(l, scale(lr, fr));
+            }
+            l
+        }
+    }
+}
+
+/// Irradiance at the surface point of `hit` (on its front side) from the lights (one sample
+/// each, shadow rays; if `lights`) and the environment (`env_samples` cosine-weighted rays).
+/// With `eta` Some(η) each direction is weighted by F_t(η, cos θ): the irradiance transmitted
+/// into a medium of index η.
+pub fn direct_irradiance(
+    scene: &Scene,
+    hit: &Hit,
+    eta: Option<f64>,
+    lights: bool,
+    env_samples: u32,
+    rng: &mut PhotonRng,
+) -> Rgb {
+    let n = hit.n;
+    let p = scene.accel.offset(hit.p, n, 1.0);
+    let mut e = [0.0; 3];
+    for l in scene.lights.iter().filter(|_| lights) {
+        let Some(ls) = l.sample(p, rng.uniform(), rng.uniform()) else { continue };
+        let c = dot(ls.wi, n);
+        if c <= 0.0 || ls.value == [0.0; 3] {
+            continue;
+        }
+        let w = c * eta.map_or(1.0, |eta| ft(eta, c));
+        if !scene.accel.occluded(p, ls.wi, ls.dist, hit.tri) {
+            e = madd(e, ls.value, w);
+        }
+    }
+    if scene.environment != [0.0; 3] && env_samples > 0 {
+        let f = Frame::new(n);
+        let mut acc = 0.0;
+        for _ in 0..env_samples {
+            let w = sample_cosine_hemisphere(rng.uniform(), rng.uniform());
+            let wi = f.to_world(w);
+            if !scene.accel.occluded(p, wi, f64::INFINITY, hit.tri) && scene.light_hit(p, wi, f64::INFINITY).is_none() {
+                acc += eta.map_or(1.0, |eta| ft(eta, w[2]));
+            }
+        }
+        e = madd(e, scene.environment, PI * acc / env_samples as f64);
+    }
+    e
+}
+
+/// The single-scattering radiance S⁽¹⁾ at `hit` towards `wo`: the Hanrahan–Krueger
+/// first-order BRDF of the semi-infinite medium (Jensen et al. 2001 §2.3, evaluated with the
+/// local tangent plane) under the direct lights and the environment (one cosine sample).
+pub fn single_scattering(scene: &Scene, m: &Translucent, hit: &Hit, wo: V3, rng: &mut PhotonRng) -> Rgb {
+    let f = Frame::new(hit.n);
+    let wo_l = f.to_local(wo);
+    if wo_l[2] <= 0.0 {
+        return [0.0; 3];
+    }
+    let brdf =
+        |wi_l: V3| -> Rgb { std::array::from_fn(|k| single_scattering_brdf(&m.stacks[k], wi_l, wo_l).unwrap_or(0.0)) };
+    let p = scene.accel.offset(hit.p, hit.n, 1.0);
+    let mut l = [0.0; 3];
+    for light in &scene.lights {
+        let Some(ls) = light.sample(p, rng.uniform(), rng.uniform()) else { continue };
+        let wi_l = f.to_local(ls.wi);
+        if wi_l[2] <= 0.0 || scene.accel.occluded(p, ls.wi, ls.dist, hit.tri) {
+            continue;
+        }
+        l = add(l, scale(mul(brdf(wi_l), ls.value), wi_l[2]));
+    }
+    if scene.environment != [0.0; 3] {
+        let w = sample_cosine_hemisphere(rng.uniform(), rng.uniform());
+        let wi = f.to_world(w);
+        if !scene.accel.occluded(p, wi, f64::INFINITY, hit.tri) && scene.light_hit(p, wi, f64::INFINITY).is_none() {
+            l = add(l, scale(mul(brdf(w), scene.environment), PI));
+        }
+    }
+    l
+}
+
+/// The tint of the surface at `hit` (1 without one).
+pub fn tint(scene: &Scene, hit: &Hit) -> Rgb {
+    let local = scene.accel.tris[hit.tri as usize].local as usize;
+    scene.objects[hit.object].mesh.tint_at(local, hit.b1, hit.b2)
+}

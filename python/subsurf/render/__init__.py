@@ -1,0 +1,97 @@
+"""Render translucent objects: the seed's eq. (1.10) on triangle meshes.
+
+``render(scene, method="hierarchical", spp=16, seed=0, threads=None, progress=None)`` returns an
+:class:`Image`; methods: ``hierarchical`` (Jensen & Buhler 2002, the fast default), ``probe``
+(pbrt-v4's probe rays, unbiased) and ``random_walk`` (volumetric path tracing inside the closed
+meshes, the ground truth). Scenes: :class:`Scene` with :class:`Object` (meshes via trimesh or
+built-in shapes), :class:`Translucent`/:class:`Lambertian` materials, lights, a constant
+environment and a :class:`Camera`; or :func:`load_scene` from TOML. :func:`simulate_walk` runs the
+random walk as a tissue-optics simulation. :mod:`subsurf.render.export` writes Mitsuba 3 and
+pbrt-v4 materials.
+"""
+
+from __future__ import annotations
+
+import time
+
+from .. import _core
+from .image import Image, read_exr, tonemap, write_exr, write_png
+from .scene import (
+    MODELS,
+    Camera,
+    DirectionalLight,
+    Lambertian,
+    Object,
+    PointLight,
+    RectLight,
+    Scene,
+    SphereLight,
+    Translucent,
+)
+from .toml_scene import load_scene
+from .walk import simulate_walk
+
+METHODS = ("hierarchical", "probe", "random_walk")
+
+
+def render(scene, method="hierarchical", spp=16, seed=0, threads=None, progress=None, pass_spp=None, hierarchical=None):
+    """Render ``scene`` with ``method`` at ``spp`` samples per pixel; progressive in passes of
+    ``pass_spp`` (default: from 1 spp, doubling while a pass takes under 0.5 s, at most spp/16). ``progress(done,
+    total)`` is called after each pass. Ctrl-C (KeyboardInterrupt) ends the render after the
+    current pass and returns the image so far with ``partial = True``. The same seed gives the
+    same image for any ``threads``. ``hierarchical`` = dict(spacing=, epsilon=, env_samples=,
+    light_samples=) tunes that method."""
+    if method not in METHODS:
+        raise _core.ParameterError(f"method = {method!r} is unknown: must be one of {list(METHODS)}")
+    spp = int(spp)
+    if spp < 1:
+        raise _core.ParameterError(f"spp = {spp} is out of range: must be >= 1")
+    if scene.camera is None:
+        raise _core.ParameterError("camera: the scene has no camera")
+    hp = None
+    if hierarchical:
+        d = {"spacing": 0.35, "epsilon": 0.05, "env_samples": 64, "light_samples": 16}
+        unknown = set(hierarchical) - set(d)
+        if unknown:
+            raise _core.ParameterError(f"hierarchical: unknown settings {sorted(unknown)} (allowed: {sorted(d)})")
+        d.update(hierarchical)
+        hp = (float(d["spacing"]), float(d["epsilon"]), int(d["env_samples"]), int(d["light_samples"]))
+    t0 = time.monotonic()
+    job = _core.RenderJob(scene._to_core(method), method, int(seed), threads, hp)
+    cap = int(pass_spp) if pass_spp else max(1, spp // 16)
+    step = cap if pass_spp else 1  # passes grow from 1 spp while they take under half a second
+    done = 0
+    try:
+        while done < spp:
+            t1 = time.monotonic()
+            done = job.render_pass(min(step, spp - done))
+            if progress is not None:
+                progress(done, spp)
+            if time.monotonic() - t1 < 0.5:
+                step = min(2 * step, cap)
+    except KeyboardInterrupt:
+        done = job.spp
+    return Image(job.image(), job.spp, spp, method, seed, time.monotonic() - t0, job.dropped)
+
+
+__all__ = [
+    "METHODS",
+    "MODELS",
+    "Camera",
+    "DirectionalLight",
+    "Image",
+    "Lambertian",
+    "Object",
+    "PointLight",
+    "RectLight",
+    "Scene",
+    "SphereLight",
+    "Translucent",
+    "load_scene",
+    "read_exr",
+    "render",
+    "simulate_walk",
+    "tonemap",
+    "write_exr",
+    "write_png",
+]

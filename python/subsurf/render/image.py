@@ -1,0 +1,117 @@
+"""Rendered images: the linear HDR array, OpenEXR (the ``openexr`` package) and a tone-mapped
+sRGB PNG, both written atomically (a temporary file renamed into place)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+
+import numpy as np
+
+
+class Image:
+    """A rendered image: ``array`` (height, width, 3) linear radiance, ``spp`` samples per pixel,
+    ``partial`` (interrupted before the requested spp), ``method``, ``seed``, ``elapsed_s``."""
+
+    def __init__(self, array, spp, spp_requested, method, seed, elapsed_s, dropped=0):
+        self.array = np.asarray(array, dtype=np.float64)
+        self.spp, self.spp_requested = int(spp), int(spp_requested)
+        self.partial = self.spp < self.spp_requested
+        self.method, self.seed, self.elapsed_s, self.dropped = method, seed, float(elapsed_s), int(dropped)
+
+    def __array__(self, dtype=None, copy=None):
+        return self.array if dtype is None else self.array.astype(dtype)
+
+    def metadata(self) -> dict:
+        return {
+            "method": self.method,
+            "spp": str(self.spp),
+            "spp_requested": str(self.spp_requested),
+            "partial": str(self.partial),
+            "seed": str(self.seed),
+            "software": "subsurf",
+        }
+
+    def save(self, path, exposure=0.0):
+        """Write ``path`` (.exr: linear HDR with metadata; .png: tone-mapped sRGB; .npy: the
+        array). An .exr also gets its PNG beside it (same name, .png). Returns the paths."""
+        ext = os.path.splitext(path)[1].lower()
+        if ext == ".exr":
+            write_exr(path, self.array, self.metadata())
+            png = os.path.splitext(path)[0] + ".png"
+            write_png(png, self.array, exposure)
+            return [path, png]
+        if ext == ".png":
+            return [write_png(path, self.array, exposure)]
+        if ext == ".npy":
+            return [_atomic(path, lambda f: np.save(f, self.array))]
+        raise ValueError(f"{path}: unknown image format {ext!r} (use .exr, .png or .npy)")
+
+
+def _openexr():
+    try:
+        import OpenEXR
+    except ImportError:
+        from .. import _core
+
+        raise _core.ParameterError(
+            "writing OpenEXR needs the 'openexr' package: pip install 'subsurf[render]'"
+        ) from None
+    return OpenEXR
+
+
+def _atomic(path, write):
+    d = os.path.dirname(os.path.abspath(path))
+    os.makedirs(d, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=d, suffix=os.path.splitext(path)[1])
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
+def write_exr(path, array, metadata=None):
+    """Linear float32 RGB OpenEXR with string ``metadata`` in the header (openexr ≥ 3.3 API)."""
+    OpenEXR = _openexr()
+
+    rgb = np.ascontiguousarray(np.asarray(array, dtype=np.float32))
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    header.update({k: str(v) for k, v in (metadata or {}).items()})
+
+    def write(tmp):
+        with OpenEXR.File(header, {"RGB": rgb}) as f:
+            f.write(tmp)
+
+    return _atomic(path, write)
+
+
+def read_exr(path):
+    """(array (h, w, 3) float32, header dict) of an EXR written by :func:`write_exr`."""
+    OpenEXR = _openexr()
+
+    with OpenEXR.File(path) as f:
+        ch = f.channels()
+        rgb = ch["RGB"].pixels if "RGB" in ch else np.stack([ch[c].pixels for c in "RGB"], axis=-1)
+        return np.array(rgb), dict(f.header())
+
+
+def tonemap(array, exposure=0.0):
+    """Linear radiance → 8-bit sRGB: scale by 2^exposure / (the 99.5th percentile of the
+    luminance), clip to [0, 1], sRGB transfer curve."""
+    a = np.nan_to_num(np.asarray(array, dtype=np.float64), nan=0.0, posinf=0.0)
+    lum = a @ np.array([0.2126, 0.7152, 0.0722])
+    ref = np.percentile(lum, 99.5) if lum.size else 1.0
+    x = a * (2.0**exposure) / (ref if ref > 0 else 1.0)
+    x = np.clip(x, 0, 1)
+    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    return (np.clip(srgb, 0, 1) * 255 + 0.5).astype(np.uint8)
+
+
+def write_png(path, array, exposure=0.0):
+    import matplotlib.image as mpimg
+
+    return _atomic(path, lambda tmp: mpimg.imsave(tmp, tonemap(array, exposure), format="png"))

@@ -1,0 +1,383 @@
+"""Scene description for :mod:`subsurf.render`: objects (meshes or built-in shapes, each with a
+transform and a material), materials, lights, a constant environment and a pinhole camera.
+
+Units: mm for lengths; light power in W (any consistent unit: images are linear in it). Meshes
+are loaded with ``trimesh`` (OBJ, PLY, STL, GLB) or given as a ``trimesh.Trimesh``; the core
+validates them (finite vertices, non-zero area; ``random_walk`` also needs watertight meshes).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from .. import _core
+from ..materials import get as _library
+from ..medium import Layer, Stack
+
+MODELS = ("dipole", "better_dipole", "multipole", "photon_beam_diffusion", "normalized_diffusion", "monte_carlo")
+
+
+def _err(msg):
+    return _core.ParameterError(msg)
+
+
+def _vec3(name, v):
+    try:
+        a = np.asarray(v, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise _err(f"{name} = {v!r} is not a list of numbers") from None
+    if a.size == 1:
+        a = np.repeat(a, 3)
+    if a.size != 3 or not np.all(np.isfinite(a)):
+        raise _err(f"{name} = {v!r}: expected 3 finite numbers (or one for all channels)")
+    return [float(x) for x in a]
+
+
+class Translucent:
+    """A homogeneous scattering medium inside a smooth dielectric boundary (index ``eta``).
+
+    Parameters: ``sigma_a``, ``sigma_s`` per RGB channel (mm⁻¹), HG ``g``, ``eta`` (n_medium / 1),
+    ``model`` the BSSRDF profile used by the ``hierarchical`` and ``probe`` methods (one of
+    :data:`MODELS`; ``random_walk`` ignores it). ``stacks`` (three :class:`subsurf.Stack`) gives a
+    layered material to the profile models (``multipole``, ``monte_carlo``); ``mc_photons`` and
+    ``mc_seed`` set the Monte Carlo profile's run. Construct from the library with
+    :meth:`library`, from layers with :meth:`from_stacks`, or from a colour with :meth:`from_color`.
+    """
+
+    def __init__(
+        self,
+        sigma_a,
+        sigma_s,
+        g=0.0,
+        eta=1.3,
+        model="dipole",
+        name=None,
+        stacks=None,
+        mc_photons=100_000,
+        mc_seed=0,
+        single_scattering=None,
+    ):
+        self.sigma_a = _vec3("sigma_a", sigma_a)
+        self.sigma_s = _vec3("sigma_s", sigma_s)
+        self.g, self.eta = float(g), float(eta)
+        if model not in MODELS:
+            raise _err(f"model = {model!r} is unknown: must be one of {list(MODELS)}")
+        self.model, self.name = model, name
+        self.stacks = list(stacks) if stacks is not None else None
+        if self.stacks is not None and (len(self.stacks) != 3 or not all(isinstance(s, Stack) for s in self.stacks)):
+            raise _err("stacks: give three subsurf.Stack objects, one per RGB channel")
+        self.mc_photons, self.mc_seed, self.single_scattering = int(mc_photons), int(mc_seed), single_scattering
+
+    @property
+    def layered(self) -> bool:
+        return self.stacks is not None and any(
+            len(s.layers) > 1 or math.isfinite(s.layers[0].thickness) for s in self.stacks
+        )
+
+    def channel_stacks(self):
+        """One :class:`subsurf.Stack` per channel (the given ones, or a semi-infinite layer)."""
+        if self.stacks is not None:
+            return self.stacks
+        return [Stack([Layer(self.eta, a, s, self.g)]) for a, s in zip(self.sigma_a, self.sigma_s)]
+
+    @classmethod
+    def library(cls, name, model="dipole", g=0.0, **kw):
+        """A material of the Jensen et al. (2001) table (:mod:`subsurf.materials`); σs = σs'/(1 − g)."""
+        m = _library(name)
+        return cls(m.sigma_a, np.asarray(m.sigma_s_prime) / (1 - g), g=g, eta=m.eta, model=model, name=m.name, **kw)
+
+    @classmethod
+    def from_stacks(cls, stacks, model="monte_carlo", name=None, **kw):
+        """A (possibly layered) material given as one :class:`subsurf.Stack` (or Layer) per channel.
+        The medium seen by ``random_walk`` is the top layer (layered materials need nested meshes there)."""
+        stacks = [s if isinstance(s, Stack) else Stack([s]) for s in stacks]
+        top = [s.layers[0] for s in stacks]
+        gs = {l.g for l in top}
+        if len(gs) != 1 or len({l.n for l in top}) != 1:
+            raise _err("stacks: the top layers of the three channels must share g and n")
+        return cls(
+            [l.mua for l in top],
+            [l.mus for l in top],
+            g=gs.pop(),
+            eta=top[0].n / stacks[0].n_above,
+            model=model,
+            name=name,
+            stacks=stacks,
+            **kw,
+        )
+
+    @classmethod
+    def from_color(cls, color, mean_free_path, eta=1.3, g=0.0, model="dipole", name=None, **kw):
+        """From a surface colour (total diffuse reflectance per channel under normal incidence) and
+        a mean free path 1/σt per channel (mm), inverted under ``model`` by
+        :func:`subsurf.bssrdf.material_from_appearance` (the profiles issue's inverse)."""
+        from .. import bssrdf
+
+        layers = bssrdf.material_from_appearance(
+            _vec3("color", color), _vec3("mean_free_path", mean_free_path), eta=eta, g=g, model=model
+        )
+        return cls([l.mua for l in layers], [l.mus for l in layers], g=g, eta=eta, model=model, name=name, **kw)
+
+    def _to_core(self, name):
+        return {
+            "kind": "translucent",
+            "name": name,
+            "sigma_a": self.sigma_a,
+            "sigma_s": self.sigma_s,
+            "g": self.g,
+            "eta": self.eta,
+            "model": self.model,
+            "stacks": [s._to_core() for s in self.channel_stacks()],
+            "mc_photons": self.mc_photons,
+            "mc_seed": self.mc_seed,
+            "single_scattering": self.single_scattering,
+        }
+
+    def __repr__(self):
+        return (
+            f"Translucent(name={self.name!r}, sigma_a={self.sigma_a}, sigma_s={self.sigma_s}, g={self.g}, "
+            f"eta={self.eta}, model={self.model!r})"
+        )
+
+
+class Lambertian:
+    """Opaque Lambertian reflector with ``albedo`` per channel in [0, 1]."""
+
+    def __init__(self, albedo=0.8, name=None):
+        self.albedo, self.name = _vec3("albedo", albedo), name
+
+    def _to_core(self, name):
+        return {"kind": "lambertian", "name": name, "albedo": self.albedo}
+
+
+def material(spec, key="material"):
+    """A material from a library name, a Translucent/Lambertian, or a dict (TOML tables)."""
+    if isinstance(spec, (Translucent, Lambertian)):
+        return spec
+    if isinstance(spec, str):
+        try:
+            return Translucent.library(spec)
+        except _core.ParameterError as e:
+            raise _err(f"{key}: {e}") from None
+    if isinstance(spec, dict):
+        d = dict(spec)
+        kind = d.pop("type", "translucent")
+        try:
+            if kind == "lambertian":
+                return Lambertian(d.get("albedo", 0.8))
+            if "library" in d:
+                lib = d.pop("library")
+                return Translucent.library(lib, **d)
+            if "color" in d:
+                return Translucent.from_color(d.pop("color"), d.pop("mean_free_path"), **d)
+            return Translucent(**d)
+        except TypeError as e:
+            raise _err(f"{key}: {e}") from None
+        except KeyError as e:
+            raise _err(f"{key}: missing {e}") from None
+        except _core.ParameterError as e:
+            raise _err(f"{key}: {e}") from None
+    raise _err(f"{key} = {spec!r}: give a library name, a table, or a Translucent/Lambertian")
+
+
+# --- geometry ------------------------------------------------------------------------------
+
+
+def _transform(positions, translate=None, scale=None, rotate=None):
+    """Apply scale (number or 3), rotation (degrees about x, y, z, in that order), translation."""
+    p = np.asarray(positions, dtype=np.float64)
+    if scale is not None:
+        p = p * np.asarray(_vec3("scale", scale))
+    if rotate is not None:
+        for axis, deg in enumerate(_vec3("rotate", rotate)):
+            c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+            i, j = [(1, 2), (2, 0), (0, 1)][axis]
+            pi, pj = p[:, i].copy(), p[:, j].copy()
+            p[:, i], p[:, j] = c * pi - s * pj, s * pi + c * pj
+    if translate is not None:
+        p = p + np.asarray(_vec3("translate", translate))
+    return p
+
+
+class Object:
+    """A mesh with a material. Use :meth:`mesh` (a file or a ``trimesh.Trimesh``) or the shape
+    constructors :meth:`sphere`, :meth:`box`, :meth:`plane`, :meth:`torus`; ``translate``,
+    ``scale``, ``rotate`` (degrees about x, y, z) transform it; ``tint`` (per-vertex RGB in
+    [0, 1]) scales the light leaving a translucent surface."""
+
+    def __init__(self, positions, triangles, material, name=None, tint=None, translate=None, scale=None, rotate=None):
+        self.positions = _transform(positions, translate, scale, rotate)
+        self.triangles = np.asarray(triangles, dtype=np.int64)
+        self.material = material if isinstance(material, (Translucent, Lambertian)) else globals()["material"](material)
+        self.name = name
+        self.tint = None if tint is None else np.asarray(tint, dtype=np.float64)
+
+    @classmethod
+    def mesh(cls, source, material, name=None, **kw):
+        """From a mesh file (OBJ, PLY, STL, GLB; loaded with trimesh) or a ``trimesh.Trimesh``."""
+        try:
+            import trimesh
+        except ImportError:
+            raise _err("loading meshes needs the 'trimesh' package: pip install 'subsurf[render]'") from None
+
+        if isinstance(source, (str, os.PathLike)):
+            path = os.fspath(source)
+            if not os.path.exists(path):
+                raise FileNotFoundError(f"{name or 'mesh'}: mesh file {path!r} does not exist")
+            try:
+                tm = trimesh.load(path, force="mesh")
+            except Exception as e:  # trimesh raises many kinds on malformed files
+                raise _err(f"{name or path}: cannot read mesh file {path!r}: {e}") from None
+        else:
+            tm = source
+        if not isinstance(tm, trimesh.Trimesh):
+            raise _err(f"{name or 'mesh'}: {type(tm).__name__} is not a triangle mesh")
+        tint = kw.pop("tint", None)
+        if tint is None and getattr(tm.visual, "kind", None) == "vertex":
+            tint = np.asarray(tm.visual.vertex_colors, dtype=np.float64)[:, :3] / 255.0
+        return cls(np.asarray(tm.vertices), np.asarray(tm.faces), material, name=name, tint=tint, **kw)
+
+    @classmethod
+    def sphere(cls, material, center=(0, 0, 0), radius=1.0, subdivisions=4, name=None, **kw):
+        p, t = _core.render_shape("sphere", _vec3("center", center), c=float(radius), level=int(subdivisions))
+        return cls(p, t, material, name=name, **kw)
+
+    @classmethod
+    def box(cls, material, lo=(-1, -1, -1), hi=(1, 1, 1), name=None, **kw):
+        p, t = _core.render_shape("box", _vec3("lo", lo), _vec3("hi", hi))
+        return cls(p, t, material, name=name, **kw)
+
+    @classmethod
+    def plane(cls, material, center=(0, 0, 0), size=(10, 10), name=None, **kw):
+        c, s = _vec3("center", center), list(size)
+        p, t = _core.render_shape("plane", c, c=float(s[0]), d=float(s[1]))
+        return cls(p, t, material, name=name, **kw)
+
+    @classmethod
+    def torus(cls, material, center=(0, 0, 0), major=2.0, minor=0.5, name=None, **kw):
+        p, t = _core.render_shape("torus", _vec3("center", center), c=float(major), d=float(minor))
+        return cls(p, t, material, name=name, **kw)
+
+    def info(self):
+        """(closed, open_edges, area mm², volume mm³), validating the mesh."""
+        return _core.render_mesh_info(self._mesh_dict(self.name or "mesh"), self.name or "mesh")
+
+    def _mesh_dict(self, name):
+        return {"name": name, "positions": self.positions, "triangles": self.triangles, "tint": self.tint}
+
+
+# --- lights and camera ------------------------------------------------------------------------
+
+
+class PointLight:
+    def __init__(self, position, power):
+        self.position, self.power = position, power
+
+    def _to_core(self, i):
+        return {
+            "kind": "point",
+            "position": _vec3(f"lights[{i}].position", self.position),
+            "power": _vec3(f"lights[{i}].power", self.power),
+        }
+
+
+class DirectionalLight:
+    """Collimated light arriving from ``direction`` (towards the light) with ``irradiance`` W/mm²."""
+
+    def __init__(self, direction, irradiance):
+        self.direction, self.irradiance = direction, irradiance
+
+    def _to_core(self, i):
+        return {
+            "kind": "directional",
+            "direction": _vec3(f"lights[{i}].direction", self.direction),
+            "irradiance": _vec3(f"lights[{i}].irradiance", self.irradiance),
+        }
+
+
+class SphereLight:
+    def __init__(self, position, radius, power):
+        self.position, self.radius, self.power = position, radius, power
+
+    def _to_core(self, i):
+        return {
+            "kind": "sphere",
+            "position": _vec3(f"lights[{i}].position", self.position),
+            "radius": float(self.radius),
+            "power": _vec3(f"lights[{i}].power", self.power),
+        }
+
+
+class RectLight:
+    """One-sided rectangle ``position`` ± ``u`` ± ``v`` (half-edge vectors), emitting along u × v."""
+
+    def __init__(self, position, u, v, power):
+        self.position, self.u, self.v, self.power = position, u, v, power
+
+    def _to_core(self, i):
+        return {
+            "kind": "rect",
+            "position": _vec3(f"lights[{i}].position", self.position),
+            "u": _vec3(f"lights[{i}].u", self.u),
+            "v": _vec3(f"lights[{i}].v", self.v),
+            "power": _vec3(f"lights[{i}].power", self.power),
+        }
+
+
+class Camera:
+    """Pinhole camera: ``position``, ``look_at``, ``up``, vertical ``fov`` (degrees), resolution."""
+
+    def __init__(self, position, look_at=(0, 0, 0), up=(0, 0, 1), fov=30.0, width=256, height=256):
+        self.position, self.look_at, self.up = position, look_at, up
+        self.fov, self.width, self.height = float(fov), int(width), int(height)
+
+    def _to_core(self):
+        return {
+            "position": _vec3("camera.position", self.position),
+            "look_at": _vec3("camera.look_at", self.look_at),
+            "up": _vec3("camera.up", self.up),
+            "fov": self.fov,
+            "width": self.width,
+            "height": self.height,
+        }
+
+
+class Scene:
+    """Objects, lights, a constant ``environment`` radiance (RGB) and a camera."""
+
+    def __init__(self, objects=(), lights=(), environment=(0, 0, 0), camera=None):
+        self.objects, self.lights = list(objects), list(lights)
+        self.environment, self.camera = environment, camera
+
+    def materials(self):
+        mats = []
+        for o in self.objects:
+            if not any(o.material is m for m in mats):
+                mats.append(o.material)
+        return mats
+
+    def _to_core(self, method=None):
+        mats = self.materials()
+        names = [m.name or f"material{i}" for i, m in enumerate(mats)]
+        if method == "random_walk":
+            for m, n in zip(mats, names):
+                if isinstance(m, Translucent) and m.layered:
+                    raise _err(
+                        f"materials.{n}: random_walk cannot use a layered stack on one mesh; "
+                        "model the layers as nested closed meshes"
+                    )
+        objs = []
+        for i, o in enumerate(self.objects):
+            d = o._mesh_dict(o.name or f"objects[{i}]")
+            d["material"] = next(k for k, m in enumerate(mats) if m is o.material)
+            objs.append(d)
+        return {
+            "objects": objs,
+            "materials": [m._to_core(n) for m, n in zip(mats, names)],
+            "lights": [l._to_core(i) for i, l in enumerate(self.lights)],
+            "environment": _vec3("environment", self.environment),
+            "camera": None if self.camera is None else self.camera._to_core(),
+        }

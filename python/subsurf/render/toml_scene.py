@@ -1,0 +1,144 @@
+"""Scenes from TOML files (``subsurf render SCENE.toml``); see examples/render/marble_sphere.toml.
+
+Top-level ``environment`` (RGB radiance), tables ``[render]`` (method, spp, seed, output),
+``[camera]``, ``[materials.NAME]`` (``library = "marble"``, or ``sigma_a``/``sigma_s``/``g``/``eta``,
+or ``color`` + ``mean_free_path``, or ``type = "lambertian"``; plus ``model``), and arrays of
+tables ``[[objects]]`` (``mesh = "file.obj"`` relative to the TOML file, or ``shape = "sphere" |
+"box" | "plane" | "torus"`` with its sizes; ``material``; ``translate``/``scale``/``rotate``) and
+``[[lights]]`` (``type = "point" | "directional" | "sphere" | "rect"``). Errors name the key.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+from .. import _core
+from .scene import Camera, DirectionalLight, Object, PointLight, RectLight, Scene, SphereLight, material
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+SHAPE_KEYS = {
+    "sphere": ("center", "radius", "subdivisions"),
+    "box": ("lo", "hi"),
+    "plane": ("center", "size"),
+    "torus": ("center", "major", "minor"),
+}
+
+
+def _err(path, msg):
+    return _core.ParameterError(f"{path}: {msg}")
+
+
+def _take(d, key, where, path, cast=None, default=...):
+    if key not in d:
+        if default is ...:
+            raise _err(path, f"{where}: missing key {key!r}")
+        return default
+    v = d[key]
+    if cast is not None:
+        try:
+            return cast(v)
+        except (TypeError, ValueError):
+            raise _err(path, f"{where}.{key} = {v!r} is not valid") from None
+    return v
+
+
+def load_scene(path):
+    """Read a TOML scene; returns (Scene, settings dict with method, spp, seed, output)."""
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"{path}: scene file does not exist")
+    with open(path, "rb") as f:
+        try:
+            doc = tomllib.load(f)
+        except tomllib.TOMLDecodeError as e:
+            raise _err(path, f"not valid TOML: {e}") from None
+    base = os.path.dirname(os.path.abspath(path))
+    known = {"render", "camera", "materials", "objects", "lights", "environment"}
+    unknown = set(doc) - known
+    if unknown:
+        raise _err(path, f"unknown top-level keys {sorted(unknown)} (allowed: {sorted(known)})")
+    mats = {}
+    for name, spec in doc.get("materials", {}).items():
+        try:
+            m = material(spec, key=f"materials.{name}")
+        except _core.ParameterError as e:
+            raise _err(path, str(e)) from None
+        m.name = name
+        mats[name] = m
+    objects = []
+    for i, o in enumerate(doc.get("objects", [])):
+        where = f"objects[{i}]"
+        o = dict(o)
+        mname = _take(o, "material", where, path)
+        if isinstance(mname, str) and mname in mats:
+            mat = mats[mname]
+        else:
+            try:
+                mat = material(mname, key=f"{where}.material")
+            except _core.ParameterError:
+                raise _err(
+                    path,
+                    f"{where}.material = {mname!r} is unknown: not in [materials] ({sorted(mats)}) "
+                    "nor the library (subsurf materials)",
+                ) from None
+            mats[str(mname)] = mat
+        kw = {k: o[k] for k in ("translate", "scale", "rotate") if k in o}
+        name = o.get("name", where)
+        try:
+            if "mesh" in o:
+                src = o["mesh"]
+                src = src if os.path.isabs(src) else os.path.join(base, src)
+                objects.append(Object.mesh(src, mat, name=name, **kw))
+            elif "shape" in o:
+                shape = o["shape"]
+                if shape not in SHAPE_KEYS:
+                    raise _err(path, f"{where}.shape = {shape!r}: must be one of {sorted(SHAPE_KEYS)}")
+                args = {k: o[k] for k in SHAPE_KEYS[shape] if k in o}
+                extra = set(o) - set(SHAPE_KEYS[shape]) - {"shape", "material", "name", "translate", "scale", "rotate"}
+                if extra:
+                    raise _err(path, f"{where}: unknown keys {sorted(extra)} for shape {shape!r}")
+                objects.append(getattr(Object, shape)(mat, name=name, **args, **kw))
+            else:
+                raise _err(path, f"{where}: give 'mesh' (a file) or 'shape'")
+        except FileNotFoundError as e:
+            raise FileNotFoundError(f"{path}: {where}.mesh: {e}") from None
+        except _core.ParameterError as e:
+            msg = str(e)
+            raise _core.ParameterError(msg if msg.startswith(path) else f"{path}: {where}: {msg}") from None
+    lights = []
+    kinds = {
+        "point": (PointLight, ("position", "power")),
+        "directional": (DirectionalLight, ("direction", "irradiance")),
+        "sphere": (SphereLight, ("position", "radius", "power")),
+        "rect": (RectLight, ("position", "u", "v", "power")),
+    }
+    for i, l in enumerate(doc.get("lights", [])):
+        where = f"lights[{i}]"
+        kind = _take(l, "type", where, path)
+        if kind not in kinds:
+            raise _err(path, f"{where}.type = {kind!r}: must be one of {sorted(kinds)}")
+        cls, keys = kinds[kind]
+        lights.append(cls(*[_take(l, k, where, path) for k in keys]))
+    cam = doc.get("camera")
+    camera = None
+    if cam is not None:
+        allowed = {"position", "look_at", "up", "fov", "width", "height"}
+        extra = set(cam) - allowed
+        if extra:
+            raise _err(path, f"camera: unknown keys {sorted(extra)} (allowed: {sorted(allowed)})")
+        camera = Camera(
+            _take(cam, "position", "camera", path), **{k: cam[k] for k in allowed - {"position"} if k in cam}
+        )
+    r = doc.get("render", {})
+    settings = {
+        "method": r.get("method", "hierarchical"),
+        "spp": int(r.get("spp", 16)),
+        "seed": int(r.get("seed", 0)),
+        "output": r.get("output"),
+    }
+    return Scene(objects, lights, doc.get("environment", (0, 0, 0)), camera), settings
