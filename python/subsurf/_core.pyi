@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -131,6 +131,18 @@ def chi2_sf(statistic: float, dof: float) -> float: ...
 def gamma_q(a: float, x: float) -> float: ...
 def sidak_alpha(significance: float, tests: int) -> float: ...
 def chi2_pooled(observed: F64, expected: F64, min_expected: float) -> tuple[float, int, float, int]: ...
+def chi2_test_grid(
+    samples: Sequence[F64],
+    edges: Sequence[F64],
+    names: Sequence[str],
+    pdf: Callable[..., F64],
+    min_expected: float,
+    quad_points: int,
+    max_subdivisions: int,
+) -> tuple[float, int, float, int, int, float, float]:
+    """(statistic, dof, p_value, pooled_cells, outside, pdf_integral, quadrature_error) of the χ² test
+    on a grid of 1 or 2 axes; ``pdf(*coordinates)`` returns a flat float64 array."""
+
 def graded_cos_edges(n_end: int, n_mid: int, min_gap: float) -> F64: ...
 
 # (layers [(n, mua, mus, lobes [(weight, g)], thickness)], n_above, n_below)
@@ -173,16 +185,17 @@ class ProfileTable:
 
 class SlabTable:
     @staticmethod
-    def build(
+    def from_totals(
         g: float,
         n: float,
         n_above: float,
         n_below: float,
         albedos: list[float],
         taus: list[float],
-        photons: int,
-        seed: int,
-    ) -> SlabTable: ...
+        totals: list[tuple[float, float, float, float]],
+    ) -> SlabTable:
+        """totals: (rd, rd_stderr, tt, tt_stderr) per (albedo, tau), row-major"""
+
     def totals(self, albedo: float, tau: float) -> tuple[float, float]: ...
 
 def bssrdf_models() -> list[str]: ...
@@ -197,11 +210,30 @@ def bssrdf_stack_profile(
     max_rel_err: float,
     r_min: float | None = None,
     r_max: float | None = None,
-) -> Profile: ...
+    progress: Callable[[int, int], object] | None = None,
+) -> Profile:
+    """Monte Carlo: interruptible (KeyboardInterrupt)"""
+
 def bssrdf_normalized_diffusion(albedo: float, mfp: float, variant: str) -> Profile: ...
 def bssrdf_chandrasekhar_reflectance(a: float) -> float: ...
 def bssrdf_table_defaults(g: float, eta: float, n_albedos: int) -> dict: ...
-def bssrdf_table_point(settings: dict, index: int) -> dict: ...
+def bssrdf_table_point(settings: dict, index: int, progress: Callable[[int, int], object] | None = None) -> dict:
+    """interruptible (KeyboardInterrupt)"""
+
+def bssrdf_slab_point(
+    g: float,
+    n: float,
+    n_above: float,
+    n_below: float,
+    a: float,
+    tau: float,
+    photons: int,
+    seed: int,
+    threads: int | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> tuple[float, float, float, float]:
+    """(rd, rd_stderr, tt, tt_stderr); interruptible (KeyboardInterrupt)"""
+
 def bssrdf_material_from_appearance(
     albedo: list[float], mfp: list[float], eta: float, g: float, model_name: str, table: ProfileTable | None = None
 ) -> list[tuple[float, float, float, float]]:

@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import io
 import json
 import os
-import tempfile
 
 import numpy as np
 
@@ -112,13 +112,24 @@ class Profile:
 
     @classmethod
     def from_monte_carlo(
-        cls, stack, photons=100_000, seed=0, *, threads=None, per_decade=10, max_rel_err=0.2, r_min=None, r_max=None
+        cls,
+        stack,
+        photons=100_000,
+        seed=0,
+        *,
+        threads=None,
+        per_decade=10,
+        max_rel_err=0.2,
+        r_min=None,
+        r_max=None,
+        progress=None,
     ) -> Profile:
         """The engine's profile of ``stack`` under a normally incident pencil beam: ``photons``
         packets, log grid of ``per_decade`` bins per decade from ``r_min`` (default 10⁻³ of the
         smallest 1/σt) to ``r_max`` (10³ of the largest 1/σt'); bins past the median radius whose
         relative standard error exceeds ``max_rel_err`` are replaced by a fitted diffusion tail.
-        Its total is the Monte Carlo total diffuse reflectance (:meth:`mc_data` has the bins)."""
+        Its total is the Monte Carlo total diffuse reflectance (:meth:`mc_data` has the bins).
+        Ctrl-C (or ``progress(done, total)`` raising it) stops the run with KeyboardInterrupt."""
         s = _stack(stack)
         return cls(
             _core.bssrdf_stack_profile(
@@ -131,6 +142,7 @@ class Profile:
                 float(max_rel_err),
                 r_min,
                 r_max,
+                progress,
             )
         )
 
@@ -220,6 +232,40 @@ def _checksum(settings: dict, points: list) -> str:
     return h.hexdigest()
 
 
+class _TablePoint:
+    """A :class:`ProfileTable` albedo point as a sweep point (picklable; threads: one per task on
+    a cluster, the settings' otherwise)."""
+
+    def __init__(self, settings: dict):
+        self.settings = dict(settings)
+
+    def fingerprint(self) -> dict:
+        return {"kind": "subsurf.bssrdf.ProfileTable", **{k: v for k, v in self.settings.items() if k != "threads"}}
+
+    def __call__(self, albedo):
+        from .cluster import task_threads
+
+        s = {**self.settings, "threads": task_threads(self.settings.get("threads"))}
+        p = ProfileTable.point(s, s["albedos"].index(albedo))
+        return {k: (np.asarray(v, dtype=float) if np.ndim(v) else float(v)) for k, v in p.items()}
+
+
+def _sweep_points(point, axes, path, client, progress, what):
+    """Run a table's points with :func:`subsurf.sweep`; an interrupted build raises
+    KeyboardInterrupt (its finished points are in ``path``, if given)."""
+    import warnings
+
+    from .sweeps import sweep
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        res = sweep(point, axes, path, client=client, progress=progress)
+    if not res.complete:
+        where = f"; its finished points are in {os.fspath(path)}: build again to resume" if path is not None else ""
+        raise KeyboardInterrupt(f"{what} interrupted: {res.points_done} of {res.done.size} points done{where}")
+    return res
+
+
 class ProfileTable:
     """Monte Carlo profiles of semi-infinite media in optical units (σt = 1: r in mean free
     paths) on a grid of single-scattering albedos, for one g and η; interpolation keeps the total
@@ -242,9 +288,10 @@ class ProfileTable:
         return s
 
     @staticmethod
-    def point(settings: dict, index: int) -> dict:
-        """Trace albedo point ``index`` (seed + index): a picklable dict of arrays."""
-        return dict(_core.bssrdf_table_point(settings, int(index)))
+    def point(settings: dict, index: int, progress=None) -> dict:
+        """Trace albedo point ``index`` (seed + index): a picklable dict of arrays. Ctrl-C (or
+        ``progress(done, total)`` raising it) interrupts it with KeyboardInterrupt."""
+        return dict(_core.bssrdf_table_point(settings, int(index), progress))
 
     @classmethod
     def assemble(cls, settings: dict, points) -> ProfileTable:
@@ -255,12 +302,18 @@ class ProfileTable:
         return cls(_core.ProfileTable.assemble(settings, pts), settings)
 
     @classmethod
-    def build(cls, g=0.0, eta=1.0, *, map=None, **settings) -> ProfileTable:
-        """Compute every albedo point (``map(f, indices)`` if given, e.g. a Dask client's map)."""
+    def build(cls, g=0.0, eta=1.0, *, client=None, path=None, progress=None, **settings) -> ProfileTable:
+        """Compute every albedo point with :func:`subsurf.sweep` — here, or one task per albedo on
+        a Dask ``client`` — and assemble the table (the same table either way: point i always
+        uses seed + i). ``path``: a sweep file keeping finished points, so that a build stopped by
+        Ctrl-C (KeyboardInterrupt) resumes where it stopped when called again with the same
+        arguments. ``progress(done, total)`` counts albedo points."""
         s = cls.default_settings(g, eta, **settings)
-        idx = range(len(s["albedos"]))
-        f = lambda i: cls.point(s, i)  # noqa: E731
-        pts = list(map(f, idx)) if map is not None else [f(i) for i in idx]
+        res = _sweep_points(_TablePoint(s), {"albedo": s["albedos"]}, path, client, progress, "profile table")
+        n = len(s["albedos"])
+        pts = [{k: (v[i] if np.ndim(v) > 1 else v[i].item()) for k, v in res.data.items()} for i in range(n)]
+        for p in pts:
+            p["photons"] = int(p["photons"])
         return cls.assemble(s, pts)
 
     def rho_eff(self, albedo):
@@ -276,39 +329,31 @@ class ProfileTable:
         return Profile(self._t.profile(float(sigma_a), float(sigma_s)))
 
     def save(self, path) -> str:
-        """Write an HDF5 file (atomically: temporary file + rename) with the settings, the
-        version that built it, every point's bins and a SHA-256 checksum verified on load."""
+        """Write an HDF5 file (atomically, :mod:`subsurf.atomic`; the directory must exist) with the
+        settings, the version that built it, every point's bins and a SHA-256 checksum verified on load."""
         import h5py
 
-        from . import __version__
+        from . import atomic
+        from ._core import __version__
 
-        path = os.fspath(path)
         pts = [dict(p) for p in self._t.points()]
-        d = os.path.dirname(os.path.abspath(path))
-        os.makedirs(d, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(suffix=".h5.tmp", dir=d)
-        os.close(fd)
-        try:
-            with h5py.File(tmp, "w") as f:
-                f.attrs["format"] = TABLE_FORMAT
-                f.attrs["format_version"] = TABLE_FORMAT_VERSION
-                f.attrs["version"] = __version__
-                f.attrs["settings"] = json.dumps(self.settings, sort_keys=True)
-                f.attrs["checksum"] = _checksum(self.settings, pts)
-                for i, p in enumerate(pts):
-                    g = f.create_group(f"points/{i:04d}")
-                    for k in ("edges", "weight", "stderr", "single", "single_stderr"):
-                        g.create_dataset(k, data=np.asarray(p[k], dtype=np.float64))
-                    g.attrs["total"], g.attrs["total_stderr"], g.attrs["photons"] = (
-                        p["total"],
-                        p["total_stderr"],
-                        int(p["photons"]),
-                    )
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-        return path
+        buf = io.BytesIO()
+        with h5py.File(buf, "w") as f:
+            f.attrs["format"] = TABLE_FORMAT
+            f.attrs["format_version"] = TABLE_FORMAT_VERSION
+            f.attrs["version"] = __version__
+            f.attrs["settings"] = json.dumps(self.settings, sort_keys=True)
+            f.attrs["checksum"] = _checksum(self.settings, pts)
+            for i, p in enumerate(pts):
+                g = f.create_group(f"points/{i:04d}")
+                for k in ("edges", "weight", "stderr", "single", "single_stderr"):
+                    g.create_dataset(k, data=np.asarray(p[k], dtype=np.float64))
+                g.attrs["total"], g.attrs["total_stderr"], g.attrs["photons"] = (
+                    p["total"],
+                    p["total_stderr"],
+                    int(p["photons"]),
+                )
+        return atomic.write_bytes(path, buf.getvalue(), force=True)
 
     @classmethod
     def load(cls, path) -> ProfileTable:
@@ -368,20 +413,22 @@ class Fit:
         return {n: (float(p), float(s)) for n, p, s in zip(self.names, self.params, self.stderr)}
 
 
-def material_from_appearance(albedo, mfp, eta=1.0, g=0.0, model="monte_carlo", table=None) -> list[Layer]:
+def material_from_appearance(
+    albedo, mfp, eta=1.0, g=0.0, model="monte_carlo", table=None, *, client=None
+) -> list[Layer]:
     """One semi-infinite :class:`subsurf.Layer` per channel whose total diffuse reflectance under
     a normally incident beam, per unit incident power with the specular reflection excluded (what
     :func:`subsurf.simulate` reports), is ``albedo[i]`` under ``model``, with mean free path 1/σt
     ``mfp[i]`` (mm), for HG ``g`` and relative index ``eta``. Closed-form models predict the colour
     as (1 − R_sp) × their total. ``monte_carlo`` and ``normalized_diffusion`` (whose total is its
     surface albedo for any medium) invert ρ_eff of a :class:`ProfileTable` (``table``; built for
-    (g, eta) with default settings and cached in memory if not given): their materials, simulated,
-    reproduce the colour."""
+    (g, eta) with default settings — on a Dask ``client`` if given — and cached in memory if not
+    given): their materials, simulated, reproduce the colour."""
     a = np.atleast_1d(_arr("albedo", albedo)).astype(float)
     m = np.broadcast_to(np.atleast_1d(_arr("mfp", mfp)), a.shape).astype(float)
     core_table = None
     if _model(model) in ("monte_carlo", "normalized_diffusion"):
-        core_table = (table if table is not None else _default_table(float(g), float(eta)))._t
+        core_table = (table if table is not None else _default_table(float(g), float(eta), client))._t
     out = _core.bssrdf_material_from_appearance(list(a), list(m), float(eta), float(g), model, core_table)
     return [Layer(n, mua, mus, gg) for n, mua, mus, gg in out]
 
@@ -389,10 +436,10 @@ def material_from_appearance(albedo, mfp, eta=1.0, g=0.0, model="monte_carlo", t
 _TABLES: dict = {}
 
 
-def _default_table(g, eta) -> ProfileTable:
+def _default_table(g, eta, client=None) -> ProfileTable:
     key = (g, eta)
     if key not in _TABLES:
-        _TABLES[key] = ProfileTable.build(g, eta)
+        _TABLES[key] = ProfileTable.build(g, eta, client=client)
     return _TABLES[key]
 
 
@@ -419,24 +466,68 @@ def fit_profile_layer(stack, layer, r, rd, sigma, initial=(0.01, 1.0)) -> Fit:
 
 
 class SlabTable:
-    """Monte Carlo (Rd, Tt) of slabs on a grid of albedos × optical thicknesses (one engine run
-    each, ``photons`` photons), for the Monte Carlo slab fit."""
+    """Monte Carlo (Rd, Tt) of slabs on a grid of albedos × optical thicknesses τ (σt = 1 mm⁻¹,
+    thickness τ mm; one engine run of ``photons`` photons per point, point (i, j) with seed
+    ``seed + i·len(taus) + j``), for the Monte Carlo slab fit. The points are computed with
+    :func:`subsurf.sweep` — here, or one task per point on a Dask ``client`` (the same table
+    either way); ``path`` keeps finished points so that a build stopped by Ctrl-C
+    (KeyboardInterrupt) resumes when started again with the same arguments."""
 
-    def __init__(self, g, n, albedos, taus, n_above=1.0, n_below=1.0, photons=20_000, seed=0):
+    def __init__(
+        self,
+        g,
+        n,
+        albedos,
+        taus,
+        n_above=1.0,
+        n_below=1.0,
+        photons=20_000,
+        seed=0,
+        *,
+        client=None,
+        path=None,
+        progress=None,
+    ):
         self.g, self.n, self.n_above, self.n_below = float(g), float(n), float(n_above), float(n_below)
-        self._t = _core.SlabTable.build(
-            self.g,
-            self.n,
-            self.n_above,
-            self.n_below,
-            list(map(float, albedos)),
-            list(map(float, taus)),
-            int(photons),
-            int(seed),
-        )
+        albedos, taus = list(map(float, albedos)), list(map(float, taus))
+        point = _SlabPoint(self.g, self.n, self.n_above, self.n_below, albedos, taus, int(photons), int(seed))
+        res = _sweep_points(point, {"albedo": albedos, "tau": taus}, path, client, progress, "slab table")
+        totals = np.stack([res[k] for k in ("rd", "rd_stderr", "tt", "tt_stderr")], axis=-1).reshape(-1, 4)
+        args = (self.g, self.n, self.n_above, self.n_below, albedos, taus)
+        self._t = _core.SlabTable.from_totals(*args, [tuple(map(float, t)) for t in totals])
 
     def totals(self, albedo, tau):
+        """Interpolated (Rd, Tt) at ``albedo`` and optical thickness ``tau`` inside the grid."""
         return self._t.totals(float(albedo), float(tau))
+
+
+class _SlabPoint:
+    """A :class:`SlabTable` point as a sweep point (picklable)."""
+
+    def __init__(self, g, n, n_above, n_below, albedos, taus, photons, seed):
+        self.args = dict(g=g, n=n, n_above=n_above, n_below=n_below, photons=photons, seed=seed)
+        self.albedos, self.taus = albedos, taus
+
+    def fingerprint(self) -> dict:
+        return {"kind": "subsurf.bssrdf.SlabTable", **self.args, "albedos": self.albedos, "taus": self.taus}
+
+    def __call__(self, albedo, tau):
+        from .cluster import task_threads
+
+        a = self.args
+        k = self.albedos.index(albedo) * len(self.taus) + self.taus.index(tau)
+        rd, rd_se, tt, tt_se = _core.bssrdf_slab_point(
+            a["g"],
+            a["n"],
+            a["n_above"],
+            a["n_below"],
+            albedo,
+            tau,
+            a["photons"],
+            (a["seed"] + k) % 2**64,
+            task_threads(None),
+        )
+        return {"rd": rd, "rd_stderr": rd_se, "tt": tt, "tt_stderr": tt_se}
 
 
 def fit_slab_totals(

@@ -40,7 +40,9 @@ import sys
 from typing import Any
 
 from . import _core
+from .mc import DiffuseIllumination, PencilBeam
 from .medium import Layer, Stack
+from .tallies import Tallies
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -50,8 +52,11 @@ else:  # pragma: no cover - exercised on 3.9/3.10 only
 __all__ = [
     "ConfigError",
     "RunConfig",
+    "SweepConfig",
     "load_config",
+    "load_sweep",
     "parse_config",
+    "parse_sweep",
     "TOP_KEYS",
     "LAYER_KEYS",
     "SOURCE_KEYS",
@@ -68,10 +73,10 @@ TALLY_KEYS = {
     "nz": "count",
     "dz": "length",
     "na": "count",
-    "nt": "count0",
+    "nt": "count",
     "dt": "length",
     "brdf": "brdf",
-    "max_order": "order",
+    "max_order": "count",
     "spatial": "bool",
     "angular": "bool",
 }
@@ -156,13 +161,12 @@ def _number(ctx: _Ctx, key: str, v, allow_inf: bool = False) -> float:
 
 
 def _int(ctx: _Ctx, key: str, v, lo: int | None = None, hi: int | None = None) -> int:
-    """An integer; its range is checked here only when ``lo`` is given (the engine's limits are
-    the core's, which :mod:`subsurf` applies)."""
+    """An integer, within [lo, hi] where they are given (the engine's limits are the core's)."""
     if isinstance(v, float) and v.is_integer():
         v = int(v)
     if isinstance(v, bool) or not isinstance(v, int):
         raise ctx.error(key, f"expected an integer, got {v!r}")
-    if lo is not None and (v < lo or (hi is not None and v > hi)):
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
         rng = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
         raise ctx.error(key, f"{v} is out of range: must be an integer {rng}")
     return v
@@ -242,16 +246,10 @@ def _source(ctx: _Ctx, data: dict):
 
 
 def _make_source(spec: dict):
-    """The engine's source object for a source spec (the spec itself until the engine is present)."""
-    import subsurf
-
+    """The engine's source object for a source spec."""
     if spec["type"] == "diffuse":
-        cls = getattr(subsurf, "DiffuseIllumination", None)
-        return cls() if cls is not None else spec
-    cls = getattr(subsurf, "PencilBeam", None)
-    if cls is None:
-        return spec
-    return cls(theta=math.radians(spec["theta_deg"]), phi=math.radians(spec["phi_deg"]))
+        return DiffuseIllumination()
+    return PencilBeam(theta=math.radians(spec["theta_deg"]), phi=math.radians(spec["phi_deg"]))
 
 
 def _tallies(ctx: _Ctx, data: dict):
@@ -262,7 +260,7 @@ def _tallies(ctx: _Ctx, data: dict):
     out: dict[str, Any] = {}
     for k, v in t.items():
         kind, key = TALLY_KEYS[k], f"tallies.{k}"
-        if kind in ("count", "count0", "order"):
+        if kind == "count":  # ranges: subsurf.Tallies (the core) checks them, errors mapped below
             out[k] = _int(ctx, key, v)
         elif kind == "length":
             out[k] = _number(ctx, key, v)
@@ -277,24 +275,18 @@ def _tallies(ctx: _Ctx, data: dict):
             if not (isinstance(v, list) and len(v) == 2):
                 raise ctx.error(key, f"expected [n_cos_theta, n_phi] (two integers) or false, got {v!r}")
             out[k] = (_int(ctx, key, v[0]), _int(ctx, key, v[1]))
-    import subsurf
-
-    cls = getattr(subsurf, "Tallies", None)
-    if cls is None:  # no histogram tallies in this build: totals only
-        if out:
-            raise ctx.error("tallies", "this build of subsurf has no histogram tallies (subsurf.Tallies)")
-        return out, None
     try:
-        return out, cls(**out)
-    except (_core.ParameterError, TypeError, ValueError) as e:
+        return out, Tallies(**out)
+    except _core.ParameterError as e:
         raise _param_message(ctx, "tallies", e) from None
 
 
-def parse_config(text: str, path: str = "<string>") -> RunConfig:
-    """Parse the TOML text of a configuration; ``path`` is used in error messages."""
+def _toml(text: str, path: str) -> tuple[_Ctx, dict]:
     ctx = _Ctx(path, text)
     try:
-        data = tomllib.loads(text)
+        return ctx, tomllib.loads(text)
+    except RecursionError:
+        raise ConfigError(f"{path}: invalid TOML: arrays or tables nested too deeply") from None
     except tomllib.TOMLDecodeError as e:
         msg = str(e)
         m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
@@ -304,7 +296,16 @@ def parse_config(text: str, path: str = "<string>") -> RunConfig:
         if "end of document" in msg:
             raise ConfigError(f"{path}:{max(len(ctx.lines), 1)}: invalid TOML: {msg}") from None
         raise ConfigError(f"{path}: invalid TOML: {msg}") from None
-    _check_keys(ctx, "", data, TOP_KEYS)
+
+
+def parse_config(text: str, path: str = "<string>") -> RunConfig:
+    """Parse the TOML text of a configuration; ``path`` is used in error messages."""
+    return _from_data(*_toml(text, path))
+
+
+def _from_data(ctx: _Ctx, data: dict, top_keys=TOP_KEYS) -> RunConfig:
+    """A checked :class:`RunConfig` from parsed TOML data."""
+    _check_keys(ctx, "", data, top_keys)
     photons = _int(ctx, "photons", data.get("photons", 100_000))
     seed = _int(ctx, "seed", data.get("seed", 0))
     threads = _int(ctx, "threads", data["threads"]) if "threads" in data else None
@@ -336,13 +337,169 @@ def parse_config(text: str, path: str = "<string>") -> RunConfig:
         threads=threads,
         output=output,
         description=desc,
-        path=path,
+        path=ctx.path,
         data={"source": src_spec, "tallies": tally_spec},
     )
 
 
-def load_config(path: str | os.PathLike) -> RunConfig:
-    """Read and check a TOML configuration file."""
+# ---- sweeps -----------------------------------------------------------------------------------
+
+SWEEP_KEYS = ("name", "values", "units", "set")
+#: Keys of a configuration an axis of a sweep may set (tallies stay fixed: every point has the same grids).
+SWEEPABLE = re.compile(
+    r"(photons|seed|n_above|n_below|layers\[(\d+)\]\.(n|mua|mus|g|thickness)|source\.(theta_deg|phi_deg))"
+)
+
+
+@dataclasses.dataclass
+class SweepConfig:
+    """A sweep file: a run configuration (the keys of :func:`parse_config`) plus ``[[sweep]]``
+    tables, one per grid axis, the first outermost::
+
+        [[sweep]]
+        name = "g"                  # the coordinate's name
+        values = [0.0, 0.5, 0.9]    # its values (numbers)
+        set = "layers[0].g"         # the key it sets (default: the name)
+
+        [[sweep]]                   # several keys varying together along one axis
+        name = "wavelength"
+        units = "nm"
+        values = [450, 550, 650]
+        [sweep.set]
+        "layers[0].mua" = [0.30, 0.10, 0.05]
+        "layers[0].mus" = [12.0, 10.0, 8.0]
+
+    Keys an axis may set: photons, seed, n_above, n_below, ``layers[i].{n, mua, mus, g,
+    thickness}`` and ``source.{theta_deg, phi_deg}``. Every point uses the file's seed unless an
+    axis sets ``seed`` (common random numbers: neighbouring points differ by much less noise than
+    their standard errors). An instance is a picklable sweep point for :func:`subsurf.sweep`:
+    ``config(**coords)`` runs that point's simulation.
+    """
+
+    base: dict
+    axes: list
+    path: str = "<string>"
+    output: str | None = None
+    description: str = ""
+    threads: int | None = None
+
+    def grid(self) -> dict:
+        return {a["name"]: list(a["values"]) for a in self.axes}
+
+    def units(self) -> dict:
+        return {a["name"]: a["units"] for a in self.axes}
+
+    def data_at(self, **coords) -> dict:
+        """The configuration data of the point with these coordinates."""
+        import copy
+
+        data = copy.deepcopy(self.base)
+        for a in self.axes:
+            i = a["values"].index(coords[a["name"]])
+            for key, vals in a["set"].items():
+                m = SWEEPABLE.fullmatch(key)
+                if m.group(2) is not None:
+                    data["layers"][int(m.group(2))][m.group(3)] = vals[i]
+                elif m.group(4) is not None:
+                    data.setdefault("source", {})[m.group(4)] = vals[i]
+                else:
+                    data[key] = vals[i]
+        return data
+
+    def run_config(self, **coords) -> RunConfig:
+        """The checked run configuration of one point."""
+        text = f"sweep point ({', '.join(f'{k} = {v!r}' for k, v in coords.items())})"
+        try:
+            return _from_data(_Ctx(self.path, ""), self.data_at(**coords))
+        except ConfigError as e:
+            msg = str(e)
+            if msg.startswith(self.path + ": "):
+                msg = msg[len(self.path) + 2 :]
+            raise ConfigError(f"{self.path}: {text}: {msg}") from None
+
+    def fingerprint(self) -> dict:
+        base = {k: v for k, v in self.base.items() if k not in ("threads", "output", "description")}
+        return {"kind": "subsurf.simulate", "base": base, "axes": self.axes}
+
+    def __call__(self, **coords):
+        """Simulate one point: its totals and histograms (:func:`subsurf.sweeps.result_data`)."""
+        from .cluster import task_threads
+        from .mc import simulate
+        from .sweeps import result_data
+
+        rc = self.run_config(**coords)
+        threads = task_threads(self.threads if self.threads is not None else rc.threads)
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # an interrupted point is redone, not kept
+            res = simulate(rc.stack, **{**rc.simulate_kwargs(), "threads": threads})
+        if res.partial:
+            raise KeyboardInterrupt(f"{self.path}: interrupted during a sweep point")
+        return result_data(res)
+
+
+def _sweep_axes(ctx: _Ctx, raw) -> list:
+    if not isinstance(raw, list) or not raw or not all(isinstance(t, dict) for t in raw):
+        raise ctx.error("sweep", "expected one or more [[sweep]] tables (name, values, set)")
+    axes, names, keys = [], set(), set()
+    for i, t in enumerate(raw):
+        p = f"sweep[{i}]"
+        _check_keys(ctx, p, t, SWEEP_KEYS)
+        name = t.get("name")
+        if not isinstance(name, str) or not name.isidentifier() or name in names:
+            raise ctx.error(f"{p}.name", f"expected a new axis name (letters, digits, _), got {name!r}")
+        names.add(name)
+        values = t.get("values")
+        if not isinstance(values, list) or not values:
+            raise ctx.error(f"{p}.values", f"expected a non-empty list of numbers, got {values!r}")
+        for v in values:
+            _number(ctx, f"{p}.values", v)
+        if len(set(values)) != len(values):
+            raise ctx.error(f"{p}.values", "values repeat")
+        units = t.get("units", "")
+        if not isinstance(units, str):
+            raise ctx.error(f"{p}.units", f"expected a string, got {units!r}")
+        st = t.get("set", name)
+        sets = {st: values} if isinstance(st, str) else st
+        if not isinstance(sets, dict) or not sets:
+            raise ctx.error(f"{p}.set", 'expected a key ("layers[0].g") or a table of keys and value lists')
+        for key, vals in sets.items():
+            if not SWEEPABLE.fullmatch(key):
+                raise ctx.error(
+                    f"{p}.set",
+                    f"{key!r} cannot be swept (photons, seed, n_above, n_below, layers[i].n/mua/mus/g/thickness, "
+                    "source.theta_deg/phi_deg)",
+                )
+            if key in keys:
+                raise ctx.error(f"{p}.set", f"{key!r} is already set by another axis")
+            keys.add(key)
+            if not isinstance(vals, list) or len(vals) != len(values):
+                raise ctx.error(f"{p}.set", f"{key!r}: expected a list of {len(values)} values (one per axis value)")
+        axes.append({"name": name, "values": values, "units": units, "set": sets})
+    return axes
+
+
+def parse_sweep(text: str, path: str = "<string>") -> SweepConfig:
+    """Parse the TOML text of a sweep (see :class:`SweepConfig`); every point is checked."""
+    import itertools
+
+    ctx, data = _toml(text, path)
+    axes = _sweep_axes(ctx, data.get("sweep"))
+    base = {k: v for k, v in data.items() if k != "sweep"}
+    first = _from_data(ctx, base)  # the base configuration, with the file's line numbers in errors
+    for i, a in enumerate(axes):
+        for key in a["set"]:
+            m = SWEEPABLE.fullmatch(key)
+            if m.group(2) is not None and int(m.group(2)) >= len(first.stack.layers):
+                raise ctx.error(f"sweep[{i}].set", f"{key!r}: there are {len(first.stack.layers)} layers")
+    cfg = SweepConfig(base, axes, path, first.output, first.description)
+    for combo in itertools.product(*(a["values"] for a in axes)):
+        cfg.run_config(**dict(zip((a["name"] for a in axes), combo)))
+    return cfg
+
+
+def _read(path: str | os.PathLike) -> tuple[str, str]:
     path = os.fspath(path)
     try:
         with open(path, "rb") as f:
@@ -352,7 +509,17 @@ def load_config(path: str | os.PathLike) -> RunConfig:
     except OSError as e:
         raise ConfigError(f"{path}: cannot read ({e.strerror})") from None
     try:
-        text = raw.decode("utf-8")
+        return raw.decode("utf-8"), path
     except UnicodeDecodeError as e:
         raise ConfigError(f"{path}: not UTF-8 text (byte {e.start})") from None
-    return parse_config(text, path)
+
+
+def load_config(path: str | os.PathLike) -> RunConfig:
+    """Read and check a TOML configuration file."""
+    return parse_config(*_read(path))
+
+
+def load_sweep(path: str | os.PathLike) -> SweepConfig:
+    """Read and check a sweep file (a configuration with ``[[sweep]]`` axes; see
+    :class:`SweepConfig`): every point of the grid is checked up front."""
+    return parse_sweep(*_read(path))

@@ -12,6 +12,7 @@ exactly, see :mod:`subsurf.state`).
 from __future__ import annotations
 
 import operator
+import time
 import warnings
 
 import numpy as np
@@ -169,7 +170,7 @@ def _run(stack, photons, seed, threads, source, tallies, progress, state=None, s
 
 
 def simulate(
-    stack, photons=10**6, seed=0, threads=None, source=None, tallies=None, progress=None, resume=None
+    stack, photons=10**6, seed=0, threads=None, source=None, tallies=None, progress=None, resume=None, client=None
 ) -> Result:
     """Trace photon packets through a layered medium (Monte Carlo, MCML's algorithm).
 
@@ -180,7 +181,8 @@ def simulate(
     seed : an integer in [0, 2⁶⁴). The result is a pure function of (stack, source, tallies,
         seed, photons): bit-identical for any ``threads``, any interruption and resumption, and
         any split into photon ranges (:func:`simulate_range`).
-    threads : worker threads (1 … 1024); ``None`` uses one per core.
+    threads : worker threads (1 … 1024); ``None`` uses one per core (with a ``client``: threads
+        per task, default 1, as a Dask worker runs one task per worker thread).
     source : :class:`PencilBeam` (default, normal incidence) or :class:`DiffuseIllumination`.
     tallies : :class:`subsurf.Tallies` (or its ``to_dict()``) selecting the histograms to score
         (R(r), A(z), BRDF/BTDF, per-order splits …, see docs/architecture.md); ``None`` scores
@@ -192,6 +194,14 @@ def simulate(
         tallies and seed: the run continues from photon N to ``photons``, giving the bits of an
         uninterrupted run. A state that already holds ``photons`` photons (e.g. states of photon
         ranges merged with :meth:`TallyState.merge`) is just finished into a result.
+    client : a ``dask.distributed.Client`` (``pip install 'subsurf[cluster]'``): the photons
+        are traced on its workers as tasks of consecutive photon ranges sized to run for seconds,
+        whose exact states are merged in range order — the result has the bits of a local run
+        with the same seed, whatever the number of workers, and survives lost workers (Dask
+        re-runs their tasks). ``progress(done, total)`` is called as tasks finish; Ctrl-C (or
+        ``progress`` raising KeyboardInterrupt) cancels the remaining tasks and returns the
+        completed prefix, marked partial and resumable (``resume=``, with or without a client).
+        See :mod:`subsurf.cluster` and docs/cluster.md.
 
     Interruption (Ctrl-C, or ``progress`` raising ``KeyboardInterrupt`` — also on its final
     call, or during a run shorter than 50 ms): the run stops and the photons completed so far are
@@ -233,9 +243,16 @@ def simulate(
             )
     remaining = photons - (prior.stop if prior is not None else 0)
     _warn_cost(stack, max(remaining, 0))
-    d = _run(stack, photons, seed, threads, source, tallies, progress, state=prior)
-    state = TallyState(d["state"])
-    if d["interrupted"] and state.photons == 0:
+    if client is not None:
+        from .cluster import run_ranges
+
+        t0 = time.perf_counter()
+        state, interrupted = run_ranges(client, stack, photons, seed, threads, source, tallies, progress, prior)
+        elapsed = time.perf_counter() - t0
+    else:
+        d = _run(stack, photons, seed, threads, source, tallies, progress, state=prior)
+        state, interrupted, elapsed = TallyState(d["state"]), d["interrupted"], d["elapsed_s"]
+    if interrupted and (state is None or state.photons == 0):
         raise KeyboardInterrupt("subsurf.simulate was interrupted before any photon was completed")
     partial = state.photons < photons
     if partial:
@@ -244,7 +261,7 @@ def simulate(
             RuntimeWarning,
             stacklevel=2,
         )
-    return _result(stack, seed, source, tallies, photons, state, elapsed0 + d["elapsed_s"])
+    return _result(stack, seed, source, tallies, photons, state, elapsed0 + elapsed)
 
 
 def simulate_range(stack, start, stop, seed=0, threads=None, source=None, tallies=None, progress=None) -> TallyState:

@@ -4,10 +4,10 @@
 
 use crate::errors::IntoPyResult;
 use crate::medium::{stack_from_py, LayerTuple};
+use crate::wait::{interrupted, interruptible};
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::Arc;
 use subsurf_core::bssrdf::inverse::{self, Fit, SlabTable};
 use subsurf_core::bssrdf::monte_carlo::{McSettings, MonteCarloProfile, RadialData};
@@ -150,9 +150,10 @@ fn bssrdf_medium_profile(
     Ok(PyProfile::new(Arc::from(p), model_name))
 }
 
-/// A profile of `model_name` for a stack (Monte Carlo settings used by "monte_carlo" only).
+/// A profile of `model_name` for a stack (Monte Carlo settings used by "monte_carlo" only; its
+/// run can be interrupted with Ctrl-C or by `progress(done, total)` raising KeyboardInterrupt).
 #[pyfunction]
-#[pyo3(signature = (model_name, stack_tuple, photons, seed, threads, per_decade, max_rel_err, r_min=None, r_max=None))]
+#[pyo3(signature = (model_name, stack_tuple, photons, seed, threads, per_decade, max_rel_err, r_min=None, r_max=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn bssrdf_stack_profile(
     py: Python<'_>,
@@ -165,12 +166,19 @@ fn bssrdf_stack_profile(
     max_rel_err: f64,
     r_min: Option<f64>,
     r_max: Option<f64>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<PyProfile> {
     let m = model(model_name)?;
     let s = stack(&stack_tuple)?;
     let cfg = McSettings { photons, seed, threads, r_min, r_max, per_decade, max_rel_err };
     if m == Model::MonteCarlo {
-        let p = Arc::new(py.detach(|| MonteCarloProfile::simulate(&s, &cfg)).py()?);
+        let (out, stop) = interruptible(py, progress.as_ref(), photons, move |c, d| {
+            MonteCarloProfile::simulate_with(&s, &cfg, c, d)
+        })?;
+        if stop.is_some() {
+            return Err(interrupted("the Monte Carlo profile"));
+        }
+        let p = Arc::new(out.py()?.0);
         return Ok(PyProfile { inner: p.clone(), mc: Some(p), model: model_name.into() });
     }
     let p = py.detach(|| profile(m, &s, &cfg)).py()?;
@@ -238,16 +246,22 @@ fn bssrdf_table_defaults<'py>(py: Python<'py>, g: f64, eta: f64, n_albedos: usiz
     Ok(d)
 }
 
-/// Trace albedo point `index` of a table; returns its data dict.
+/// Trace albedo point `index` of a table (interruptible); returns its data dict.
 #[pyfunction]
+#[pyo3(signature = (settings, index, progress=None))]
 fn bssrdf_table_point<'py>(
     py: Python<'py>,
     settings: Bound<'py, PyDict>,
     index: usize,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let s = settings_from_py(&settings)?;
-    let d = py.detach(|| build_point(&s, index, &AtomicBool::new(false), &AtomicU64::new(0))).py()?;
-    data_to_py(py, &d)
+    let total = s.photons;
+    let (out, stop) = interruptible(py, progress.as_ref(), total, move |c, d| build_point(&s, index, c, d))?;
+    if stop.is_some() {
+        return Err(interrupted(&format!("table point {index}")));
+    }
+    data_to_py(py, &out.py()?)
 }
 
 /// Monte Carlo profile table (see `subsurf.bssrdf.ProfileTable`).
@@ -363,24 +377,50 @@ pub struct PySlabTable {
 
 #[pymethods]
 impl PySlabTable {
+    /// A table from its grid and one (rd, rd_stderr, tt, tt_stderr) per point, row-major.
     #[staticmethod]
     #[allow(clippy::too_many_arguments)]
-    fn build(
-        py: Python<'_>,
+    fn from_totals(
         g: f64,
         n: f64,
         n_above: f64,
         n_below: f64,
         albedos: Vec<f64>,
         taus: Vec<f64>,
-        photons: u64,
-        seed: u64,
+        totals: Vec<[f64; 4]>,
     ) -> PyResult<Self> {
-        let t = py.detach(|| SlabTable::build(g, n, n_above, n_below, albedos, taus, photons, seed)).py()?;
+        let t = SlabTable::from_totals(g, n, n_above, n_below, albedos, taus, &totals).py()?;
         Ok(PySlabTable { inner: Arc::new(t) })
     }
     fn totals(&self, albedo: f64, tau: f64) -> PyResult<(f64, f64)> {
         self.inner.totals(albedo, tau).py()
+    }
+}
+
+/// One point of a slab table: (rd, rd_stderr, tt, tt_stderr) of the slab of albedo `a` and
+/// optical thickness `tau` (interruptible).
+#[pyfunction]
+#[pyo3(signature = (g, n, n_above, n_below, a, tau, photons, seed, threads=None, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn bssrdf_slab_point(
+    py: Python<'_>,
+    g: f64,
+    n: f64,
+    n_above: f64,
+    n_below: f64,
+    a: f64,
+    tau: f64,
+    photons: u64,
+    seed: u64,
+    threads: Option<usize>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<[f64; 4]> {
+    let (out, stop) = interruptible(py, progress.as_ref(), photons, move |c, d| {
+        SlabTable::point(g, n, n_above, n_below, a, tau, photons, seed, threads, c, d)
+    })?;
+    match out.py()? {
+        Some(p) if stop.is_none() => Ok(p),
+        _ => Err(interrupted(&format!("slab point (albedo {a}, tau {tau})"))),
     }
 }
 
@@ -421,6 +461,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bssrdf_chandrasekhar_reflectance, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_table_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_table_point, m)?)?;
+    m.add_function(wrap_pyfunction!(bssrdf_slab_point, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_material_from_appearance, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_fit_profile, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_fit_profile_layer, m)?)?;

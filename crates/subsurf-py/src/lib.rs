@@ -13,6 +13,7 @@ mod mc;
 mod medium;
 mod optics;
 mod render;
+mod wait;
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -2,22 +2,19 @@
 //! range into an exact state, `mc_finish` turns a state into totals and histograms,
 //! `mc_merge_states` appends states in range order; plus validators, limits and bin measures.
 //!
-//! Ctrl-C: a run executes on a background thread while this thread waits with the GIL
-//! released, waking every 50 ms to re-attach, call `check_signals()` and the optional
-//! `progress(done, total)` callable. A KeyboardInterrupt — from a signal or from `progress`,
-//! during the run, on `progress`'s final call, or pending when a short run ends — stops the run
-//! and is answered by the state of the photons committed so far with `interrupted = True`
-//! (always a prefix of whole chunks); any other exception from `progress` propagates.
+//! Ctrl-C ([`crate::wait::interruptible`]): a KeyboardInterrupt — from a signal or from
+//! `progress(done, total)`, during the run, on `progress`'s final call, or pending when a short
+//! run ends — stops the run and is answered by the state of the photons committed so far with
+//! `interrupted = True` (always a prefix of whole chunks); any other exception from `progress`
+//! propagates.
 
 use crate::errors::{f64_arg, to_py, u64_arg, IntoPyResult};
 use crate::medium::{stack_from_py, LayerTuple};
+use crate::wait::interruptible;
 use numpy::{PyArray1, PyReadonlyArray1};
-use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{mpsc, Arc};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 use subsurf_core::mc::config::{CHUNK_PHOTONS, MAX_THREADS, PHOTONS_ALLOWED, SEED_ALLOWED, THREADS_ALLOWED};
 use subsurf_core::mc::tally::histogram::AxisKind;
 use subsurf_core::mc::tally::totals::{Total, Totals, TOTAL_NAMES};
@@ -25,9 +22,6 @@ use subsurf_core::mc::tally::{Channel, HistogramOut, TallyConfig, TallySet};
 use subsurf_core::mc::{cost, extend, fingerprint, finish, FlatState, RunConfig, Source, TallyState};
 use subsurf_core::medium::Stack;
 use subsurf_core::Error;
-
-/// How often the waiting thread re-attaches to check signals and report progress.
-const POLL: Duration = Duration::from_millis(50);
 
 /// A source as Python passes it: ("pencil", theta, phi) or ("diffuse", 0, 0).
 fn source_from_py(kind: &str, theta: f64, phi: f64) -> subsurf_core::Result<Source> {
@@ -270,70 +264,21 @@ fn mc_run<'py>(
         }
     };
     let total = su.cfg.photons - st.end;
-    let cancel = Arc::new(AtomicBool::new(false));
-    let done = Arc::new(AtomicU64::new(0));
-    let (tx, mut rx) = mpsc::channel::<()>();
     let t0 = Instant::now();
     let proto = su.tallies.as_ref().map(|t| TallySet::new(t, &su.stack)).transpose().py()?;
-    let handle = {
-        let (cancel, done) = (cancel.clone(), done.clone());
-        let (stack, cfg, nl) = (su.stack.clone(), su.cfg, su.stack.layers.len());
-        std::thread::spawn(move || {
-            // Two monomorphisations: a run without histograms pays nothing for them.
-            let out = match proto {
-                None => extend(&stack, &cfg, &mut st, || Totals::new(nl), &cancel, &done),
-                Some(p) => extend(&stack, &cfg, &mut st, || (Totals::new(nl), p.clone()), &cancel, &done),
-            };
-            let _ = tx.send(());
-            out.map(|_| st)
-        })
-    };
-    let mut interrupt: Option<PyErr> = None;
-    loop {
-        let (finished, back) = py.detach(move || {
-            let r = rx.recv_timeout(POLL);
-            (!matches!(r, Err(mpsc::RecvTimeoutError::Timeout)), rx)
-        });
-        rx = back;
-        if finished {
-            break;
-        }
-        let mut check = py.check_signals();
-        if check.is_ok() {
-            if let Some(cb) = &progress {
-                check = cb.call1(py, (done.load(Ordering::Relaxed), total)).map(|_| ());
-            }
-        }
-        if let Err(e) = check {
-            cancel.store(true, Ordering::Relaxed);
-            interrupt = Some(e);
-            break;
-        }
-    }
-    let joined = py.detach(move || handle.join());
-    let st = joined.map_err(|_| PyRuntimeError::new_err("subsurf: the Monte Carlo worker thread panicked"))?.py()?;
-    let mut interrupted = false;
-    match interrupt {
-        Some(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => interrupted = true,
-        Some(e) => return Err(e),
-        None => {
-            // the final call, and a Ctrl-C that arrived during a run shorter than one poll
-            let mut last = py.check_signals();
-            if last.is_ok() {
-                if let Some(cb) = &progress {
-                    last = cb.call1(py, (done.load(Ordering::Relaxed), total)).map(|_| ());
-                }
-            }
-            match last {
-                Err(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => interrupted = true,
-                Err(e) => return Err(e),
-                Ok(()) => {}
-            }
-        }
-    }
+    let (stack, cfg, nl) = (su.stack.clone(), su.cfg, su.stack.layers.len());
+    let (out, stop) = interruptible(py, progress.as_ref(), total, move |cancel, done| {
+        // Two monomorphisations: a run without histograms pays nothing for them.
+        let out = match proto {
+            None => extend(&stack, &cfg, &mut st, || Totals::new(nl), cancel, done),
+            Some(p) => extend(&stack, &cfg, &mut st, || (Totals::new(nl), p.clone()), cancel, done),
+        };
+        out.map(|_| st)
+    })?;
+    let st = out.py()?;
     let d = PyDict::new(py);
     d.set_item("state", state_to_py(py, &st)?)?;
-    d.set_item("interrupted", interrupted)?;
+    d.set_item("interrupted", stop.is_some())?;
     d.set_item("elapsed_s", t0.elapsed().as_secs_f64())?;
     Ok(d)
 }

@@ -6,13 +6,12 @@
 
 use crate::errors::{to_py, IntoPyResult};
 use crate::medium::{stack_from_py, LayerTuple};
+use crate::wait::interruptible;
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, ToPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc;
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
-use std::time::Duration;
 use subsurf_core::bssrdf::monte_carlo::McSettings;
 use subsurf_core::render::material::channel_profiles;
 use subsurf_core::render::walk_sim::{simulate, BeamSource, VoxelGrid, WalkConfig};
@@ -192,47 +191,22 @@ impl RenderJob {
     }
 
     /// Render `n` more samples per pixel; returns the total so far. The pass runs on a worker
-    /// thread while this one waits with the GIL released, waking every 50 ms to check for
-    /// Ctrl-C: a KeyboardInterrupt cancels the pass (its samples are discarded, the image keeps
-    /// every completed pass) and is re-raised.
+    /// thread while this one waits with the GIL released ([`interruptible`]): a KeyboardInterrupt
+    /// cancels the pass (its samples are discarded, the image keeps every completed pass) and is
+    /// re-raised.
     fn render_pass(&mut self, py: Python<'_>, n: u32) -> PyResult<u32> {
         let (s0, s1) = (self.spp, self.spp.saturating_add(n));
         let (r, threads) = (self.renderer.clone(), self.threads);
         let mut acc = std::mem::take(&mut self.accum);
-        let cancel = Arc::new(AtomicBool::new(false));
-        let (tx, mut rx) = mpsc::channel::<()>();
-        let handle = {
-            let cancel = cancel.clone();
-            std::thread::spawn(move || {
-                let ok = subsurf_core::render::with_threads(threads, || r.pass(s0, s1, &mut acc, &cancel));
-                let _ = tx.send(());
-                (ok, acc)
-            })
-        };
-        let mut interrupt = None;
-        loop {
-            let (finished, back) = py.detach(move || {
-                let got = rx.recv_timeout(Duration::from_millis(50));
-                (!matches!(got, Err(mpsc::RecvTimeoutError::Timeout)), rx)
-            });
-            rx = back;
-            if finished {
-                break;
-            }
-            if let Err(e) = py.check_signals() {
-                cancel.store(true, Ordering::Relaxed);
-                interrupt = Some(e);
-                break;
-            }
-        }
-        let (ok, acc) = py
-            .detach(move || handle.join())
-            .map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("subsurf: the render worker thread panicked"))?;
+        let ((ok, acc), stop) = interruptible(py, None, 0, move |cancel, _| {
+            let ok = subsurf_core::render::with_threads(threads, || r.pass(s0, s1, &mut acc, cancel));
+            (ok, acc)
+        })?;
         self.accum = acc;
         if ok.py()? {
             self.spp = s1;
         }
-        match interrupt {
+        match stop {
             Some(e) => Err(e),
             None => Ok(self.spp),
         }
@@ -304,13 +278,14 @@ fn render_shape<'py>(
 
 /// (closed, open_edges, area, volume) of a mesh, validating it (errors name `name`).
 #[pyfunction]
-fn render_mesh_info(d: &Bound<'_, PyDict>, name: &str) -> PyResult<(bool, usize, f64, f64)> {
-    let m = mesh_from_py(d, name)?;
+fn render_mesh_info(mesh: &Bound<'_, PyDict>, name: &str) -> PyResult<(bool, usize, f64, f64)> {
+    let m = mesh_from_py(mesh, name)?;
     Ok((m.closed, m.open_edges, m.total_area(), m.volume()))
 }
 
 /// The random-walk simulation: `source` = ("pencil", origin, direction) or ("collimated",
-/// direction, direction); returns a dict of tallies (fractions of launched power).
+/// direction, direction); returns a dict of tallies (fractions of launched power). Ctrl-C stops
+/// it with KeyboardInterrupt.
 #[pyfunction]
 #[pyo3(signature = (scene, source, photons, seed, channel=0, voxels=None, threads=None))]
 #[allow(clippy::too_many_arguments)]
@@ -335,14 +310,15 @@ fn render_walk_simulate<'py>(
     }
     let cfg =
         WalkConfig { source: src, photons, seed, channel, voxels: voxels.map(|(lo, hi, n)| VoxelGrid { lo, hi, n }) };
-    let t = py
-        .detach(|| {
-            subsurf_core::render::with_threads(threads, || {
-                simulate(&sc, &cfg, &AtomicBool::new(false), &AtomicU64::new(0))
-            })
-        })
-        .py()?
-        .py()?;
+    let sc = Arc::new(sc);
+    let shared = sc.clone();
+    let (t, stop) = interruptible(py, None, photons, move |cancel, done| {
+        subsurf_core::render::with_threads(threads, || simulate(&shared, &cfg, cancel, done))
+    })?;
+    if stop.is_some() {
+        return Err(crate::wait::interrupted("the random-walk simulation"));
+    }
+    let t = t.py()?.py()?;
     let n = t.photons as f64;
     let out = PyDict::new(py);
     // Exitance per triangle, in mesh order: object index and local triangle index of each.

@@ -125,7 +125,7 @@ pub struct SlabTable {
 }
 
 impl SlabTable {
-    /// Run the engine once per grid point (`photons` each, seed + index).
+    /// Run the engine once per grid point (`photons` each, point (i, j) with seed + i·len(taus) + j).
     #[allow(clippy::too_many_arguments)]
     pub fn build(
         g: f64,
@@ -137,44 +137,123 @@ impl SlabTable {
         photons: u64,
         seed: u64,
     ) -> Result<SlabTable> {
-        if albedos.len() < 2 || taus.len() < 2 {
-            return Err(Error::Invalid("slab table: give at least 2 albedos and 2 optical thicknesses".into()));
+        Self::check_table_grid(&albedos, &taus)?;
+        let (never, progress) = (AtomicBool::new(false), AtomicU64::new(0));
+        let mut totals = Vec::with_capacity(albedos.len() * taus.len());
+        for (i, &a) in albedos.iter().enumerate() {
+            for (j, &tau) in taus.iter().enumerate() {
+                let k = (i * taus.len() + j) as u64;
+                let p = Self::point(
+                    g,
+                    n,
+                    n_above,
+                    n_below,
+                    a,
+                    tau,
+                    photons,
+                    seed.wrapping_add(k),
+                    None,
+                    &never,
+                    &progress,
+                )?;
+                totals.push(p.expect("a run that cannot be cancelled completes"));
+            }
         }
-        let mut t = SlabTable {
+        Self::from_totals(g, n, n_above, n_below, albedos, taus, &totals)
+    }
+
+    /// One grid point: (Rd, its standard error, Tt, its standard error) of the slab of albedo `a`
+    /// and optical thickness `tau` (σt = 1 mm⁻¹, thickness τ mm) under a normally incident pencil
+    /// beam; `None` when `cancel` stopped the run (`progress` counts photons).
+    #[allow(clippy::too_many_arguments)]
+    pub fn point(
+        g: f64,
+        n: f64,
+        n_above: f64,
+        n_below: f64,
+        a: f64,
+        tau: f64,
+        photons: u64,
+        seed: u64,
+        threads: Option<usize>,
+        cancel: &AtomicBool,
+        progress: &AtomicU64,
+    ) -> Result<Option<[f64; 4]>> {
+        Self::check_grid(&[a], &[tau])?;
+        let s = Stack::new(vec![Layer::new(n, 1.0 - a, a, g, tau)?], n_above, n_below)?;
+        let cfg = RunConfig { photons, seed, threads, source: Source::default(), isa: None };
+        cfg.validate()?;
+        let out = run(&s, &cfg, || Totals::new(1), cancel, progress)?;
+        if out.cancelled {
+            return Ok(None);
+        }
+        let (r, rs) = out.tally.get(Total::Diffuse);
+        let (tr, ts) = out.tally.get(Total::Transmittance);
+        Ok(Some([r, rs, tr, ts]))
+    }
+
+    /// A table from its grid and one [`point`](Self::point) result per (albedo, tau), row-major.
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_totals(
+        g: f64,
+        n: f64,
+        n_above: f64,
+        n_below: f64,
+        albedos: Vec<f64>,
+        taus: Vec<f64>,
+        totals: &[[f64; 4]],
+    ) -> Result<SlabTable> {
+        check_g("g", g)?;
+        Self::check_table_grid(&albedos, &taus)?;
+        if totals.len() != albedos.len() * taus.len() {
+            return Err(Error::Invalid(format!(
+                "slab table: {} points for {} albedos × {} optical thicknesses",
+                totals.len(),
+                albedos.len(),
+                taus.len()
+            )));
+        }
+        for (k, p) in totals.iter().enumerate() {
+            if !p.iter().all(|x| x.is_finite() && *x >= 0.0) || p[0] > 1.0 || p[2] > 1.0 {
+                return Err(Error::Invalid(format!("slab table: point {k} holds {p:?}, not reflectances with errors")));
+            }
+        }
+        let col = |c: usize| totals.iter().map(|p| p[c]).collect::<Vec<f64>>();
+        Ok(SlabTable {
             g,
             n,
             n_above,
             n_below,
             albedos,
             taus,
-            rd: vec![],
-            tt: vec![],
-            rd_stderr: vec![],
-            tt_stderr: vec![],
-        };
-        for (i, &a) in t.albedos.iter().enumerate() {
-            for (j, &tau) in t.taus.iter().enumerate() {
-                if !((0.0..1.0).contains(&a) && tau > 0.0 && tau.is_finite()) {
-                    return Err(Error::Invalid(format!("slab table: albedo {a} must be in [0, 1) and tau {tau} > 0")));
-                }
-                let s = Stack::new(vec![Layer::new(n, 1.0 - a, a, g, tau)?], n_above, n_below)?;
-                let cfg = RunConfig {
-                    photons,
-                    seed: seed.wrapping_add((i * t.taus.len() + j) as u64),
-                    threads: None,
-                    source: Source::default(),
-                    isa: None,
-                };
-                let out = run(&s, &cfg, || Totals::new(1), &AtomicBool::new(false), &AtomicU64::new(0))?;
-                let (r, rs) = out.tally.get(Total::Diffuse);
-                let (tr, ts) = out.tally.get(Total::Transmittance);
-                t.rd.push(r);
-                t.rd_stderr.push(rs);
-                t.tt.push(tr);
-                t.tt_stderr.push(ts);
+            rd: col(0),
+            rd_stderr: col(1),
+            tt: col(2),
+            tt_stderr: col(3),
+        })
+    }
+
+    /// A grid of at least 2 × 2 points (see [`check_grid`](Self::check_grid)).
+    fn check_table_grid(albedos: &[f64], taus: &[f64]) -> Result<()> {
+        if albedos.len() < 2 || taus.len() < 2 {
+            return Err(Error::Invalid("slab table: give at least 2 albedos and 2 optical thicknesses".into()));
+        }
+        Self::check_grid(albedos, taus)
+    }
+
+    /// Increasing albedos in [0, 1) and increasing finite optical thicknesses > 0.
+    fn check_grid(albedos: &[f64], taus: &[f64]) -> Result<()> {
+        for (i, &a) in albedos.iter().enumerate() {
+            if !((0.0..1.0).contains(&a) && (i == 0 || a > albedos[i - 1])) {
+                return Err(Error::param(format!("albedos[{i}]"), a, "increasing numbers in [0, 1)"));
             }
         }
-        Ok(t)
+        for (j, &t) in taus.iter().enumerate() {
+            if !(t > 0.0 && t.is_finite() && (j == 0 || t > taus[j - 1])) {
+                return Err(Error::param(format!("taus[{j}]"), t, "increasing finite numbers > 0"));
+            }
+        }
+        Ok(())
     }
 
     /// Interpolated (Rd, Tt) at albedo `a` and optical thickness `tau` inside the grid.

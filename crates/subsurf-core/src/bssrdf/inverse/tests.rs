@@ -170,3 +170,34 @@ fn mc_profile_and_table_bad_input() {
     d.weight[3] = f64::NAN;
     assert!(MonteCarloProfile::from_data(d, 0.2).is_err());
 }
+
+/// A slab table is its points: `build` equals `from_totals` of `point` runs (any machine may
+/// compute any point), a cancelled point is `None`, and bad grids or totals name the field.
+#[test]
+fn slab_table_points_and_assembly() {
+    let (albedos, taus) = (vec![0.5, 0.9], vec![0.5, 2.0]);
+    let built = SlabTable::build(0.0, 1.4, 1.0, 1.2, albedos.clone(), taus.clone(), 2000, 5).unwrap();
+    let (never, count) = (AtomicBool::new(false), AtomicU64::new(0));
+    let mut pts = Vec::new();
+    for (k, (&a, &t)) in albedos.iter().flat_map(|a| taus.iter().map(move |t| (a, t))).enumerate() {
+        let p = SlabTable::point(0.0, 1.4, 1.0, 1.2, a, t, 2000, 5 + k as u64, Some(1), &never, &count).unwrap();
+        pts.push(p.unwrap());
+    }
+    let assembled = SlabTable::from_totals(0.0, 1.4, 1.0, 1.2, albedos.clone(), taus.clone(), &pts).unwrap();
+    assert_eq!(built, assembled);
+    let cancelled = AtomicBool::new(true);
+    assert_eq!(SlabTable::point(0.0, 1.4, 1.0, 1.0, 0.5, 1.0, 10_000, 0, None, &cancelled, &count).unwrap(), None);
+    let err = |r: crate::error::Result<SlabTable>| r.unwrap_err().to_string();
+    assert!(
+        err(SlabTable::from_totals(0.0, 1.4, 1.0, 1.0, albedos.clone(), taus.clone(), &pts[..3])).contains("3 points")
+    );
+    assert!(
+        err(SlabTable::from_totals(0.0, 1.4, 1.0, 1.0, vec![0.9, 0.5], taus.clone(), &pts)).starts_with("albedos[1]")
+    );
+    assert!(
+        err(SlabTable::from_totals(0.0, 1.4, 1.0, 1.0, albedos.clone(), vec![1.0, -1.0], &pts)).starts_with("taus[1]")
+    );
+    let mut bad = pts.clone();
+    bad[2][0] = f64::NAN;
+    assert!(err(SlabTable::from_totals(0.0, 1.4, 1.0, 1.0, albedos, taus, &bad)).contains("point 2"));
+}
