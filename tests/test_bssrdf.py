@@ -96,7 +96,10 @@ def test_inverse_and_bad_input(table):
     for lay, c in zip(layers, [0.5, 0.4]):
         assert table.rho_eff(lay.albedo) == pytest.approx(c, abs=1e-9)
     layers = bssrdf.material_from_appearance([0.3], [1.0], eta=1.3, model="dipole")
-    assert subsurf.diffusion.total_diffuse_reflectance(layers[0].albedo, 1.3) == pytest.approx(0.3, abs=1e-9)
+    # The colour is per unit incident power: the dipole's total times the transmitted (1 − R_sp).
+    r_sp = float(subsurf.optics.fresnel_reflectance(1.0, 1.0, 1.3))
+    total = subsurf.diffusion.total_diffuse_reflectance(layers[0].albedo, 1.3)
+    assert (1 - r_sp) * total == pytest.approx(0.3, abs=1e-9)
     with pytest.raises(ParameterError, match=r"albedo\[0\] = 1.5"):
         bssrdf.material_from_appearance([1.5], [1.0], model="dipole")
     with pytest.raises(ParameterError, match=r"albedo\[0\] = 0.99 is out of range"):

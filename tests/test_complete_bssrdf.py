@@ -27,8 +27,7 @@ def test_single_scattering_albedo_closed_form():
     assert np.sum(f * weight) == pytest.approx(0.999 / 2 * (1 - math.log(2)), rel=1e-6)
 
 
-def test_complete_is_sum_and_reciprocal():
-    rng = np.random.default_rng(3)
+def test_complete_is_sum_and_reciprocal(rng):
     v = rng.normal(size=(2, 50, 3))
     v[..., 2] = np.abs(v[..., 2]) + 0.05
     wi, wo = v / np.linalg.norm(v, axis=-1, keepdims=True)

@@ -43,27 +43,18 @@ max_order = 3
 """
 
 
-HAS_TALLIES = hasattr(subsurf, "Tallies")
-
-
 def test_good_config(tmp_path):
     p = tmp_path / "c.toml"
-    p.write_text(GOOD if HAS_TALLIES else GOOD[: GOOD.index("[tallies]")])
+    p.write_text(GOOD)
     c = load_config(p)
     assert (c.photons, c.seed, c.threads) == (5000, 7, 2)
     assert len(c.stack) == 2 and c.stack.n_below == 1.33
     assert c.stack[0].thickness == 0.5 and c.stack[1].thickness == math.inf
     assert c.stack[0].mua == 0.1 and c.stack[1].g == pytest.approx(0.8)
     assert c.data["source"] == {"type": "pencil", "theta_deg": 30.0, "phi_deg": 0.0}
-    if HAS_TALLIES:
-        assert c.data["tallies"]["brdf"] == (4, 8) and c.data["tallies"]["max_order"] == 3
-        assert c.tallies == subsurf.Tallies(nr=50, dr=0.02, na=10, brdf=(4, 8), max_order=3)
-    else:
-        assert c.tallies is None
-        with pytest.raises(ConfigError, match="c.toml:28: tallies: this build"):
-            parse_config(GOOD, str(p))
-    if hasattr(subsurf, "PencilBeam"):
-        assert c.source.theta == pytest.approx(math.radians(30))
+    assert c.data["tallies"]["brdf"] == (4, 8) and c.data["tallies"]["max_order"] == 3
+    assert c.tallies == subsurf.Tallies(nr=50, dr=0.02, na=10, brdf=(4, 8), max_order=3)
+    assert c.source == subsurf.PencilBeam(math.radians(30), 0.0)
     kw = c.simulate_kwargs()
     assert kw["photons"] == 5000 and kw["seed"] == 7
 
@@ -74,7 +65,8 @@ def test_defaults():
     assert c.stack[0].thickness == math.inf and c.stack[0].g == 0.0
     assert c.data["source"]["type"] == "pencil"
     d = parse_config('[[layers]]\nn = 1.0\nmua = 1\nmus = 9\n[source]\ntype = "diffuse"\n')
-    assert d.data["source"] == {"type": "diffuse"}
+    assert d.data["source"] == {"type": "diffuse"} and d.source == subsurf.DiffuseIllumination()
+    assert c.tallies == subsurf.Tallies() and c.source == subsurf.PencilBeam()
 
 
 def _err(text, path="cfg.toml"):
@@ -114,6 +106,12 @@ BASE = "[[layers]]\nn = 1.4\nmua = 0.1\nmus = 10\n"
         (BASE + "[tallies]\nspatial = 1\n", "tallies.spatial: expected true or false"),
         ("photons = [\n", "cfg.toml:1: invalid TOML"),
         ("photons = 1\nphotons = 2\n" + BASE, "cfg.toml:2: invalid TOML"),
+        ("photons = 18446744073709551616\n" + BASE, "cfg.toml:1: photons: 18446744073709551616 is out of range"),
+        ("threads = 18446744073709551616\n" + BASE, "cfg.toml:1: threads: 18446744073709551616 is out of range"),
+        ("photons = " + "[" * 20_000 + "]" * 20_000 + "\n", "cfg.toml: invalid TOML: arrays or tables nested too"),
+        (BASE + "[source]\nphi_deg = inf\n", "cfg.toml:6: source.phi_deg: inf is out of range (in radians: source.phi"),
+        (BASE + "[tallies]\nnr = 100000000000\n", "cfg.toml:6: tallies.nr: 100000000000 is out of range"),
+        (BASE + "[tallies]\ndr = 1e400\n", "cfg.toml:6: tallies.dr: inf is out of range"),
     ],
 )
 def test_errors_are_one_clear_line(text, expect):

@@ -1,4 +1,4 @@
-"""Diffusion models vs Monte Carlo, semi-infinite media (issue 4, "Monte Carlo vs diffusion").
+"""Diffusion models vs Monte Carlo, semi-infinite media ("Monte Carlo vs diffusion").
 
 The tolerances are the ones stated in docs/diffusion_vs_mc.md ("Stated tolerances"), taken
 from the committed table (10⁶ photons per case) before these tests were written: in the

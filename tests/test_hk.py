@@ -195,11 +195,10 @@ def test_isotropic_slab_escape_probability_closed_form(theta_i, d):
     assert trans == pytest.approx(albedo / 2 * dn, rel=1e-7)
 
 
-def test_thin_layer_limit():
+def test_thin_layer_limit(rng):
     """f ≈ σs d p (n0/n)² T_in T_out / (μi μo) to first order in d (reflection and transmission)."""
     n0, n, nb, g, d = 1.0, 1.4, 1.2, 0.6, 1e-5
     s = stack1(n=n, mua=0.5, mus=4.0, g=g, d=d, n_above=n0, n_below=nb)
-    rng = np.random.default_rng(3)
     wi = random_dirs(rng, 50)
     wo = random_dirs(rng, 50)
     wt = random_dirs(rng, 50, up=False)
@@ -226,8 +225,7 @@ def test_thin_layer_limit():
     assert np.all(np.abs(f / thin - 1) <= x)
 
 
-def test_thick_layer_tends_to_semi_infinite():
-    rng = np.random.default_rng(4)
+def test_thick_layer_tends_to_semi_infinite(rng):
     wi, wo = random_dirs(rng, 100), random_dirs(rng, 100)
     semi = hk.single_scattering_brdf(stack1(n=1.3, g=0.5, d=math.inf), wi, wo)
     for d, tol in [(5.0, 1e-3), (20.0, 1e-15)]:  # τ = 10.5, 42: residual e^{-τ(1/μi+1/μo)} ≤ e^{-2τ}
@@ -236,11 +234,10 @@ def test_thick_layer_tends_to_semi_infinite():
         assert np.all(f <= semi * (1 + 1e-15))
 
 
-def test_two_identical_layers_equal_one():
+def test_two_identical_layers_equal_one(rng):
     for n, n0, nb in [(1.0, 1.0, 1.0), (1.4, 1.0, 1.5)]:
         one = Stack([Layer(n, 0.3, 4.0, 0.6, 0.5)], n0, nb)
         two = Stack([Layer(n, 0.3, 4.0, 0.6, 0.2), Layer(n, 0.3, 4.0, 0.6, 0.3)], n0, nb)
-        rng = np.random.default_rng(5)
         wi, wo, wt = random_dirs(rng, 200), random_dirs(rng, 200), random_dirs(rng, 200, up=False)
         np.testing.assert_allclose(
             hk.single_scattering_brdf(two, wi, wo), hk.single_scattering_brdf(one, wi, wo), rtol=1e-13
@@ -253,9 +250,8 @@ def test_two_identical_layers_equal_one():
         )
 
 
-def test_no_scattering_gives_zero():
+def test_no_scattering_gives_zero(rng):
     s = stack1(n=1.3, mua=0.5, mus=0.0, d=1.0)
-    rng = np.random.default_rng(6)
     wi = random_dirs(rng, 20)
     assert np.all(hk.single_scattering_brdf(s, wi, random_dirs(rng, 20)) == 0)
     assert np.all(hk.single_scattering_btdf(s, wi, random_dirs(rng, 20, up=False)) == 0)
@@ -271,8 +267,7 @@ def test_no_scattering_gives_zero():
     [stack1(d=0.7, g=0.8), stack1(n=1.5, d=0.7, g=0.8, n_below=1.3), stack1(n=1.5, g=-0.4), STACK3],
     ids=["matched", "mismatched", "semi-infinite", "3 layers"],
 )
-def test_reciprocity(stack):
-    rng = np.random.default_rng(7)
+def test_reciprocity(stack, rng):
     a, b = random_dirs(rng, 500), random_dirs(rng, 500)
     f1 = hk.single_scattering_brdf(stack, a, b)
     np.testing.assert_allclose(f1, hk.single_scattering_brdf(stack, b, a), rtol=1e-12, atol=0)
@@ -341,9 +336,8 @@ def test_unscattered_transmittance_closed_form():
 
 
 # ---------------------------------------------------------------- API
-def test_shapes_and_broadcasting():
+def test_shapes_and_broadcasting(rng):
     s = stack1(n=1.3, g=0.2, d=1.0)
-    rng = np.random.default_rng(8)
     wi = random_dirs(rng, 6).reshape(2, 3, 3)
     wo = random_dirs(rng, 3)
     f = hk.single_scattering_brdf(s, wi, wo)

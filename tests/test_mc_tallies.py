@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import subsurf
 from subsurf import ParameterError, Tallies
@@ -62,7 +63,6 @@ def test_from_dict_refuses_unknown_keys():
 
 
 def test_numpy_integers_accepted():
-    np = pytest.importorskip("numpy")
     t = Tallies(nr=np.int64(3), brdf=(np.int32(2), 5), max_order=np.int64(2))
     assert t.nr == 3 and type(t.nr) is int and t.brdf == (2, 5) and t.max_order == 2
 
@@ -73,8 +73,6 @@ def test_exported():
 
 # ---------------------------------------------------------------------------------------------
 # End to end: histograms from the engine.
-
-np = pytest.importorskip("numpy")
 
 
 def _proj_cos_bins(h):
@@ -176,7 +174,7 @@ def test_brdf_reciprocity_of_a_slab():
 def test_single_scattering_of_a_semi_infinite_medium():
     """Order-1 diffuse reflectance of a semi-infinite, index-matched, isotropic medium under
     normal incidence: R₁ = (a/2) ∫₀¹ μ/(μ₀ + μ) dμ at μ₀ = 1, i.e. (a/2)(1 − ln 2) (the first
-    term of the Neumann series, single scattering in a half-space, e.g. van de Hulst 1980; issue 3 gives
+    term of the Neumann series, single scattering in a half-space, e.g. van de Hulst 1980:
     0.15327 at a = 0.999)."""
     a = 0.999
     stack = subsurf.Stack([subsurf.Layer(n=1.0, mua=1.0 - a, mus=a, g=0.0, thickness=math.inf)], n_above=1.0)

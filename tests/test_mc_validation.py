@@ -1,4 +1,4 @@
-"""Monte Carlo engine: validation against exact transport results and closed forms (issue 3).
+"""Monte Carlo engine: validation against exact transport results and closed forms.
 
 All statistical checks use fixed seeds and 4 standard errors as reported by the run (plus half a
 unit in the last digit of a published reference value). Units: the references are quoted in cm;

@@ -4,47 +4,11 @@ import math
 
 import numpy as np
 import pytest
-import subsurf
 from subsurf import mcml
-from synthetic import make_result
-
-SAMPLE_MCI = """\
-####
-# Template of input files for Monte Carlo simulation (mcml).
-# Anything in a line after "#" is ignored as comments.
-####
-
-1.0                      # file version
-2                        # number of runs
-
-#### SPECIFY DATA FOR RUN 1
-#InParm                  # Input parameters. cm is used.
-first.mco    A           # output file name, ASCII.
-1000                     # No. of photons
-0.0025  0.005            # dz, dr [cm]
-15      20      6        # No. of dz, dr, da.
-
-2                        # Number of layers
-#n      mua     mus     g       d       # One line for each layer
-1.0                      # n for medium above
-1.37    1       100     0.9     0.1     # layer 1
-1.37    0.5     150     0.8     0.2     # layer 2
-1.0                      # n for medium below
-
-#### SPECIFY DATA FOR RUN 2
-second.mco A
-500
-0.01 0.01
-10 10 5
-1
-1.0
-1.4 10 90 0.75 0.02
-1.0
-"""
 
 
-def test_parse_sample():
-    runs = mcml.parse_mci(SAMPLE_MCI, "s.mci")
+def test_parse_sample(sample_mci):
+    runs = mcml.parse_mci(sample_mci, "s.mci")
     assert len(runs) == 2
     r = runs[0]
     assert (r.out_fname, r.out_format, r.photons) == ("first.mco", "A", 1000)
@@ -71,24 +35,28 @@ def test_parse_sample():
         (("1.37    0.5     150     0.8     0.2", "1.37 0.5 150 0.8 0"), "s.mci:20: layer 2: d = 0 is out of range"),
         (("second.mco A", "first.mco A"), "s.mci:24: output file name first.mco is used by two runs"),
         (("1.0                      # n for medium above", "0.9"), "s.mci:18: n above = 0.9 is out of range"),
+        (
+            ("1000                     # No.", "18446744073709551616 #"),
+            "s.mci:12: number of photons = 18446744073709551616",
+        ),
     ],
 )
-def test_parse_errors(bad, expect):
-    text = SAMPLE_MCI.replace(*bad)
+def test_parse_errors(sample_mci, bad, expect):
+    text = sample_mci.replace(*bad)
     with pytest.raises(mcml.McmlInputError) as e:
         mcml.parse_mci(text, "s.mci")
     assert expect in str(e.value) and "\n" not in str(e.value)
 
 
-def _run_and_result():
-    run = mcml.parse_mci(SAMPLE_MCI)[0]
+def _run_and_result(sample_mci, make_result):
+    run = mcml.parse_mci(sample_mci)[0]
     res, raw = make_result(nr=run.nr, dr=run.dr * 10, nz=run.nz, dz=run.dz * 10, na=run.na)
     return run, res, raw
 
 
-def test_unit_conversions_against_mcml_scaling():
+def test_unit_conversions_against_mcml_scaling(sample_mci, make_result):
     """Each MCML array equals the raw bin weights divided by mcmlio.c's ScaleRdTt/ScaleA measures (cm)."""
-    run, res, raw = _run_and_result()
+    run, res, raw = _run_and_result(sample_mci, make_result)
     q = mcml.mcml_arrays(run, res)
     dr, dz, da = run.dr, run.dz, run.da
     ir = np.arange(run.nr) + 0.5
@@ -125,8 +93,8 @@ def test_unit_conversions_against_mcml_scaling():
     assert np.sum(q["A_z"] * dz) == pytest.approx(res.absorbed, rel=1e-12)
 
 
-def test_mco_layout_and_round_trip(tmp_path):
-    run, res, _ = _run_and_result()
+def test_mco_layout_and_round_trip(tmp_path, sample_mci, make_result):
+    run, res, _ = _run_and_result(sample_mci, make_result)
     p = tmp_path / "first.mco"
     mcml.write_mco(p, run, res)
     text = p.read_text()
@@ -172,8 +140,8 @@ def test_mco_layout_and_round_trip(tmp_path):
         assert back[k].shape == q[k].shape
 
 
-def test_refuses_to_overwrite(tmp_path):
-    run, res, _ = _run_and_result()
+def test_refuses_to_overwrite(tmp_path, sample_mci, make_result):
+    run, res, _ = _run_and_result(sample_mci, make_result)
     p = tmp_path / "o.mco"
     p.write_text("precious")
     with pytest.raises(FileExistsError, match="--force"):
@@ -181,15 +149,18 @@ def test_refuses_to_overwrite(tmp_path):
     assert p.read_text() == "precious"
     mcml.write_mco(p, run, res, force=True)
     assert p.read_text().startswith("A1")
+    res.photons = 0  # nothing traced (Ctrl-C at once): no .mco full of NAN
+    with pytest.raises(ValueError, match="no photons were traced"):
+        mcml.write_mco(tmp_path / "nan.mco", run, res)
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["o.mco"]
 
 
-@pytest.mark.skipif(not hasattr(subsurf, "Tallies"), reason="needs the Monte Carlo tallies")
-def test_run_mci_end_to_end(tmp_path):
+def test_run_mci_end_to_end(tmp_path, sample_mci):
     mci = tmp_path / "s.mci"
-    mci.write_text(SAMPLE_MCI)
+    mci.write_text(sample_mci)
     done = mcml.run_mci(mci, out_dir=str(tmp_path), photons=2000)
     assert [d[0] for d in done] == [str(tmp_path / "first.mco"), str(tmp_path / "second.mco")]
-    for (path, res), run in zip(done, mcml.parse_mci(SAMPLE_MCI)):
+    for (path, res), run in zip(done, mcml.parse_mci(sample_mci)):
         back = mcml.read_mco(path)
         assert back["Rsp"] + back["Rd"] + back["A"] + back["Tt"] == pytest.approx(1.0, abs=1e-4)
         # MCML's identities (its 1-D and 2-D arrays are sums of the same raw bins, the last r/z bins
@@ -215,3 +186,22 @@ def test_run_mci_end_to_end(tmp_path):
         )
     with pytest.raises(FileExistsError):
         mcml.run_mci(mci, out_dir=str(tmp_path), photons=100)
+
+
+def test_run_mci_interrupted_writes_a_partial_run_beside_an_existing_file(tmp_path, sample_mci):
+    """A Ctrl-C (from the progress callback) ends the loop; the partial .mco states its photons and
+    never replaces an existing file."""
+    mci = tmp_path / "s.mci"
+    mci.write_text(sample_mci.replace("1000                     # No.", "100000000 #"))
+    (tmp_path / "first.mco").write_text("complete")
+
+    def stop(done, total):
+        if done > 4096:  # with one thread, the first chunk of photons is complete
+            raise KeyboardInterrupt
+
+    with pytest.warns(RuntimeWarning, match="interrupted"):
+        done = mcml.run_mci(mci, out_dir=str(tmp_path), force=True, threads=1, progress_factory=lambda i, run: stop)
+    assert [p for p, _ in done] == [str(tmp_path / "first.partial.mco")]
+    assert (tmp_path / "first.mco").read_text() == "complete" and not (tmp_path / "second.mco").exists()
+    back = mcml.read_mco(tmp_path / "first.partial.mco")
+    assert 0 < back["photons"] == done[0][1].photons < 100_000_000

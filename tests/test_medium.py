@@ -1,4 +1,4 @@
-"""Layer, Stack and mix: derived quantities and validation errors (issue: foundation)."""
+"""Layer, Stack and mix: derived quantities and validation errors."""
 
 import math
 
@@ -78,5 +78,8 @@ def test_mix_eq_1_5():
         mix([(0.5, 0, 1, 1.2)])
 
 
-def test_version():
-    assert isinstance(subsurf.__version__, str)
+def test_version_is_the_package_version():
+    import importlib.metadata
+
+    assert subsurf.__version__ == importlib.metadata.version("subsurf")
+    assert subsurf.__version__.count(".") >= 2

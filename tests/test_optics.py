@@ -1,4 +1,4 @@
-"""subsurf.optics: closed forms, reference values, χ² of the samplers (issue: foundation)."""
+"""subsurf.optics: closed forms, reference values, χ² of the samplers."""
 
 import math
 
@@ -53,8 +53,7 @@ def test_fresnel_broadcasting_and_scalars():
     assert r[0, 1] == pytest.approx(0.04)
 
 
-def test_refract_snell_and_tir_nan():
-    rng = np.random.default_rng(1)
+def test_refract_snell_and_tir_nan(rng):
     th = rng.uniform(0, math.pi / 2 - 1e-3, 200)
     ph = rng.uniform(0, 2 * math.pi, 200)
     d = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), -np.cos(th)], axis=-1)
@@ -182,7 +181,7 @@ def test_isotropic_and_hg_limits():
     assert optics.hg_phase(1.0, g) == pytest.approx((1 + g) / (4 * math.pi * (1 - g) ** 2), rel=1e-12)
 
 
-def test_cosine_hemisphere_chi2_and_beer_lambert():
+def test_cosine_hemisphere_chi2_and_beer_lambert(rng):
     def sampler(n, rng):
         return optics.sample_cosine_hemisphere(rng.random(n), rng.random(n))
 
@@ -200,7 +199,7 @@ def test_cosine_hemisphere_chi2_and_beer_lambert():
     assert optics.beer_lambert(2.0, 0.5) == pytest.approx(math.exp(-1.0), rel=1e-15)
     assert optics.beer_lambert(1.0, math.inf) == 0.0 and optics.beer_lambert(0.0, math.inf) == 1.0
     # free paths: sample mean 1/σt within 4 standard errors
-    s = optics.sample_free_path(np.random.default_rng(5).random(200_000), 4.0)
+    s = optics.sample_free_path(rng.random(200_000), 4.0)
     assert abs(s.mean() - 0.25) < 4 * 0.25 / math.sqrt(s.size)
     assert optics.free_path_pdf(0.0, 4.0) == 4.0 and optics.free_path_pdf(-1.0, 4.0) == 0.0
 

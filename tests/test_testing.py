@@ -28,10 +28,9 @@ def test_pooling_matches_hand_computation():
     assert r.dof == 2 and r.pooled_cells == 3
 
 
-def test_p_values_are_uniform_under_the_null():
+def test_p_values_are_uniform_under_the_null(rng):
     # 300 tests of an exact uniform sampler: the count with p < 0.1 is Binomial(300, 0.1),
     # mean 30, σ ≈ 5.2 — accept within 4σ.
-    rng = np.random.default_rng(11)
     low = 0
     for _ in range(300):
         obs = np.bincount(rng.integers(0, 25, 500), minlength=25)
@@ -39,7 +38,7 @@ def test_p_values_are_uniform_under_the_null():
     assert abs(low - 30) < 4 * math.sqrt(300 * 0.09)
 
 
-def test_kit_rejects_a_wrong_sampler():
+def test_kit_rejects_a_wrong_sampler(rng):
     # Sampling HG with g = 0.5 but testing against g = 0.6 must fail, in 2-D and 1-D.
     def sampler(n, rng):
         return np.stack([optics.sample_hg(rng.random(n), 0.5), 2 * math.pi * rng.random(n)], axis=-1)
@@ -60,21 +59,19 @@ def test_kit_rejects_a_wrong_sampler():
     )
     assert not res1.passed and res1.p_value < 1e-10
     # A misnormalised pdf (integral 1.02) is detected through the total count.
-    bad = testing.chi2_test_1d(
-        np.random.default_rng(3).random(400_000), lambda x: np.full_like(x, 1.02), range=(0, 1), n_bins=20
-    )
+    bad = testing.chi2_test_1d(rng.random(400_000), lambda x: np.full_like(x, 1.02), range=(0, 1), n_bins=20)
     assert not bad.passed and bad.pdf_integral == pytest.approx(1.02)
     # A sample outside the pdf's support (pdf = 1 on [0, 1], 0 on (1, 2]) fails outright; the
     # same samples without it pass.
-    s = np.random.default_rng(4).random(10_000)
+    s = rng.random(10_000)
     pdf = lambda x: (x <= 1.0).astype(float)  # noqa: E731
     assert testing.chi2_test_1d(s, pdf, range=(0, 2), n_bins=20).passed
     out = testing.chi2_test_1d(np.append(s, 1.5), pdf, range=(0, 2), n_bins=20)
     assert out.p_value == 0.0 and math.isinf(out.statistic) and out.outside == 0
 
 
-def test_directions_and_input_checks():
-    d = optics.sample_cosine_hemisphere(np.random.default_rng(0).random(1000), np.random.default_rng(1).random(1000))
+def test_directions_and_input_checks(rng):
+    d = optics.sample_cosine_hemisphere(rng.random(1000), rng.random(1000))
     cp = testing.to_cos_phi(d)
     assert cp.shape == (1000, 2) and np.all((cp[:, 1] >= 0) & (cp[:, 1] < 2 * math.pi))
     with pytest.raises(ParameterError, match="samples"):

@@ -1,4 +1,4 @@
-"""Every BSSRDF profile model against Monte Carlo on the grid of issue 8; writes the figures
+"""Every BSSRDF profile model against Monte Carlo on the comparison grid of docs/profiles.md; writes the figures
 ``docs/profiles_total.png``, ``docs/profiles_shape.png`` and the tables ``docs/profiles_tables.md``.
 
 Semi-infinite medium, σt = 1 mm⁻¹ (σs = α, σa = 1 − α), HG g, relative index η, under a normally

@@ -131,6 +131,18 @@ def chi2_sf(statistic: float, dof: float) -> float: ...
 def gamma_q(a: float, x: float) -> float: ...
 def sidak_alpha(significance: float, tests: int) -> float: ...
 def chi2_pooled(observed: F64, expected: F64, min_expected: float) -> tuple[float, int, float, int]: ...
+def chi2_test_grid(
+    samples: Sequence[F64],
+    edges: Sequence[F64],
+    names: Sequence[str],
+    pdf: Callable[..., F64],
+    min_expected: float,
+    quad_points: int,
+    max_subdivisions: int,
+) -> tuple[float, int, float, int, int, float, float]:
+    """(statistic, dof, p_value, pooled_cells, outside, pdf_integral, quadrature_error) of the χ² test
+    on a grid of 1 or 2 axes; ``pdf(*coordinates)`` returns a flat float64 array."""
+
 def graded_cos_edges(n_end: int, n_mid: int, min_gap: float) -> F64: ...
 
 # (layers [(n, mua, mus, lobes [(weight, g)], thickness)], n_above, n_below)

@@ -24,9 +24,9 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import io
 import json
 import os
-import tempfile
 
 import numpy as np
 
@@ -329,39 +329,31 @@ class ProfileTable:
         return Profile(self._t.profile(float(sigma_a), float(sigma_s)))
 
     def save(self, path) -> str:
-        """Write an HDF5 file (atomically: temporary file + rename) with the settings, the
-        version that built it, every point's bins and a SHA-256 checksum verified on load."""
+        """Write an HDF5 file (atomically, :mod:`subsurf.atomic`; the directory must exist) with the
+        settings, the version that built it, every point's bins and a SHA-256 checksum verified on load."""
         import h5py
 
-        from . import __version__
+        from . import atomic
+        from ._core import __version__
 
-        path = os.fspath(path)
         pts = [dict(p) for p in self._t.points()]
-        d = os.path.dirname(os.path.abspath(path))
-        os.makedirs(d, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(suffix=".h5.tmp", dir=d)
-        os.close(fd)
-        try:
-            with h5py.File(tmp, "w") as f:
-                f.attrs["format"] = TABLE_FORMAT
-                f.attrs["format_version"] = TABLE_FORMAT_VERSION
-                f.attrs["version"] = __version__
-                f.attrs["settings"] = json.dumps(self.settings, sort_keys=True)
-                f.attrs["checksum"] = _checksum(self.settings, pts)
-                for i, p in enumerate(pts):
-                    g = f.create_group(f"points/{i:04d}")
-                    for k in ("edges", "weight", "stderr", "single", "single_stderr"):
-                        g.create_dataset(k, data=np.asarray(p[k], dtype=np.float64))
-                    g.attrs["total"], g.attrs["total_stderr"], g.attrs["photons"] = (
-                        p["total"],
-                        p["total_stderr"],
-                        int(p["photons"]),
-                    )
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-        return path
+        buf = io.BytesIO()
+        with h5py.File(buf, "w") as f:
+            f.attrs["format"] = TABLE_FORMAT
+            f.attrs["format_version"] = TABLE_FORMAT_VERSION
+            f.attrs["version"] = __version__
+            f.attrs["settings"] = json.dumps(self.settings, sort_keys=True)
+            f.attrs["checksum"] = _checksum(self.settings, pts)
+            for i, p in enumerate(pts):
+                g = f.create_group(f"points/{i:04d}")
+                for k in ("edges", "weight", "stderr", "single", "single_stderr"):
+                    g.create_dataset(k, data=np.asarray(p[k], dtype=np.float64))
+                g.attrs["total"], g.attrs["total_stderr"], g.attrs["photons"] = (
+                    p["total"],
+                    p["total_stderr"],
+                    int(p["photons"]),
+                )
+        return atomic.write_bytes(path, buf.getvalue(), force=True)
 
     @classmethod
     def load(cls, path) -> ProfileTable:
@@ -425,14 +417,17 @@ def material_from_appearance(
     albedo, mfp, eta=1.0, g=0.0, model="monte_carlo", table=None, *, client=None
 ) -> list[Layer]:
     """One semi-infinite :class:`subsurf.Layer` per channel whose total diffuse reflectance under
-    a normally incident beam (specular excluded) is ``albedo[i]`` and whose mean free path
-    1/σt is ``mfp[i]`` (mm), for HG ``g`` and relative index ``eta``, under ``model``.
-    ``monte_carlo`` inverts ρ_eff of a :class:`ProfileTable` (``table``; built for (g, eta) with
-    default settings — on a Dask ``client`` if given — and cached in memory if not given)."""
+    a normally incident beam, per unit incident power with the specular reflection excluded (what
+    :func:`subsurf.simulate` reports), is ``albedo[i]`` under ``model``, with mean free path 1/σt
+    ``mfp[i]`` (mm), for HG ``g`` and relative index ``eta``. Closed-form models predict the colour
+    as (1 − R_sp) × their total. ``monte_carlo`` and ``normalized_diffusion`` (whose total is its
+    surface albedo for any medium) invert ρ_eff of a :class:`ProfileTable` (``table``; built for
+    (g, eta) with default settings — on a Dask ``client`` if given — and cached in memory if not
+    given): their materials, simulated, reproduce the colour."""
     a = np.atleast_1d(_arr("albedo", albedo)).astype(float)
     m = np.broadcast_to(np.atleast_1d(_arr("mfp", mfp)), a.shape).astype(float)
     core_table = None
-    if _model(model) == "monte_carlo":
+    if _model(model) in ("monte_carlo", "normalized_diffusion"):
         core_table = (table if table is not None else _default_table(float(g), float(eta), client))._t
     out = _core.bssrdf_material_from_appearance(list(a), list(m), float(eta), float(g), model, core_table)
     return [Layer(n, mua, mus, gg) for n, mua, mus, gg in out]

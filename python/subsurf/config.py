@@ -40,7 +40,9 @@ import sys
 from typing import Any
 
 from . import _core
+from .mc import DiffuseIllumination, PencilBeam
 from .medium import Layer, Stack
+from .tallies import Tallies
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -71,10 +73,10 @@ TALLY_KEYS = {
     "nz": "count",
     "dz": "length",
     "na": "count",
-    "nt": "count0",
+    "nt": "count",
     "dt": "length",
     "brdf": "brdf",
-    "max_order": "order",
+    "max_order": "count",
     "spatial": "bool",
     "angular": "bool",
 }
@@ -159,13 +161,12 @@ def _number(ctx: _Ctx, key: str, v, allow_inf: bool = False) -> float:
 
 
 def _int(ctx: _Ctx, key: str, v, lo: int | None = None, hi: int | None = None) -> int:
-    """An integer; its range is checked here only when ``lo`` is given (the engine's limits are
-    the core's, which :mod:`subsurf` applies)."""
+    """An integer, within [lo, hi] where they are given (the engine's limits are the core's)."""
     if isinstance(v, float) and v.is_integer():
         v = int(v)
     if isinstance(v, bool) or not isinstance(v, int):
         raise ctx.error(key, f"expected an integer, got {v!r}")
-    if lo is not None and (v < lo or (hi is not None and v > hi)):
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
         rng = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
         raise ctx.error(key, f"{v} is out of range: must be an integer {rng}")
     return v
@@ -245,16 +246,10 @@ def _source(ctx: _Ctx, data: dict):
 
 
 def _make_source(spec: dict):
-    """The engine's source object for a source spec (the spec itself until the engine is present)."""
-    import subsurf
-
+    """The engine's source object for a source spec."""
     if spec["type"] == "diffuse":
-        cls = getattr(subsurf, "DiffuseIllumination", None)
-        return cls() if cls is not None else spec
-    cls = getattr(subsurf, "PencilBeam", None)
-    if cls is None:
-        return spec
-    return cls(theta=math.radians(spec["theta_deg"]), phi=math.radians(spec["phi_deg"]))
+        return DiffuseIllumination()
+    return PencilBeam(theta=math.radians(spec["theta_deg"]), phi=math.radians(spec["phi_deg"]))
 
 
 def _tallies(ctx: _Ctx, data: dict):
@@ -265,7 +260,7 @@ def _tallies(ctx: _Ctx, data: dict):
     out: dict[str, Any] = {}
     for k, v in t.items():
         kind, key = TALLY_KEYS[k], f"tallies.{k}"
-        if kind in ("count", "count0", "order"):
+        if kind == "count":  # ranges: subsurf.Tallies (the core) checks them, errors mapped below
             out[k] = _int(ctx, key, v)
         elif kind == "length":
             out[k] = _number(ctx, key, v)
@@ -280,16 +275,9 @@ def _tallies(ctx: _Ctx, data: dict):
             if not (isinstance(v, list) and len(v) == 2):
                 raise ctx.error(key, f"expected [n_cos_theta, n_phi] (two integers) or false, got {v!r}")
             out[k] = (_int(ctx, key, v[0]), _int(ctx, key, v[1]))
-    import subsurf
-
-    cls = getattr(subsurf, "Tallies", None)
-    if cls is None:  # no histogram tallies in this build: totals only
-        if out:
-            raise ctx.error("tallies", "this build of subsurf has no histogram tallies (subsurf.Tallies)")
-        return out, None
     try:
-        return out, cls(**out)
-    except (_core.ParameterError, TypeError, ValueError) as e:
+        return out, Tallies(**out)
+    except _core.ParameterError as e:
         raise _param_message(ctx, "tallies", e) from None
 
 
@@ -297,6 +285,8 @@ def _toml(text: str, path: str) -> tuple[_Ctx, dict]:
     ctx = _Ctx(path, text)
     try:
         return ctx, tomllib.loads(text)
+    except RecursionError:
+        raise ConfigError(f"{path}: invalid TOML: arrays or tables nested too deeply") from None
     except tomllib.TOMLDecodeError as e:
         msg = str(e)
         m = re.search(r"\(at line (\d+), column (\d+)\)", msg)

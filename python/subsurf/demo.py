@@ -53,35 +53,39 @@ def dermis_stack():
 
 
 def run(out_dir: str = "out", photons: int | None = None, threads: int | None = None, quiet: bool = False) -> int:
-    """Simulate the skin and the dermis, write ``out_dir/demo.h5``, ``demo_dermis.h5`` and ``demo.png``."""
+    """Simulate the skin and the dermis, write ``out_dir/demo.h5``, ``demo_dermis.h5`` and ``demo.png``.
+
+    ``out_dir`` is created if needed; the demo's own files in it are replaced. Returns the exit
+    status: 0, or 130 when Ctrl-C cut a run short (what was traced is written, marked partial).
+    """
     from matplotlib.figure import Figure
 
-    import subsurf
-
-    from . import io, plot
-    from .cli import _bar, _simulate, _summary
+    from . import diffusion, plot, runner
+    from .tallies import Tallies
 
     photons = int(photons or DEFAULT_PHOTONS)
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise runner.UserError(f"--out-dir {out_dir}: is a file, not a directory")
     os.makedirs(out_dir, exist_ok=True)
-    tallies = subsurf.Tallies(nr=100, dr=0.05, nz=100, dz=0.04, na=15)
+    tallies = Tallies(nr=100, dr=0.05, nz=100, dz=0.04, na=15)
     t0 = time.monotonic()
-    results = {}
-    for key, stack, label in (
-        ("skin", skin_stack(), "three-layer skin"),
-        ("dermis", dermis_stack(), "semi-infinite dermis"),
+    results, written = {}, []
+    for key, stack, label, name in (
+        ("skin", skin_stack(), "three-layer skin", "demo.h5"),
+        ("dermis", dermis_stack(), "semi-infinite dermis", "demo_dermis.h5"),
     ):
-        bar = _bar(label, quiet)
-        try:
-            results[key] = _simulate(stack, progress=bar, photons=photons, seed=2001, threads=threads, tallies=tallies)
-        finally:
-            bar.close()
+        res = runner.simulate(stack, label, quiet, photons=photons, seed=2001, threads=threads, tallies=tallies)
         if not quiet:
             print(f"{label} at 630 nm:")
-            print(_summary(results[key]))
+            print(res.summary())
             print()
+        path, held = runner.save_result(res, os.path.join(out_dir, name), force=True)
+        written.append(path)
+        if res.partial or held:
+            print(f"wrote {path} (partial: interrupted)")
+            return runner.EXIT_INTERRUPTED
+        results[key] = res
     skin, dermis = results["skin"], results["dermis"]
-    h5 = io.save(skin, os.path.join(out_dir, "demo.h5"))
-    h5d = io.save(dermis, os.path.join(out_dir, "demo_dermis.h5"))
 
     fig = Figure(figsize=(16, 4.8), layout="constrained")
     ax = plot.reflectance_profile(skin, fig.add_subplot(1, 3, 1), models=())
@@ -98,21 +102,13 @@ def run(out_dir: str = "out", photons: int | None = None, threads: int | None = 
         fontsize=11,
     )
     png = plot.save_figure(fig, os.path.join(out_dir, "demo.png"))
+    dipole = float(diffusion.total_diffuse_reflectance(optics[1] / (optics[0] + optics[1]), optics[2]))
     print(
         f"dermis total diffuse reflectance: Monte Carlo {dermis.diffuse_reflectance:.4f} ± "
-        f"{dermis.diffuse_reflectance_stderr:.1g}" + _dipole_total(optics)
+        f"{dermis.diffuse_reflectance_stderr:.1g}, dipole {dipole:.4f}"
     )
-    print(f"wrote {h5}, {h5d} and {png} ({time.monotonic() - t0:.1f} s)")
+    print(f"wrote {written[0]}, {written[1]} and {png} ({time.monotonic() - t0:.1f} s)")
     from .render.demo import run as render_demo
 
     img = render_demo(out_dir, threads=threads, quiet=quiet, quick=photons < DEFAULT_PHOTONS)
-    return 130 if (skin.partial or dermis.partial or img.partial) else 0
-
-
-def _dipole_total(optics) -> str:
-    try:
-        from . import diffusion
-    except ImportError:
-        return ""
-    mua, musp, eta = optics
-    return f", dipole {float(diffusion.total_diffuse_reflectance(musp / (mua + musp), eta)):.4f}"
+    return runner.EXIT_INTERRUPTED if img.partial else 0

@@ -234,6 +234,11 @@ class Material:
             f"eta={self.eta!r}, g={self.g!r})"
         )
 
+    def _repr_html_(self):
+        from .display import material_html
+
+        return material_html(self)
+
 
 def names() -> list[str]:
     """Names of the library materials (Jensen et al. 2001 table), sorted."""

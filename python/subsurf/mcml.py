@@ -31,7 +31,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import _core
+from . import _core, atomic
 
 __all__ = [
     "McmlInputError",
@@ -45,6 +45,8 @@ __all__ = [
     "read_mco",
     "mcml_arrays",
     "run_mci",
+    "plan_runs",
+    "write_run",
 ]
 
 MM_PER_CM = 10.0
@@ -130,6 +132,8 @@ def parse_mci(text: str, path: str = "<string>") -> list[McmlRun]:
         names.add(fname)
         ln, (photons,) = take("the number of photons", 1, [int])
         positive(ln, "number of photons", photons)
+        if photons >= 2**64:  # the engine counts photons in 64 bits
+            raise fail(ln, f"number of photons = {photons} is out of range: must be < 2^64")
         ln, (dz, dr) = take("dz dr (cm)", 2, [float, float])
         positive(ln, "dz", dz)
         positive(ln, "dr", dr)
@@ -185,9 +189,9 @@ def run_to_stack(run: McmlRun):
 
 def run_to_tallies(run: McmlRun):
     """The ``subsurf.Tallies`` of a run: MCML's grids in mm."""
-    import subsurf
+    from .tallies import Tallies
 
-    return subsurf.Tallies(
+    return Tallies(
         nr=run.nr, dr=run.dr * MM_PER_CM, nz=run.nz, dz=run.dz * MM_PER_CM, na=run.na, spatial=True, angular=True
     )
 
@@ -308,15 +312,13 @@ def format_mco(run: McmlRun, result, user_time_s: float | None = None) -> str:
     return "".join(out)
 
 
-def write_mco(path: str | os.PathLike, run: McmlRun, result, force: bool = False) -> str:
-    """Write a run's ``.mco``; refuses to overwrite an existing file unless ``force``."""
+def write_mco(path: str | os.PathLike, run: McmlRun, result, force: bool = False, inputs=()) -> str:
+    """Write a run's ``.mco`` atomically (:mod:`subsurf.atomic`); refuses to overwrite an existing
+    file unless ``force``, to write over one of ``inputs``, and to write a result without photons."""
     path = os.fspath(path)
-    if os.path.exists(path) and not force:
-        raise FileExistsError(f"{path}: exists; use --force (force=True) to overwrite")
-    text = format_mco(run, result)
-    with open(path, "w") as f:
-        f.write(text)
-    return path
+    if result.photons < 1:
+        raise ValueError(f"{path}: no photons were traced (interrupted at once); nothing to write")
+    return atomic.write_bytes(path, format_mco(run, result).encode(), force=force, inputs=inputs)
 
 
 # --- reading .mco (for scripts and tests) -------------------------------------------------------
@@ -371,6 +373,38 @@ def read_mco(path: str | os.PathLike) -> dict:
 # --- running ------------------------------------------------------------------------------------
 
 
+def plan_runs(
+    path: str | os.PathLike, force: bool = False, out_dir: str | None = None, photons: int | None = None
+) -> list:
+    """Every run of an ``.mci`` file, checked before any is simulated: ``[(run, stack, tallies, target)]``.
+
+    Output names are taken relative to ``out_dir`` (default: the current directory, as MCML);
+    ``photons`` overrides every run's photon count. An invalid layer or grid, two runs writing the
+    same file (``same.mco`` and ``./same.mco``), an output that is the input file, a missing
+    directory or (without ``force``) an existing output raise an error naming the run.
+    """
+    path = os.fspath(path)
+    plan, seen = [], {}
+    for i, run in enumerate(read_mci(path)):
+        if photons is not None:
+            run = dataclasses.replace(run, photons=int(photons))
+        try:
+            stack, tallies = run_to_stack(run), run_to_tallies(run)
+        except _core.ParameterError as e:
+            raise McmlInputError(f"{path}:{run.line}: run {i + 1}: {e}") from None
+        target = os.path.join(out_dir, run.out_fname) if out_dir else run.out_fname
+        real = os.path.realpath(target)
+        if real in seen:
+            raise McmlInputError(
+                f"{path}:{run.line}: output file {run.out_fname} is the same file as run line "
+                f"{seen[real].line}'s {seen[real].out_fname}"
+            )
+        seen[real] = run
+        atomic.check_target(target, force=force, inputs=(path,))
+        plan.append((run, stack, tallies, target))
+    return plan
+
+
 def run_mci(
     path: str | os.PathLike,
     force: bool = False,
@@ -382,36 +416,29 @@ def run_mci(
 ) -> list:
     """Simulate every run of an ``.mci`` file and write each ``.mco``; returns [(path, result)].
 
-    Output names are taken relative to ``out_dir`` (default: the current directory, as MCML).
-    Every output is checked before anything is simulated, so a refused overwrite costs nothing.
+    Every run and output is checked first (:func:`plan_runs`), so a refusal costs nothing.
     ``photons`` overrides the photon counts of the file (for quick checks);
-    ``progress_factory(i, run)`` may return a ``progress(done, total)`` callback.
+    ``progress_factory(i, run)`` may return a ``progress(done, total)`` callback. An interrupted
+    run (Ctrl-C) is written with the photons traced so far and ends the loop; it never replaces an
+    existing file (see :func:`subsurf.atomic.partial_path`).
     """
-    import subsurf
+    from .mc import simulate
 
-    runs = read_mci(path)
-    targets = [os.path.join(out_dir, r.out_fname) if out_dir else r.out_fname for r in runs]
-    if not force:
-        for t in targets:
-            if os.path.exists(t):
-                raise FileExistsError(f"{t}: exists; use --force to overwrite")
     done = []
-    for i, (run, target) in enumerate(zip(runs, targets)):
-        if photons is not None:
-            run = dataclasses.replace(run, photons=int(photons))
-        try:
-            stack = run_to_stack(run)
-        except _core.ParameterError as e:
-            raise McmlInputError(f"{os.fspath(path)}:{run.line}: run {i + 1}: {e}") from None
+    for i, (run, stack, tallies, target) in enumerate(plan_runs(path, force, out_dir, photons)):
         cb = progress_factory(i, run) if progress_factory else None
-        kwargs = dict(photons=run.photons, seed=seed + i, threads=threads, tallies=run_to_tallies(run))
-        if cb is not None:
-            kwargs["progress"] = cb
-        result = subsurf.simulate(stack, **kwargs)
-        if result.partial:  # interrupted: the file describes the photons actually traced
-            run = dataclasses.replace(run, photons=int(result.photons))
-        write_mco(target, run, result, force=True)
-        done.append((target, result))
+        result = simulate(stack, photons=run.photons, seed=seed + i, threads=threads, tallies=tallies, progress=cb)
+        done.append((write_run(target, run, result, force=force, inputs=(path,)), result))
         if result.partial:
             break
     return done
+
+
+def write_run(target: str, run: McmlRun, result, force: bool = False, inputs=()) -> str:
+    """Write a run's result to ``target``; a partial result goes to :func:`subsurf.atomic.partial_path`
+    and its ``.mco`` states the photons actually traced. Returns the path written."""
+    if result.partial:
+        run = dataclasses.replace(run, photons=int(result.photons))
+        target = atomic.partial_path(target)
+        force = False
+    return write_mco(target, run, result, force=force, inputs=inputs)

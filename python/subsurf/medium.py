@@ -101,6 +101,11 @@ class Layer:
             ph = f"phase={list(self.lobes)!r}"
         return f"Layer(n={self.n!r}, mua={self.mua!r}, mus={self.mus!r}, {ph}, thickness={self.thickness!r})"
 
+    def _repr_html_(self):
+        from .display import layer_html
+
+        return layer_html(self)
+
 
 class Stack:
     """Layers from the top (light arrives from above, at z = 0) down, between two ambient media.
@@ -152,6 +157,11 @@ class Stack:
     def __repr__(self):
         inner = ",\n  ".join(repr(l) for l in self.layers)
         return f"Stack([\n  {inner}\n], n_above={self.n_above!r}, n_below={self.n_below!r})"
+
+    def _repr_html_(self):
+        from .display import stack_html
+
+        return stack_html(self)
 
 
 class Component(NamedTuple):

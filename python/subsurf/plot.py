@@ -31,6 +31,7 @@ __all__ = [
     "save_figure",
     "top_layer_optics",
     "layer_boundaries",
+    "histogram",
 ]
 
 _UNITS = {
@@ -103,6 +104,13 @@ def top_layer_optics(result):
     return mua, mus * (1 - g), n / float(stack.get("n_above", 1.0))
 
 
+#: The diffusion models :func:`reflectance_profile` can overlay: colour, line style, legend.
+_MODEL_STYLES = {
+    "dipole": ("C0", "-", "dipole (Jensen et al. 2001)"),
+    "better_dipole": ("C3", "--", "better dipole (d'Eon 2012)"),
+}
+
+
 def reflectance_profile(result, ax=None, name: str = "rd_r", models=("dipole", "better_dipole"), optics=None):
     """R(r) (or T(r) with ``name="tt_r"``) on log–log axes with ±1σ error bars.
 
@@ -123,21 +131,12 @@ def reflectance_profile(result, ax=None, name: str = "rd_r", models=("dipole", "
     if models and name == "rd_r":
         optics = optics if optics is not None else top_layer_optics(result)
         if optics is not None:
-            try:
-                from . import diffusion
-            except ImportError:
-                diffusion = None
+            from . import diffusion
+
             rr = np.geomspace(max(r[0], 1e-4), r[-1], 200)
-            styles = {
-                "dipole": ("C0", "-", "dipole (Jensen et al. 2001)"),
-                "better_dipole": ("C3", "--", "better dipole (d'Eon 2012)"),
-            }
             for m in models:
-                fn = getattr(diffusion, f"{m}_rd", None) if diffusion is not None else None
-                if fn is None:
-                    continue
-                c, ls, lab = styles.get(m, (None, ":", m))
-                ax.plot(rr, fn(rr, *optics), color=c, ls=ls, lw=1.5, label=lab)
+                c, ls, lab = _MODEL_STYLES.get(m, (None, ":", m))
+                ax.plot(rr, diffusion.rd(rr, *optics, model=m), color=c, ls=ls, lw=1.5, label=lab)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel(f"radius r ({h.edge_units[0]})")
@@ -292,11 +291,73 @@ def figure(result, models=("dipole", "better_dipole"), optics=None):
     return fig
 
 
-def save_figure(fig, path: str | os.PathLike, dpi: int = 130) -> str:
-    """Write a figure (PNG, PDF, SVG … by extension); returns the path."""
+def histogram(h, ax=None, log: bool | None = None, label: str | None = None):
+    """Draw one :class:`~subsurf.result.Histogram` and return the axes (``Histogram.plot`` calls this).
+
+    1-D: the bin values as steps with a ±1 standard-error band; 2-D: an image over the bin edges
+    (first axis horizontal, a depth axis ``z`` pointing down) with a colour bar. Axis labels give
+    the axis names and units, the value label the histogram's units; overflow bins (everything beyond
+    the grid, ``Histogram.overflow``) are left out. ``log`` chooses a logarithmic
+    value scale (default: when the positive values span more than three decades). Histograms with
+    more axes are drawn one slice at a time: ``h.take("order", k).plot()``.
+    """
+    v, s = np.asarray(h.values, float), np.asarray(h.stderr, float)
+    edges = [np.asarray(e, float) for e in h.edges]
+    for i, over in enumerate(h.overflow):  # an overflow bin holds everything beyond the grid: not drawn
+        if over and v.shape[i] > 1:
+            v, s, edges[i] = np.delete(v, -1, axis=i), np.delete(s, -1, axis=i), edges[i][:-1]
+    if v.ndim not in (1, 2):
+        raise ValueError(
+            f"a histogram with {v.ndim} axes {tuple(h.axes)} cannot be drawn at once; "
+            f"draw one slice, e.g. h.take({h.axes[0]!r}, 0).plot()"
+        )
+    pos = v[np.isfinite(v) & (v > 0)]
+    if log is None:
+        log = bool(pos.size) and pos.max() > 1e3 * pos.min() and np.all(v[np.isfinite(v)] >= 0)
+    names = [f"{a} ({u})" if u not in ("", "1") else str(a) for a, u in zip(h.axes, h.edge_units)]
+    what = f"{h.description or 'value'} ({_u(h.units)})"
+    if v.ndim == 1:
+        ax = _new_axes(ax)
+        e = edges[0]
+        ax.stairs(v, e, color="k", lw=1.2, label=label or "Monte Carlo")
+        ax.stairs(v + s, e, baseline=v - s, fill=True, color="k", alpha=0.2, lw=0, label="±1 standard error")
+        ax.set_xlabel(names[0])
+        ax.set_ylabel(what)
+        ax.legend(fontsize=8)
+        ax.grid(True, alpha=0.25)
+        if log:
+            ax.set_yscale("log")
+        return ax
+    from matplotlib.colors import LogNorm
+
+    if ax is None:
+        from matplotlib.figure import Figure
+
+        ax = Figure(figsize=(6.4, 4.8), layout="constrained").add_subplot()
+    x, y = edges[:2]
+    norm = LogNorm(vmin=pos.min(), vmax=pos.max()) if log and pos.size else None
+    mesh = ax.pcolormesh(x, y, np.ma.masked_invalid(v.T), cmap="magma", shading="flat", norm=norm)
+    ax.figure.colorbar(mesh, ax=ax, label=what)
+    ax.set_xlabel(names[0])
+    ax.set_ylabel(names[1])
+    if h.axes[1] == "z":
+        ax.invert_yaxis()
+    return ax
+
+
+def save_figure(fig, path: str | os.PathLike, dpi: int = 130, force: bool = True) -> str:
+    """Write a figure (PNG, PDF, SVG … by extension) atomically; returns the path.
+
+    The image is rendered in memory and written with :func:`subsurf.atomic.write_bytes`, so an
+    interrupted or failed save never leaves a truncated file; ``force=False`` refuses to replace an
+    existing file. The directory must exist.
+    """
+    import io
+
+    from . import atomic
+
     path = os.fspath(path)
-    d = os.path.dirname(path)
-    if d:
-        os.makedirs(d, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    return path
+    fmt = os.path.splitext(path)[1].lstrip(".").lower() or "png"
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=dpi, format=fmt)
+    return atomic.write_bytes(path, buf.getvalue(), force=force)

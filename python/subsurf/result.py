@@ -2,6 +2,7 @@
 
 A :class:`Histogram` is one tally with its standard error, bin edges and units; a
 :class:`Result` holds the totals of a run, its histograms by name and its provenance.
+Both print as readable summaries (``repr``, ``Result.summary()``) and as HTML tables in notebooks.
 """
 
 from __future__ import annotations
@@ -12,8 +13,10 @@ from typing import Any
 
 import numpy as np
 
+from . import display
 
-@dataclasses.dataclass
+
+@dataclasses.dataclass(repr=False)
 class Histogram:
     """A binned tally.
 
@@ -59,16 +62,88 @@ class Histogram:
 
     def centers(self, axis: int | str = 0) -> np.ndarray:
         """Bin centres along an axis (given by index or name)."""
-        i = self.axes.index(axis) if isinstance(axis, str) else axis
-        e = np.asarray(self.edges[i], dtype=float)
+        e = np.asarray(self.edges[self._axis(axis)], dtype=float)
         return 0.5 * (e[1:] + e[:-1])
+
+    def _axis(self, axis: int | str) -> int:
+        if isinstance(axis, str):
+            if axis not in self.axes:
+                raise ValueError(f"histogram has no axis {axis!r}; its axes are {tuple(self.axes)}")
+            return tuple(self.axes).index(axis)
+        if not -len(self.axes) <= axis < len(self.axes):
+            raise ValueError(f"axis {axis} is out of range: the histogram has {len(self.axes)} axes")
+        return axis % len(self.axes)
+
+    def take(self, axis: int | str, index: int) -> Histogram:
+        """The histogram with ``axis`` removed at bin ``index`` (e.g. one scattering order of
+        ``brdf_order``: ``h.take("order", 1)``)."""
+        i = self._axis(axis)
+        n = np.shape(self.values)[i]
+        if not -n <= index < n:
+            raise ValueError(f"bin {index} is out of range: axis {self.axes[i]!r} has {n} bins")
+        keep = [k for k in range(len(self.axes)) if k != i]
+        lo, hi = self.edges[i][index % n], self.edges[i][index % n + 1]
+        return Histogram(
+            values=np.take(self.values, index, axis=i),
+            stderr=np.take(self.stderr, index, axis=i),
+            edges=tuple(self.edges[k] for k in keep),
+            axes=tuple(self.axes[k] for k in keep),
+            edge_units=tuple(self.edge_units[k] for k in keep),
+            units=self.units,
+            description=f"{self.description} ({self.axes[i]} in [{display.num(lo, 4)}, {display.num(hi, 4)}])",
+            measures=tuple(self.measures[k] for k in keep) if self.measures else (),
+            overflow=tuple(self.overflow[k] for k in keep) if self.overflow else (),
+        )
+
+    def plot(self, ax=None, **kwargs):
+        """Draw this tally on one set of axes and return them (see :func:`subsurf.plot.histogram`):
+        1-D as a line with a ±1 standard-error band, 2-D as an image with a colour bar, axes
+        labelled with their units."""
+        from . import plot
+
+        return plot.histogram(self, ax=ax, **kwargs)
+
+    def _axis_texts(self) -> list[str]:
+        return [
+            display.axis_text(a, len(e) - 1, e[0], e[-1], u)
+            for a, e, u in zip(self.axes, (np.asarray(x, float) for x in self.edges), self.edge_units)
+        ]
+
+    def __repr__(self) -> str:
+        v = np.asarray(self.values, float)
+        finite = v[np.isfinite(v)]
+        parts = [" × ".join(self._axis_texts()), f"units {self.units}"]
+        if finite.size:
+            parts.append(f"values in [{display.num(finite.min(), 4)}, {display.num(finite.max(), 4)}]")
+        parts.append(repr(self.description))
+        return f"Histogram({'; '.join(parts)})"
+
+    def _repr_html_(self) -> str:
+        rows = [
+            (a, len(e) - 1, display.num(e[0], 4), display.num(e[-1], 4), u)
+            for a, e, u in zip(self.axes, (np.asarray(x, float) for x in self.edges), self.edge_units)
+        ]
+        v, s = np.asarray(self.values, float), np.asarray(self.stderr, float)
+        ok = np.isfinite(v)
+        stats = (
+            f"values in [{display.num(v[ok].min(), 4)}, {display.num(v[ok].max(), 4)}] {self.units}; "
+            f"largest standard error {display.num(np.nanmax(s) if s.size and np.isfinite(s).any() else 0, 3)}"
+            if ok.any()
+            else "no finite values"
+        )
+        return (
+            display.html_table(
+                ("axis", "bins", "from", "to", "unit"), rows, caption=f"Histogram: {self.description} ({self.units})"
+            )
+            + f"<p>{display.html.escape(stats)}</p>"
+        )
 
 
 #: The totals every run reports; each has a ``*_stderr`` twin on :class:`Result`.
 TOTALS = ("specular_reflectance", "diffuse_reflectance", "transmittance", "unscattered_transmittance", "absorbed")
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(repr=False)
 class Result:
     """What a Monte Carlo run produced. Fractions are of the incident power.
 
@@ -130,17 +205,63 @@ class Result:
     def events_per_s(self) -> float:
         return self.events / self.elapsed_s if self.elapsed_s > 0 else math.nan
 
-    def summary(self) -> str:
-        """A small table of the totals with standard errors."""
-        rows = [(name.replace("_", " "), getattr(self, name), getattr(self, name + "_stderr")) for name in TOTALS]
-        w = max(len(r[0]) for r in rows)
-        lines = [f"{'quantity':<{w}}  {'value':>10}  {'stderr':>10}"]
-        lines += [f"{n:<{w}}  {v:>10.6f}  {s:>10.2e}" for n, v, s in rows]
-        for i, (a, s) in enumerate(zip(self.absorbed_per_layer, self.absorbed_per_layer_stderr)):
-            lines.append(f"{'  absorbed, layer ' + str(i):<{w}}  {a:>10.6f}  {s:>10.2e}")
-        state = " (PARTIAL: interrupted)" if self.partial else ""
-        lines.append(
-            f"{self.photons} photons, seed {self.seed}, {self.elapsed_s:.2f} s, "
-            f"{self.events_per_s:.3g} scattering events/s{state}"
+    def _rows(self) -> list[tuple[str, float, float]]:
+        rows = [(n.replace("_", " "), getattr(self, n), getattr(self, n + "_stderr")) for n in TOTALS]
+        rows += [
+            (f"  absorbed in layer {i}", a, s)
+            for i, (a, s) in enumerate(zip(self.absorbed_per_layer, self.absorbed_per_layer_stderr))
+        ]
+        return rows
+
+    def _provenance(self) -> str:
+        rate = self.photons / self.elapsed_s if self.elapsed_s > 0 else math.nan
+        line = (
+            f"{self.photons:,} photons, seed {self.seed}, {self.elapsed_s:.2f} s, "
+            f"{self.events_per_s:.3g} scattering events/s, {rate:.3g} photons/s"
         )
+        if self.partial:
+            line += f"\nPARTIAL: {self.photons:,} of {self.photons_requested:,} photons (interrupted)"
+        return line
+
+    def summary(self) -> str:
+        """The table of totals ± standard errors, the absorption per layer, the energy balance and
+        the run's photons, seed, time and rate (what ``subsurf simulate`` prints)."""
+        rows = self._rows()
+        w = max(len(r[0]) for r in rows + [("energy balance", 0, 0)])
+        out = [f"{'quantity':<{w}}  {'value':>10}   stderr"]
+        out += [f"{n:<{w}}  {v:>10.6f} ± {_stderr_text(s)}" for n, v, s in rows]
+        out.append(f"{'energy balance':<{w}}  {self.energy_balance:>10.6f}")
+        out.append(self._provenance())
+        return "\n".join(out)
+
+    def _histogram_lines(self) -> list[str]:
+        return [f"{k}: {' × '.join(h._axis_texts())} ({h.units})" for k, h in self.histograms.items()]
+
+    def __repr__(self) -> str:
+        lines = [f"Result({self._provenance().splitlines()[0]}{', PARTIAL' if self.partial else ''})"]
+        lines += ["  " + line for line in self.summary().splitlines()[1:-1]]
+        if self.histograms:
+            lines.append("  histograms:")
+            lines += ["    " + line for line in self._histogram_lines()]
         return "\n".join(lines)
+
+    def _repr_html_(self) -> str:
+        rows = [(n, display.num(v), _stderr_text(s), "1") for n, v, s in self._rows()]
+        rows.append(("energy balance", display.num(self.energy_balance, 12), "", "1"))
+        out = [
+            display.html_table(
+                ("quantity", "value", "± stderr", "unit"), rows, caption=self._provenance().replace("\n", " — ")
+            )
+        ]
+        if self.histograms:
+            hrows = [
+                (k, " × ".join(f"{a} ({len(e) - 1})" for a, e in zip(h.axes, h.edges)), h.units, h.description)
+                for k, h in self.histograms.items()
+            ]
+            out.append(display.html_table(("histogram", "axes (bins)", "unit", "what"), hrows))
+        return "".join(out)
+
+
+def _stderr_text(s: float) -> str:
+    """A standard error in three significant digits; an exact 0 (a deterministic quantity) as 0."""
+    return "0" if s == 0 else f"{s:.2e}"

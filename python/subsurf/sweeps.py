@@ -210,7 +210,7 @@ class SweepResult:
         and verify its checksum."""
         import h5py
 
-        from . import __version__
+        from ._core import __version__
 
         path = os.fspath(path)
         d = os.path.dirname(os.path.abspath(path))

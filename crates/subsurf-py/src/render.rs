@@ -88,8 +88,9 @@ fn material_from_py(d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<M
                 threads,
                 ..McSettings::default()
             };
-            let (profiles, ss_default) =
-                channel_profiles(&model, &stacks, &mc).map_err(|e| to_py(Error::Invalid(format!("{ctx}: {e}"))))?;
+            let colour: Option<[f64; 3]> = get_any(d, "colour", &ctx)?;
+            let (profiles, ss_default) = channel_profiles(&model, &stacks, &mc, colour.as_ref())
+                .map_err(|e| to_py(Error::Invalid(format!("{ctx}: {e}"))))?;
             let single: Option<bool> = get_any(d, "single_scattering", &ctx)?;
             let t = Translucent::new(&ctx, sa, ss, g, eta, profiles, single.unwrap_or(ss_default)).py()?;
             Ok(Material::Translucent(Box::new(t)))
@@ -277,8 +278,8 @@ fn render_shape<'py>(
 
 /// (closed, open_edges, area, volume) of a mesh, validating it (errors name `name`).
 #[pyfunction]
-fn render_mesh_info(d: &Bound<'_, PyDict>, name: &str) -> PyResult<(bool, usize, f64, f64)> {
-    let m = mesh_from_py(d, name)?;
+fn render_mesh_info(mesh: &Bound<'_, PyDict>, name: &str) -> PyResult<(bool, usize, f64, f64)> {
+    let m = mesh_from_py(mesh, name)?;
     Ok((m.closed, m.open_edges, m.total_area(), m.volume()))
 }
 

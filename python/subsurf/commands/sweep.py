@@ -15,7 +15,7 @@ SHOWN = 20
 
 
 def add_parser(sub):
-    from ..cli import add_scheduler_options
+    from . import add_scheduler_options
 
     p = sub.add_parser("sweep", help="Monte Carlo runs on a grid of configurations (TOML with [[sweep]] axes)")
     p.add_argument("config", metavar="SWEEP.toml")
@@ -61,8 +61,9 @@ def run(a) -> int:
     import warnings
 
     from .. import sweeps
-    from ..cli import EXIT_INTERRUPTED, _bar, scheduler_client
     from ..config import load_sweep
+    from ..runner import EXIT_INTERRUPTED, Interrupted, scheduler_client
+    from ..runner import progress_bar as _bar
     from . import CommandError as UserError
 
     cfg = load_sweep(a.config)
@@ -91,7 +92,7 @@ def run(a) -> int:
         finally:
             bar.close()
     if res.points_done == 0:
-        raise UserError("interrupted before any point was done; nothing written")
+        raise Interrupted("sweep: interrupted before any point was done; nothing written")
     if not a.quiet:
         print(_table(res))
     if res.complete:

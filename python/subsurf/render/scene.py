@@ -43,8 +43,10 @@ class Translucent:
     ``model`` the BSSRDF profile used by the ``hierarchical`` and ``probe`` methods (one of
     :data:`MODELS`; ``random_walk`` ignores it). ``stacks`` (three :class:`subsurf.Stack`) gives a
     layered material to the profile models (``multipole``, ``monte_carlo``); ``mc_photons`` and
-    ``mc_seed`` set the Monte Carlo profile's run. Construct from the library with
-    :meth:`library`, from layers with :meth:`from_stacks`, or from a colour with :meth:`from_color`.
+    ``mc_seed`` set the Monte Carlo profile's run; ``colour`` (set by :meth:`from_color`) is the
+    surface colour the material was made from, which ``normalized_diffusion`` takes as its surface
+    albedo. Construct from the library with :meth:`library`, from layers with :meth:`from_stacks`,
+    or from a colour with :meth:`from_color`.
     """
 
     def __init__(
@@ -59,6 +61,7 @@ class Translucent:
         mc_photons=100_000,
         mc_seed=0,
         single_scattering=None,
+        colour=None,
     ):
         self.sigma_a = _vec3("sigma_a", sigma_a)
         self.sigma_s = _vec3("sigma_s", sigma_s)
@@ -70,6 +73,7 @@ class Translucent:
         if self.stacks is not None and (len(self.stacks) != 3 or not all(isinstance(s, Stack) for s in self.stacks)):
             raise _err("stacks: give three subsurf.Stack objects, one per RGB channel")
         self.mc_photons, self.mc_seed, self.single_scattering = int(mc_photons), int(mc_seed), single_scattering
+        self.colour = None if colour is None else _vec3("colour", colour)
 
     @property
     def layered(self) -> bool:
@@ -110,16 +114,19 @@ class Translucent:
         )
 
     @classmethod
-    def from_color(cls, color, mean_free_path, eta=1.3, g=0.0, model="dipole", name=None, **kw):
-        """From a surface colour (total diffuse reflectance per channel under normal incidence) and
-        a mean free path 1/σt per channel (mm), inverted under ``model`` by
-        :func:`subsurf.bssrdf.material_from_appearance` (the profiles issue's inverse)."""
+    def from_color(cls, color, mean_free_path, eta=1.3, g=0.0, model="dipole", name=None, table=None, **kw):
+        """From a surface colour (total diffuse reflectance per channel under normal incidence, per
+        unit incident power) and a mean free path 1/σt per channel (mm), inverted under ``model``
+        by :func:`subsurf.bssrdf.material_from_appearance` (``table``: its
+        :class:`~subsurf.bssrdf.ProfileTable` for ``monte_carlo`` and ``normalized_diffusion``)."""
         from .. import bssrdf
 
-        layers = bssrdf.material_from_appearance(
-            _vec3("color", color), _vec3("mean_free_path", mean_free_path), eta=eta, g=g, model=model
+        color = _vec3("color", color)
+        mfp = _vec3("mean_free_path", mean_free_path)
+        layers = bssrdf.material_from_appearance(color, mfp, eta=eta, g=g, model=model, table=table)
+        return cls(
+            [l.mua for l in layers], [l.mus for l in layers], g=g, eta=eta, model=model, name=name, colour=color, **kw
         )
-        return cls([l.mua for l in layers], [l.mus for l in layers], g=g, eta=eta, model=model, name=name, **kw)
 
     def _to_core(self, name):
         return {
@@ -134,6 +141,7 @@ class Translucent:
             "mc_photons": self.mc_photons,
             "mc_seed": self.mc_seed,
             "single_scattering": self.single_scattering,
+            "colour": self.colour,
         }
 
     def __repr__(self):

@@ -32,7 +32,7 @@ fn integral(f: &dyn Fn(f64) -> f64, s: f64) -> f64 {
 fn models() -> Vec<(&'static str, Box<dyn RadialProfile>, f64)> {
     let m = Medium::new(0.05, 1.2, 0.3, 1.33).unwrap();
     let layered = Stack::new(
-        vec![Layer::new(1.4, 0.2, 8.0, 0.8, 0.2).unwrap(), Layer::new(1.4, 0.02, 10.0, 0.8, f64::INFINITY).unwrap()],
+        vec![Layer::new(1.4, 0.2, 8.0, 0.8, 0.6).unwrap(), Layer::new(1.4, 0.02, 10.0, 0.8, f64::INFINITY).unwrap()],
         1.0,
         1.0,
     )

@@ -88,40 +88,50 @@ struct Node {
 pub struct Tree {
     pub samples: Vec<Sample>,
     nodes: Vec<Node>,
+    /// Radius ρ₀ of the near field (mm): [`NEAR_FIELD`] sample spacings.
+    pub rho0: f64,
 }
 
 const LEAF_SIZE: usize = 8;
 
+/// The near field's radius in sample spacings Δ (see [`Tree::exitance`]).
+pub const NEAR_FIELD: f64 = 2.0;
+
 impl Tree {
-    fn build(mut samples: Vec<Sample>) -> Tree {
+    fn build(mut samples: Vec<Sample>, delta: f64) -> Tree {
         let mut nodes = vec![];
         let n = samples.len();
         build_node(&mut samples, 0, n, &mut nodes, 0);
-        Tree { samples, nodes }
+        Tree { samples, nodes, rho0: NEAR_FIELD * delta }
     }
 
-    /// Σ R_d(‖x − x_j‖) E_j A_j with clusters under `epsilon` (0: exact all-pairs sum).
+    /// Σ R_d(‖x − x_j‖) E_j A_j with clusters under `epsilon` (0: exact all-pairs sum), with the
+    /// peak of R_d near x integrated exactly (singularity subtraction): R_d = R_far + R_near with
+    /// R_far = min(R_d, R_d(ρ₀)) (flat-topped inside ρ₀, sampled at the points x_j, which the
+    /// point rule integrates accurately) and R_near = (R_d − R_d(ρ₀))₊, whose energy
+    /// total·cdf(ρ₀) − πρ₀² R_d(ρ₀) is given the mean irradiance of the samples within ρ₀
+    /// (the surface taken as flat there). Profiles that peak at r → 0 on the scale of the sample
+    /// spacing (single scattering: photon beam diffusion, normalized diffusion, Monte Carlo)
+    /// otherwise lose or gain 6–10 % of a flat slab's exitance (measured; the point rule
+    /// under-samples a convex peak).
     pub fn exitance(&self, m: &Translucent, x: V3, epsilon: f64) -> Rgb {
-        let mut acc = [0.0; 3];
-        let rd = |r: f64| -> Rgb { std::array::from_fn(|k| m.profiles[k].rd(r)) };
+        let rho0 = self.rho0;
+        let cap: Rgb = std::array::from_fn(|k| m.profiles[k].rd(rho0));
+        let rd = |r: f64| -> Rgb {
+            std::array::from_fn(|k| m.profiles[k].rd(r).min(if r < rho0 { cap[k] } else { f64::INFINITY }))
+        };
+        let (mut acc, mut near_e, mut near_a) = ([0.0; 3], [0.0; 3], 0.0);
         let mut stack = vec![0u32];
         while let Some(i) = stack.pop() {
             let nd = &self.nodes[i as usize];
             if nd.leaf {
                 for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
                     let r = length(sub(x, s.p));
-                    // Within a sample's own disc (radius a = √(A/π)) the point value R_d(r) is
-                    // replaced by R_d's mean over the disc about x, total·cdf(a)/(πa²): profiles
-                    // with single scattering diverge as r → 0, and a shading point landing on a
-                    // sample would otherwise get an arbitrarily large term.
-                    let a2 = s.area / PI;
-                    let w: Rgb = if r * r < a2 {
-                        let a = a2.sqrt();
-                        std::array::from_fn(|k| m.profiles[k].total() * m.profiles[k].cdf(a) / s.area)
-                    } else {
-                        rd(r)
-                    };
-                    acc = add(acc, scale(mul(w, s.e), s.area));
+                    acc = add(acc, scale(mul(rd(r), s.e), s.area));
+                    if r < rho0 {
+                        near_e = madd(near_e, s.e, s.area);
+                        near_a += s.area;
+                    }
                 }
                 continue;
             }
@@ -133,6 +143,13 @@ impl Tree {
             } else {
                 stack.extend(nd.first..nd.first + nd.count);
             }
+        }
+        if near_a > 0.0 {
+            let near: Rgb = std::array::from_fn(|k| {
+                let p = &m.profiles[k];
+                (p.total() * p.cdf(rho0) - PI * rho0 * rho0 * cap[k]).max(0.0) * near_e[k] / near_a
+            });
+            acc = add(acc, near);
         }
         acc
     }
@@ -242,7 +259,7 @@ impl Hierarchical {
                 })
                 .collect();
             base += n;
-            trees.push(Some(Tree::build(samples)));
+            trees.push(Some(Tree::build(samples, delta)));
         }
         Ok(Hierarchical { trees, params: *params })
     }

@@ -212,15 +212,33 @@ impl RadialProfile for RdTable {
 ///   by the normal-incidence transmittance 1 − R_sp of the top interface;
 /// - S⁽¹⁾ is added for the pure diffusion models (dipole, better dipole, multipole) only:
 ///   photon beam diffusion and Monte Carlo include single scattering in R_d, and normalized
-///   diffusion is a fit to every order (Christensen & Burley 2015).
+///   diffusion is a fit to every order (Christensen & Burley 2015);
+/// - a material made from a surface `colour` (per channel, [`crate::bssrdf::inverse`]) gives
+///   normalized diffusion that colour as its surface albedo
+///   ([`crate::bssrdf::normalized_diffusion::from_colour`]); the other models' materials were
+///   inverted under their own totals, which already give the colour.
 pub fn channel_profiles(
     model: &str,
     stacks: &[Stack; 3],
     mc: &crate::bssrdf::monte_carlo::McSettings,
+    colour: Option<&Rgb>,
 ) -> Result<([Arc<dyn RadialProfile>; 3], bool)> {
-    use crate::bssrdf::Model;
+    use crate::bssrdf::{normalized_diffusion, Medium, Model};
     let m = Model::from_name(model)?;
-    let profs = crate::bssrdf::channel_profiles(m, stacks, mc)?;
+    let profs: Vec<Box<dyn RadialProfile>> = match (m, colour) {
+        (Model::NormalizedDiffusion, Some(c)) => stacks
+            .iter()
+            .zip(c)
+            .enumerate()
+            .map(|(k, (s, &a))| -> Result<Box<dyn RadialProfile>> {
+                let med = Medium::from_stack(s, model).map_err(|e| e.within(&format!("channels[{k}].")))?;
+                Ok(Box::new(
+                    normalized_diffusion::from_colour(&med, a).map_err(|e| e.within(&format!("channels[{k}].")))?,
+                ))
+            })
+            .collect::<Result<_>>()?,
+        _ => crate::bssrdf::channel_profiles(m, stacks, mc)?,
+    };
     let mut out: Vec<Arc<dyn RadialProfile>> = Vec::with_capacity(3);
     for (p, s) in profs.into_iter().zip(stacks) {
         let k = if m == Model::MonteCarlo {

@@ -26,8 +26,9 @@ fn small_table(g: f64, eta: f64, albedos: Vec<f64>, photons: u64) -> ProfileTabl
     ProfileTable::assemble(s, pts).unwrap()
 }
 
-/// A material built from an RGB colour with the Monte Carlo model, simulated by the engine,
-/// reproduces the colour within 0.5 % per channel (table: 8 albedos in [0.9, 0.9995], 10⁵
+/// A material built from an RGB colour with the Monte Carlo model (and normalized diffusion,
+/// which shares its material), simulated by the engine, reproduces the colour within 0.5 % per
+/// channel (table: 8 albedos in [0.9, 0.9995], 10⁵
 /// photons each; check: 3·10⁵ (0.6/colour)² photons per channel, whose 4σ is < 0.5 %).
 #[test]
 fn monte_carlo_appearance_reproduces_colour() {
@@ -52,13 +53,27 @@ fn monte_carlo_appearance_reproduces_colour() {
         );
         assert!((rd / colour[i] - 1.0).abs() < 0.005, "channel {i}: simulated {rd} ± {se} vs requested {}", colour[i]);
     }
-    // Diffusion models reproduce their own totals exactly.
-    for model in [Model::Dipole, Model::BetterDipole, Model::PhotonBeamDiffusion] {
+    // Every model's own prediction of the colour is the colour: (1 − R_sp) × the closed-form
+    // totals (per unit power entering); normalized diffusion's material is the Monte Carlo one
+    // (so the engine reproduces it, above) and its renderer profile has total colour/(1 − R_sp)
+    // (before: Chiang et al.'s α(A) and photon beam diffusion's total: 0.018 for 0.30 at g = 0.8,
+    // η = 1.4).
+    let enter = appearance::entering_fraction(eta);
+    let nd = material_from_appearance(&colour, &mfp, eta, g, Model::NormalizedDiffusion, Some(&table)).unwrap();
+    assert_eq!(nd, layers);
+    for (k, l) in nd.iter().enumerate() {
+        let m = Medium::new(l.mua, l.mus, g, eta).unwrap();
+        let t = crate::bssrdf::normalized_diffusion::from_colour(&m, colour[k]).unwrap().total();
+        assert!((enter * t - colour[k]).abs() < 1e-12, "normalized_diffusion: {t}");
+    }
+    for model in [Model::Dipole, Model::BetterDipole, Model::Multipole, Model::PhotonBeamDiffusion] {
         let l = material_from_appearance(&[0.4], &[1.0], eta, 0.5, model, None).unwrap()[0];
         let m = Medium::new(l.mua, l.mus, 0.5, eta).unwrap();
         let t = medium_profile(model, &m).unwrap().total();
-        assert!((t - 0.4).abs() < 1e-6, "{model:?}: {t}");
+        assert!((enter * t - 0.4).abs() < 1e-6, "{model:?}: {t}");
     }
+    let e = material_from_appearance(&[0.99], &[1.0], eta, g, Model::Dipole, None).unwrap_err().to_string();
+    assert!(e.starts_with("albedo[0] = 0.99 is out of range: model \"dipole\" reaches at most 0.97"), "{e}");
     let e = material_from_appearance(&[0.99], &[1.0], eta, g, Model::MonteCarlo, Some(&table)).unwrap_err();
     assert!(e.to_string().starts_with("albedo[0] = 0.99 is out of range"), "{e}");
     let e = material_from_appearance(&[1.2], &[1.0], eta, g, Model::Dipole, None).unwrap_err();

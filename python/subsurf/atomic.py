@@ -1,0 +1,193 @@
+"""Files written whole or not at all: :func:`write_bytes`, :func:`check_target`, :func:`hold_sigint`.
+
+Results (``.h5``), MCML ``.mco`` files and figures are serialised in memory first, then written to a
+temporary file in the target's directory (``.NAME.XXXXXXXX.subsurf-tmp``), flushed to the disk
+(``fsync``) and renamed onto the target. Whatever happens meanwhile — SIGKILL, SIGTERM, a full disk,
+a second Ctrl-C — the target holds either its previous content or the complete new file, never a
+truncated one. An existing target is replaced only with ``force=True``; without it the temporary
+file is published by a hard link, which fails if the target appeared in the meantime (no race
+between the check and the write). A process killed with SIGKILL can leave its hidden temporary
+file behind; it never replaces anything.
+
+Every error is an ``OSError`` whose message is one line naming the file: a missing directory, a
+target that is a directory, an existing file, or a failed write (``No space left on device``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import secrets
+import signal
+import threading
+
+from . import _testhooks
+
+__all__ = ["write_bytes", "check_target", "hold_sigint", "partial_path"]
+
+_TMP_SUFFIX = ".subsurf-tmp"
+
+
+def _same_file(a: str, b: str) -> bool:
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_target(path: str | os.PathLike, force: bool = False, inputs=()) -> str:
+    """Check that ``path`` can receive a new file; returns it as a str.
+
+    Raises (one-line messages naming the path) ``FileNotFoundError`` when its directory is missing,
+    ``NotADirectoryError`` when a parent is a file, ``IsADirectoryError`` when it is a directory,
+    ``FileExistsError`` when it exists and ``force`` is False, and ``FileExistsError`` when it is
+    one of ``inputs`` (the files the command reads), whatever ``force`` says.
+    """
+    path = os.fspath(path)
+    if not path or path.endswith(("/", os.sep)):
+        raise IsADirectoryError(f"{path or repr(path)}: not a file name")
+    for inp in inputs:
+        if _same_file(path, os.fspath(inp)):
+            raise FileExistsError(
+                f"{path}: is also an input of this command ({os.fspath(inp)}); choose another output name"
+            )
+    parent = os.path.dirname(os.path.abspath(path))
+    if not os.path.exists(parent):
+        raise FileNotFoundError(f"{path}: directory {parent} does not exist")
+    if not os.path.isdir(parent):
+        raise NotADirectoryError(f"{path}: {parent} is not a directory")
+    if os.path.isdir(path):
+        raise IsADirectoryError(f"{path}: is a directory; give a file name")
+    if os.path.lexists(path) and not force:
+        raise FileExistsError(f"{path}: exists; use --force (force=True) to overwrite")
+    return path
+
+
+def partial_path(path: str | os.PathLike) -> str:
+    """Where an interrupted run's partial result goes: ``path`` itself when no file is there, else
+    the first free ``STEM.partial.EXT``, ``STEM.partial-2.EXT``, … beside it — so a partial result
+    never replaces a file (least of all a complete result of the same run)."""
+    path = os.fspath(path)
+    if not os.path.lexists(path):
+        return path
+    stem, ext = os.path.splitext(path)
+    k = 1
+    while True:
+        cand = f"{stem}.partial{'' if k == 1 else f'-{k}'}{ext}"
+        if not os.path.lexists(cand):
+            return cand
+        k += 1
+
+
+class _Held:
+    received = False
+
+
+@contextlib.contextmanager
+def hold_sigint():
+    """Hold back Ctrl-C (SIGINT) inside the block; yields an object whose ``received`` says if one came.
+
+    Only on the main thread and while Python's default SIGINT handler is installed (elsewhere it
+    does nothing). The caller decides what a held Ctrl-C means once the block has finished.
+    """
+    held = _Held()
+    if threading.current_thread() is not threading.main_thread() or (
+        signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+    ):
+        yield held
+        return
+
+    def note(signum, frame):
+        held.received = True
+
+    signal.signal(signal.SIGINT, note)
+    try:
+        yield held
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+def _write_all(fd: int, data) -> None:
+    view = memoryview(data).cast("B")
+    pause = len(view) // 2 if _testhooks.get("pause_in_write") else None
+    pos = 0
+    while pos < len(view):
+        end = len(view) if pause is None else pause
+        pos += os.write(fd, view[pos:end])
+        if pause is not None and pos >= pause:
+            _testhooks.pause_in_write()  # tests: kill or interrupt here, half of the file written
+            pause = None
+
+
+def _publish(tmp: str, path: str, force: bool) -> None:
+    if force:
+        os.replace(tmp, path)
+        return
+    try:
+        os.link(tmp, path)
+    except FileExistsError:
+        raise FileExistsError(f"{path}: exists; use --force (force=True) to overwrite") from None
+    except OSError as e:
+        if e.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EMLINK, errno.ENOSYS, errno.EXDEV):
+            raise
+        # a file system without hard links: check, then rename
+        if os.path.lexists(path):
+            raise FileExistsError(f"{path}: exists; use --force (force=True) to overwrite") from None
+        os.replace(tmp, path)
+        return
+    os.unlink(tmp)
+
+
+def _fsync_dir(d: str) -> None:
+    try:
+        fd = os.open(d, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def write_bytes(path: str | os.PathLike, data, force: bool = False, inputs=()) -> str:
+    """Write ``data`` (bytes-like) to ``path`` atomically (see the module docstring); returns the path.
+
+    Ctrl-C is held back while the file is written and renamed, then raised as ``KeyboardInterrupt``
+    once the target is complete.
+    """
+    path = check_target(path, force, inputs)
+    d = os.path.dirname(os.path.abspath(path))
+    tmp = os.path.join(d, f".{os.path.basename(path)}.{secrets.token_hex(4)}{_TMP_SUFFIX}")
+    with hold_sigint() as held:
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), 0o666)
+        except OSError as e:
+            raise _write_error(path, e) from None
+        try:
+            try:
+                _write_all(fd, data)
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+            _publish(tmp, path, force)
+        except BaseException as e:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            if isinstance(e, OSError) and not isinstance(e, FileExistsError):
+                raise _write_error(path, e) from None
+            raise
+        _fsync_dir(d)
+    if held.received:
+        raise KeyboardInterrupt
+    return path
+
+
+def _write_error(path: str, e: OSError) -> OSError:
+    err = OSError(f"{path}: cannot write ({e.strerror or e}); nothing was written")
+    err.errno = e.errno
+    return err
