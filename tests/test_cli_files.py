@@ -13,6 +13,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 import subsurf
 from subsurf import mcml
@@ -103,6 +104,31 @@ def test_ctrl_c_never_replaces_a_complete_result(tmp_path, cli):
     p = cli("simulate", tmp_path / "long.toml", "-o", out, "--force", "-q", "--threads", "1", hook=AFTER_A_CHUNK)
     assert p.returncode == 130 and subsurf.load(tmp_path / "r.partial-2.h5").partial
     assert subsurf.io.results_equal(subsurf.load(tmp_path / "r.partial.h5"), partial)
+
+
+def test_resume_finishes_an_interrupted_run_with_the_bits_of_one_run(tmp_path, cli, error_here):
+    n = 10**6  # long enough (~1 s on one thread) for the hook's Ctrl-C to come before the end
+    (tmp_path / "c.toml").write_text(FAST.format(photons=n))
+    p = cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "p.h5", "-q", "--threads", "1", hook=AFTER_A_CHUNK)
+    assert p.returncode == 130, p.stderr
+    partial = subsurf.load(tmp_path / "p.h5")
+    assert partial.partial and 0 < partial.photons < n
+    p = cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "r.h5", "-q", "--resume", tmp_path / "p.h5")
+    assert p.returncode == 0, p.stderr
+    assert f"resuming from {tmp_path / 'p.h5'}: {partial.photons:,} photons already traced" in p.stdout
+    assert cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "d.h5", "-q", "--threads", "2").returncode == 0
+    resumed, direct = subsurf.load(tmp_path / "r.h5"), subsurf.load(tmp_path / "d.h5")
+    assert not resumed.partial and resumed.photons == direct.photons == n
+    for name in subsurf.result.TOTALS + ("roulette",):
+        assert getattr(resumed, name) == getattr(direct, name), name
+        assert getattr(resumed, name + "_stderr") == getattr(direct, name + "_stderr"), name
+    for k, h in direct.histograms.items():
+        assert np.array_equal(h.values, resumed.histograms[k].values, equal_nan=True), k
+        assert np.array_equal(h.stderr, resumed.histograms[k].stderr, equal_nan=True), k
+    # another configuration's state (another seed) is refused in one line; so is a missing file
+    error_here("simulate", tmp_path / "c.toml", "-o", tmp_path / "x.h5", "--seed", "7", "--resume", tmp_path / "p.h5")
+    error_here("simulate", tmp_path / "c.toml", "-o", tmp_path / "x.h5", "--resume", tmp_path / "none.h5")
+    assert not (tmp_path / "x.h5").exists()
 
 
 def test_second_ctrl_c_during_the_save_leaves_a_complete_file(tmp_path):

@@ -18,6 +18,12 @@ def add_parser(sub) -> None:
         help="worker threads (default: all cores; with --scheduler: per task, 1)",
     )
     s.add_argument("-o", "--output", metavar="RESULT.h5", help="results file (default: CONFIG.h5)")
+    s.add_argument(
+        "--resume",
+        metavar="PARTIAL.h5",
+        help="continue an interrupted run of the same configuration from its partial results file "
+        "(the result has the bits of an uninterrupted run)",
+    )
     add_force(s, "results file")
     add_quiet(s)
     add_scheduler_options(s)
@@ -34,13 +40,19 @@ def run(a) -> int:
         if getattr(a, key) is not None:
             kw[key] = getattr(a, key)
     out = a.output or runner.default_output(a.config, cfg.output)
-    atomic.check_target(out, force=a.force, inputs=(a.config,))  # before the run: a refusal costs nothing
+    inputs = (a.config,) if a.resume is None else (a.config, a.resume)
+    atomic.check_target(out, force=a.force, inputs=inputs)  # before the run: a refusal costs nothing
+    if a.resume is not None:
+        from ..io import load
+
+        kw["resume"] = prior = load(a.resume)  # the core refuses a state of another configuration
+        print(f"resuming from {a.resume}: {prior.photons:,} photons already traced")
     with runner.scheduler_client(a) as client:
         if client is not None:
             kw["client"] = client
         result = runner.simulate(cfg.stack, label="simulate", quiet=a.quiet, **kw)
     result.config["config_file"] = os.path.abspath(a.config)
-    path, held = runner.save_result(result, out, force=a.force, inputs=(a.config,))
+    path, held = runner.save_result(result, out, force=a.force, inputs=inputs)
     if not a.quiet:
         print(result.summary())
     print(f"wrote {path}" + (" (partial: interrupted)" if result.partial else ""))
