@@ -7,7 +7,7 @@
 
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
-use subsurf_core::mc::tally::totals::Totals;
+use subsurf_core::mc::tally::totals::{Total, Totals};
 use subsurf_core::mc::tally::{TallyConfig, TallySet};
 use subsurf_core::mc::{run, RunConfig};
 use subsurf_core::medium::{Layer, Stack};
@@ -44,6 +44,13 @@ fn main() {
     let (t0, c0) = (Instant::now(), cpu_seconds());
     let (photons, events) = if tallies == "totals" {
         let r = run(&stack, &cfg, || Totals::new(nl), &cancel, &progress).expect("run");
+        if std::env::var_os("MC_SPEED_BITS").is_some() {
+            // the totals' bits, to compare two builds
+            for q in Total::ALL {
+                let (m, se) = r.tally.get(q);
+                println!("{q:?} {:016x} {:016x}", m.to_bits(), se.to_bits());
+            }
+        }
         (r.photons, r.events)
     } else {
         let tc = TallyConfig { errors: tallies == "mcml", ..TallyConfig::default() };

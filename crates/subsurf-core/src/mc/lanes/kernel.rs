@@ -201,6 +201,8 @@ struct LaneKernel<'a> {
     last: u32,
     /// Every layer and both ambient media have the same index: interfaces never reflect.
     matched: bool,
+    /// Some layer is clear (σt = 0): [`advance`] checks `mc::kernel`'s clear-layer rules.
+    any_clear: bool,
     mixture: Vec<Phase>,
 }
 
@@ -210,7 +212,8 @@ impl<'a> LaneKernel<'a> {
         let last = (lay.len() - 1) as u32;
         let mixture = if k.any_mixture { k.layers.iter().map(|l| l.phase).collect() } else { Vec::new() };
         let matched = lay.iter().all(|l| l.n == l.n_up && l.n == l.n_down);
-        LaneKernel { k, lay, last, matched, mixture }
+        let any_clear = lay.iter().any(|l| l.sigma_t == 0.0);
+        LaneKernel { k, lay, last, matched, any_clear, mixture }
     }
 }
 
@@ -455,15 +458,16 @@ pub(super) fn spin_word(ux: f64, uy: f64, uz: f64, cth: f64, word: u32) -> (f64,
 /// or from `sc.cos_theta` when `mixture`; azimuth from its word; MCML's direction update as
 /// `mc::kernel::spin_disc`) and roulette. Lanes that hit an interface go to [`interfaces`].
 /// Returns the number of scattering events. (`positions` and `mixture` are constant per run:
-/// their branches are hoisted.)
+/// their branches are hoisted; `CLEAR` is false when no layer is clear, which removes the
+/// clear-layer rules' masks from the loop.)
 #[inline(always)]
-fn advance(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> u32 {
+fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> u32 {
     let mut n_int = [0u32; L];
     for i in 0..L {
         // Step.
         let live = on(st.live[i]);
         let (sigma_t, inv_sigma_t, z0, z1) = (st.l.sigma_t[i], st.l.inv_sigma_t[i], st.l.z0[i], st.l.z1[i]);
-        let clear = sigma_t == 0.0;
+        let clear = CLEAR && sigma_t == 0.0;
         let need = live & (st.s_left[i] <= 0.0) & !clear;
         let fresh = neg_ln(u32_to_open01(sc.words[0][i]));
         let sl = sel(need, fresh, st.s_left[i]);
@@ -684,7 +688,11 @@ fn run_lanes<T: Tally>(
                 sc.cos_theta[i] = lk.mixture[j].sample(u32_to_open01(sc.words[1][i]));
             }
         }
-        events += advance(&mut st, &mut sc, T::POSITIONS, mixture) as u64;
+        events += if lk.any_clear {
+            advance::<true>(&mut st, &mut sc, T::POSITIONS, mixture)
+        } else {
+            advance::<false>(&mut st, &mut sc, T::POSITIONS, mixture)
+        } as u64;
         if sc.hit.iter().any(|&h| on(h)) {
             if lk.matched {
                 interfaces::<true>(&mut st, &mut sc, last);
@@ -694,14 +702,26 @@ fn run_lanes<T: Tally>(
         }
         // Phase 4: absorption deposits (tallies with positions), then, only for the lanes that
         // need it: layer changes, ends of histories, refills.
-        let (mut attention, mut deposits) = (0u32, 0u32);
+        // (Masks per lane first, vectorised, and their union: most steps need no attention,
+        // and then the lane bits are not gathered.)
+        let (mut att, mut any) = ([0u64; L], 0u64);
         for i in 0..L {
-            // (bit i of each mask; `interact` is all ones or zero)
-            let dep = (sc.interact[i] & (sc.dep[i] != 0.0) as u64) as u32;
-            deposits |= dep << i;
-            attention |= (((sc.fate[i] != fate::MOVING) | (sc.rou[i] != 0.0)) as u32) << i;
+            att[i] = mk(sc.fate[i] != fate::MOVING) | mk(sc.rou[i] != 0.0);
+            any |= att[i];
         }
-        deposits = if T::POSITIONS { deposits } else { 0 };
+        let mut attention = 0u32;
+        if any != 0 {
+            for i in 0..L {
+                attention |= ((att[i] & 1) as u32) << i;
+            }
+        }
+        let mut deposits = 0u32;
+        if T::POSITIONS {
+            for i in 0..L {
+                // (bit i of the mask; `interact` is all ones or zero)
+                deposits |= ((sc.interact[i] & (sc.dep[i] != 0.0) as u64) as u32) << i;
+            }
+        }
         if T::POSITIONS && deposits != 0 {
             let d = Deposits { x: &st.x, y: &st.y, z: &st.z, layer: &st.layer, dep: &sc.dep, mask: deposits };
             tally.absorb_lanes(&d);

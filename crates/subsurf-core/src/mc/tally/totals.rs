@@ -157,6 +157,31 @@ impl Totals {
     }
 }
 
+/// Score one photon's values `xs` into the slots `sum`, `sum2`, `min`, `max` (each at least
+/// `xs.len()` long): Σx, Σx², and the "all equal" bounds (x, x) on the chunk's first photon,
+/// (−∞, ∞) once a value differs. Branch-free over the slots (the per-photon cost of the
+/// totals, which short histories pay at every photon).
+#[inline(always)]
+fn score(first: bool, xs: &[f64], sum: &mut [f64], sum2: &mut [f64], min: &mut [f64], max: &mut [f64]) {
+    let n = xs.len();
+    let (sum, sum2, min, max) = (&mut sum[..n], &mut sum2[..n], &mut min[..n], &mut max[..n]);
+    for i in 0..n {
+        let x = xs[i];
+        sum[i] += x;
+        sum2[i] += x * x;
+    }
+    if first {
+        min.copy_from_slice(xs);
+        max.copy_from_slice(xs);
+    } else {
+        for i in 0..n {
+            let varied = xs[i] != min[i];
+            min[i] = if varied { f64::NEG_INFINITY } else { min[i] };
+            max[i] = if varied { f64::INFINITY } else { max[i] };
+        }
+    }
+}
+
 impl Tally for Totals {
     const POSITIONS: bool = false;
     #[inline]
@@ -195,30 +220,17 @@ impl Tally for Totals {
     #[inline]
     fn end_photon(&mut self, lane: usize) {
         self.photons += 1;
-        let nl = self.layers;
         let first = self.photons == 1;
-        let score = |i: usize, x: f64, sum: &mut [f64], sum2: &mut [f64], min: &mut [f64], max: &mut [f64]| {
-            sum[i] += x;
-            sum2[i] += x * x;
-            if first {
-                (min[i], max[i]) = (x, x);
-            } else if x != min[i] {
-                (min[i], max[i]) = (f64::NEG_INFINITY, f64::INFINITY);
-            }
-        };
-        let (sum, sum2, min, max) = (&mut self.sum, &mut self.sum2, &mut self.min, &mut self.max);
-        let mut physical = 0.0;
-        for j in 0..nl {
-            let x = std::mem::take(&mut self.cur_layer[lane * nl + j]);
-            physical += x;
-            score(NQ + j, x, sum, sum2, min, max);
-        }
+        let nl = self.layers;
+        let lay = &mut self.cur_layer[lane * nl..(lane + 1) * nl];
+        let physical = lay.iter().fold(0.0, |a, &x| a + x);
         let cur = &mut self.cur[lane];
         cur[Total::Absorbed as usize] = physical + cur[Total::Roulette as usize];
-        for (i, &x) in cur.iter().enumerate() {
-            score(i, x, sum, sum2, min, max);
-        }
+        let (sum, sum2, min, max) = (&mut self.sum, &mut self.sum2, &mut self.min, &mut self.max);
+        score(first, cur, &mut sum[..NQ], &mut sum2[..NQ], &mut min[..NQ], &mut max[..NQ]);
+        score(first, lay, &mut sum[NQ..], &mut sum2[NQ..], &mut min[NQ..], &mut max[NQ..]);
         *cur = [0.0; NQ];
+        lay.fill(0.0);
     }
     fn channels(&self, out: &mut Vec<Channel>) {
         out.extend(Totals::layout(self.layers));
