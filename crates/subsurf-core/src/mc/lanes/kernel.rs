@@ -392,6 +392,10 @@ struct Scratch {
     dep: F,
     /// Roulette control term of the step (0 where no roulette was played).
     rou: F,
+    /// Lanes that need the scalar pass: a fate other than `MOVING` or a roulette played (set
+    /// by [`advance`] and [`interfaces`] from the masks they hold, so the pass reads one array
+    /// as wide as it was written).
+    att: B,
     interact: B,
     /// cos θ per lane when the stack has phase-function mixtures (sampled lane by lane).
     cos_theta: F,
@@ -539,6 +543,7 @@ fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, positions: bool,
         st.w[i] = sel(it, w2, w0);
         let died = it & (absorbed_all | (low & !survive));
         sc.fate[i] = selq(died, fate::DIED, f);
+        sc.att[i] = mk(died | clear_down | trapped | bounces | low);
     }
     n_int.iter().sum()
 }
@@ -577,6 +582,7 @@ fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) 
             st.layer[i] = selu(cross, selu(up, upl, dn), layer);
             let esc = selq(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
             sc.fate[i] = selq(h & out, esc, selq(cross, fate::CROSSED, sc.fate[i]));
+            sc.att[i] |= mk(h);
             continue;
         }
         // Fresnel (as optics::fr_dielectric_cos_t): sin²θt = η²(1 − cos²θi).
@@ -614,6 +620,7 @@ fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) 
         let esc = selq(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
         let f = selq(cross, fate::CROSSED, sc.fate[i]);
         sc.fate[i] = selq(h & out, esc, f);
+        sc.att[i] |= mk(cross | (h & out));
     }
 }
 
@@ -702,17 +709,13 @@ fn run_lanes<T: Tally>(
         }
         // Phase 4: absorption deposits (tallies with positions), then, only for the lanes that
         // need it: layer changes, ends of histories, refills.
-        // (Masks per lane first, vectorised, and their union: most steps need no attention,
-        // and then the lane bits are not gathered.)
-        let (mut att, mut any) = ([0u64; L], 0u64);
-        for i in 0..L {
-            att[i] = mk(sc.fate[i] != fate::MOVING) | mk(sc.rou[i] != 0.0);
-            any |= att[i];
-        }
+        // (The union of the lanes' `att` masks first: most steps need no attention, and then
+        // the lane bits are not gathered.)
+        let any = sc.att.iter().fold(0, |a, &m| a | m);
         let mut attention = 0u32;
         if any != 0 {
             for i in 0..L {
-                attention |= ((att[i] & 1) as u32) << i;
+                attention |= ((sc.att[i] & 1) as u32) << i;
             }
         }
         let mut deposits = 0u32;
