@@ -548,6 +548,10 @@ fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, positions: bool,
     n_int.iter().sum()
 }
 
+/// The sign bit of a lane mask: [`interfaces`] adds it to `Scratch::att` (OR-ing all ones
+/// there makes LLVM emit a masked store, which the next load cannot forward from).
+const SIGN: u64 = 1 << 63;
+
 /// Phase 2: Fresnel reflection or refraction of the lanes that hit an interface.
 #[inline(always)]
 fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) {
@@ -582,7 +586,7 @@ fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) 
             st.layer[i] = selu(cross, selu(up, upl, dn), layer);
             let esc = selq(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
             sc.fate[i] = selq(h & out, esc, selq(cross, fate::CROSSED, sc.fate[i]));
-            sc.att[i] |= mk(h);
+            sc.att[i] |= mk(h) & SIGN;
             continue;
         }
         // Fresnel (as optics::fr_dielectric_cos_t): sin²θt = η²(1 − cos²θi).
@@ -620,7 +624,7 @@ fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) 
         let esc = selq(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
         let f = selq(cross, fate::CROSSED, sc.fate[i]);
         sc.fate[i] = selq(h & out, esc, f);
-        sc.att[i] |= mk(cross | (h & out));
+        sc.att[i] |= mk(cross | (h & out)) & SIGN;
     }
 }
 
@@ -709,13 +713,13 @@ fn run_lanes<T: Tally>(
         }
         // Phase 4: absorption deposits (tallies with positions), then, only for the lanes that
         // need it: layer changes, ends of histories, refills.
-        // (The union of the lanes' `att` masks first: most steps need no attention, and then
-        // the lane bits are not gathered.)
+        // (the union of the `att` masks first, read as wide as they were written: most steps
+        // need no attention, and then the lane bits are not gathered)
         let any = sc.att.iter().fold(0, |a, &m| a | m);
         let mut attention = 0u32;
         if any != 0 {
             for i in 0..L {
-                attention |= ((sc.att[i] & 1) as u32) << i;
+                attention |= ((sc.att[i] >> 63) as u32) << i;
             }
         }
         let mut deposits = 0u32;
