@@ -217,7 +217,8 @@ impl Tally for Totals {
             }
         }
     }
-    #[inline]
+    // (always: compiled inside the lane kernel's instruction-set entry, with its vector width)
+    #[inline(always)]
     fn end_photon(&mut self, lane: usize) {
         self.photons += 1;
         let first = self.photons == 1;
