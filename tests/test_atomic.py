@@ -93,3 +93,39 @@ def test_ctrl_c_is_held_back_until_the_file_is_complete(tmp_path, monkeypatch):
     with atomic.hold_sigint() as held:
         pass
     assert not held.received
+
+
+def test_files_written_by_name_are_atomic_with_the_usual_mode(tmp_path):
+    """Writers that need a file name (images, sweep files) go through write_with: the usual mode,
+    no temporary left, and a writer or check that fails leaves the previous file."""
+    import numpy as np
+    import subsurf
+    from subsurf.render import Image
+
+    img = Image(np.full((4, 5, 3), 0.25, dtype=np.float32), 1, 1, "hierarchical", 0, 0.1)
+    paths = img.save(tmp_path / "i.exr") + img.save(tmp_path / "i.npy")
+    res = subsurf.sweep(_Double(), {"a": [1.0, 2.0]}, tmp_path / "s.h5")
+    assert res.complete
+    for p in paths + [str(tmp_path / "s.h5")]:
+        assert os.stat(p).st_mode & 0o777 == 0o666 & ~_umask(), p
+    assert np.array_equal(np.load(tmp_path / "i.npy"), img.array)
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["i.exr", "i.npy", "i.png", "s.h5"]
+    p = tmp_path / "i.npy"
+
+    def bad_check(tmp):
+        raise ValueError("checksum mismatch")
+
+    with pytest.raises(ValueError, match="checksum"):
+        atomic.write_with(p, lambda tmp: open(tmp, "xb").close(), force=True, verify=bad_check)
+    assert np.array_equal(np.load(p), img.array)
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["i.exr", "i.npy", "i.png", "s.h5"]
+
+
+class _Double:
+    """A sweep point: x = 2a."""
+
+    def fingerprint(self):
+        return {"kind": "test.double"}
+
+    def __call__(self, a):
+        return {"x": 2.0 * a}

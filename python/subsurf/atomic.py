@@ -1,8 +1,10 @@
-"""Files written whole or not at all: :func:`write_bytes`, :func:`check_target`, :func:`hold_sigint`.
+"""Files written whole or not at all: :func:`write_bytes`, :func:`write_with`, :func:`check_target`,
+:func:`hold_sigint`.
 
 Results (``.h5``), MCML ``.mco`` files and figures are serialised in memory first, then written to a
-temporary file in the target's directory (``.NAME.XXXXXXXX.subsurf-tmp``), flushed to the disk
-(``fsync``) and renamed onto the target. Whatever happens meanwhile — SIGKILL, SIGTERM, a full disk,
+temporary file in the target's directory (``.NAME.XXXXXXXX.subsurf-tmp``; writers that need a file
+name — OpenEXR, image libraries, sweep files — fill it themselves through :func:`write_with`),
+flushed to the disk (``fsync``) and renamed onto the target. Whatever happens meanwhile — SIGKILL, SIGTERM, a full disk,
 a second Ctrl-C — the target holds either its previous content or the complete new file, never a
 truncated one. An existing target is replaced only with ``force=True``; without it the temporary
 file is published by a hard link, which fails if the target appeared in the meantime (no race
@@ -24,7 +26,7 @@ import threading
 
 from . import _testhooks
 
-__all__ = ["write_bytes", "check_target", "hold_sigint", "partial_path"]
+__all__ = ["write_bytes", "write_with", "check_target", "hold_sigint", "partial_path"]
 
 _TMP_SUFFIX = ".subsurf-tmp"
 
@@ -141,6 +143,14 @@ def _publish(tmp: str, path: str, force: bool) -> None:
     os.unlink(tmp)
 
 
+def _fsync_file(path: str) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
 def _fsync_dir(d: str) -> None:
     try:
         fd = os.open(d, os.O_RDONLY)
@@ -160,20 +170,31 @@ def write_bytes(path: str | os.PathLike, data, force: bool = False, inputs=()) -
     Ctrl-C is held back while the file is written and renamed, then raised as ``KeyboardInterrupt``
     once the target is complete.
     """
+
+    def write(tmp: str) -> None:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), 0o666)
+        try:
+            _write_all(fd, data)
+        finally:
+            os.close(fd)
+
+    return write_with(path, write, force, inputs)
+
+
+def write_with(path: str | os.PathLike, write, force: bool = False, inputs=(), verify=None) -> str:
+    """Create ``path`` atomically with ``write(tmp)``, a writer that needs a file name: it fills the
+    temporary file ``tmp`` (in the target's directory, not yet existing); ``verify(tmp)``, if
+    given, may check it; the file is then flushed and published as :func:`write_bytes` does.
+    Returns the path."""
     path = check_target(path, force, inputs)
     d = os.path.dirname(os.path.abspath(path))
     tmp = os.path.join(d, f".{os.path.basename(path)}.{secrets.token_hex(4)}{_TMP_SUFFIX}")
     with hold_sigint() as held:
         try:
-            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), 0o666)
-        except OSError as e:
-            raise _write_error(path, e) from None
-        try:
-            try:
-                _write_all(fd, data)
-                os.fsync(fd)
-            finally:
-                os.close(fd)
+            write(tmp)
+            if verify is not None:
+                verify(tmp)
+            _fsync_file(tmp)
             _publish(tmp, path, force)
         except BaseException as e:
             with contextlib.suppress(OSError):

@@ -47,7 +47,6 @@ import itertools
 import json
 import os
 import pickle
-import tempfile
 import time
 import uuid
 import warnings
@@ -55,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _core
+from . import _core, atomic
 
 __all__ = ["sweep", "SweepResult", "load", "same_sweep", "result_data", "FORMAT", "FORMAT_VERSION"]
 
@@ -213,11 +212,9 @@ class SweepResult:
         from ._core import __version__
 
         path = os.fspath(path)
-        d = os.path.dirname(os.path.abspath(path))
-        os.makedirs(d, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".sweep-", suffix=".h5.tmp", dir=d)
-        os.close(fd)
-        try:
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+
+        def write(tmp):
             with h5py.File(tmp, "w") as f:
                 f.attrs["format"] = FORMAT
                 f.attrs["format_version"] = FORMAT_VERSION
@@ -241,12 +238,9 @@ class SweepResult:
                         ds.attrs[a] = json.dumps(_jsonable(x)) if isinstance(x, (list, tuple, dict)) else x
                 for k, v in self.static.items():
                     f.create_dataset(f"static/{k}", data=np.asarray(v, dtype=np.float64))
-            load(tmp)  # verify what was written before it replaces anything
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-        return path
+
+        # load: verify what was written before it replaces anything
+        return atomic.write_with(path, write, force=True, verify=load)
 
 
 def _spec(point, grid: dict) -> dict:

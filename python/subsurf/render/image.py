@@ -4,9 +4,10 @@ sRGB PNG, both written atomically (a temporary file renamed into place)."""
 from __future__ import annotations
 
 import os
-import tempfile
 
 import numpy as np
+
+from .. import atomic
 
 
 class Image:
@@ -44,7 +45,7 @@ class Image:
         if ext == ".png":
             return [write_png(path, self.array, exposure)]
         if ext == ".npy":
-            return [_atomic(path, lambda f: np.save(f, self.array))]
+            return [_atomic(path, _npy_writer(self.array))]
         raise ValueError(f"{path}: unknown image format {ext!r} (use .exr, .png or .npy)")
 
 
@@ -60,18 +61,18 @@ def _openexr():
     return OpenEXR
 
 
+def _npy_writer(array):
+    def write(tmp):
+        with open(tmp, "xb") as f:
+            np.save(f, array)
+
+    return write
+
+
 def _atomic(path, write):
-    d = os.path.dirname(os.path.abspath(path))
-    os.makedirs(d, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=d, suffix=os.path.splitext(path)[1])
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    """``write(tmp)`` fills a temporary file that replaces ``path`` whole (:func:`subsurf.atomic.write_with`)."""
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    return atomic.write_with(path, write, force=True)
 
 
 def write_exr(path, array, metadata=None):
