@@ -3,7 +3,8 @@
 //! with the totals only or with MCML's tally set and prints photons, events, wall and CPU time.
 //!
 //! Usage: `cargo run --release --example mc_speed -- CASE TALLIES PHOTONS THREADS`, CASE one of
-//! a, c, d (benches/bench.py), TALLIES one of totals, mcml, mcml-noerr.
+//! a, c, d (benches/bench.py), TALLIES one of totals, mcml, mcml-noerr. With `MC_SPEED_BITS`
+//! set, a totals run also prints the bits of each total (to check that a speed-up keeps them).
 
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
