@@ -4,7 +4,8 @@
 //!
 //! Usage: `cargo run --release --example mc_speed -- CASE TALLIES PHOTONS THREADS`, CASE one of
 //! a, c, d (benches/bench.py), TALLIES one of totals, mcml, mcml-noerr. With `MC_SPEED_BITS`
-//! set, a totals run also prints the bits of each total (to check that a speed-up keeps them).
+//! set, a run also prints the bits of each total and, with tallies, a hash of the bits of every
+//! histogram value and standard error (to check that a speed-up keeps them).
 
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
@@ -32,6 +33,14 @@ fn cpu_seconds() -> f64 {
     ticks / 100.0
 }
 
+/// The bits of each total, to compare two builds.
+fn print_bits(t: &Totals) {
+    for q in Total::ALL {
+        let (m, se) = t.get(q);
+        println!("{q:?} {:016x} {:016x}", m.to_bits(), se.to_bits());
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let arg = |i: usize, d: &str| args.get(i).cloned().unwrap_or_else(|| d.to_string());
@@ -46,17 +55,24 @@ fn main() {
     let (photons, events) = if tallies == "totals" {
         let r = run(&stack, &cfg, || Totals::new(nl), &cancel, &progress).expect("run");
         if std::env::var_os("MC_SPEED_BITS").is_some() {
-            // the totals' bits, to compare two builds
-            for q in Total::ALL {
-                let (m, se) = r.tally.get(q);
-                println!("{q:?} {:016x} {:016x}", m.to_bits(), se.to_bits());
-            }
+            print_bits(&r.tally);
         }
         (r.photons, r.events)
     } else {
         let tc = TallyConfig { errors: tallies == "mcml", ..TallyConfig::default() };
         let proto = TallySet::new(&tc, &stack).expect("tallies");
         let r = run(&stack, &cfg, || (Totals::new(nl), proto.clone()), &cancel, &progress).expect("run");
+        if std::env::var_os("MC_SPEED_BITS").is_some() {
+            print_bits(&r.tally.0);
+            // FNV-1a over the bits of every value and standard error, histogram by histogram
+            for h in r.tally.1.finalize(r.photons) {
+                let mut hash = 0xcbf2_9ce4_8422_2325u64;
+                for x in h.values.iter().chain(&h.stderr) {
+                    hash = (hash ^ x.to_bits()).wrapping_mul(0x0100_0000_01b3);
+                }
+                println!("{} {hash:016x}", h.name);
+            }
+        }
         (r.photons, r.events)
     };
     let (wall, cpu) = (t0.elapsed().as_secs_f64(), cpu_seconds() - c0);
