@@ -220,12 +220,21 @@ pub struct TallySet {
     /// Per lane, the (r, z) bin of its latest absorption deposits and their sum, not yet added
     /// to a_z/a_rz: consecutive deposits of a lane often fall in one bin (deep or far photons in
     /// the overflow bins), and adding them up per lane avoids a chain of dependent
-    /// read-modify-writes on that bin. Flushed when the lane moves to another bin, at each
-    /// batch end and before draining.
+    /// read-modify-writes on that bin, and lets a step whose lanes all stay in their bins
+    /// update the pending sums as one vector operation. Flushed when the lane moves to another
+    /// bin, at each batch end and before draining.
     pend_bin: [usize; LANES],
     /// The depth bin of `pend_bin` (saves a division per flush).
     pend_iz: [usize; LANES],
     pend: [f64; LANES],
+    /// The same for the straddling-bin fluence sums: Σ dw μa,min/μa of the pending deposits
+    /// (0 unless `pend_bin` straddles an interface).
+    pend_phi: [f64; LANES],
+    /// Per depth bin: 1 where the bin straddles an interface (its fluence has sums of its
+    /// own), else 0 (a factor on the deposit, so the pending update has no branch).
+    straddle: Vec<f64>,
+    /// Whether any depth bin straddles an interface.
+    any_straddle: bool,
 }
 
 /// No pending deposit.
@@ -270,6 +279,9 @@ impl TallySet {
             pend_bin: [NO_BIN; LANES],
             pend_iz: [0; LANES],
             pend: [0.0; LANES],
+            pend_phi: [0.0; LANES],
+            straddle: Vec::new(),
+            any_straddle: false,
         };
         // Escape tallies (both sides) get exact per-photon errors, absorption grids batch means.
         t.acc = (0..N_ACC)
@@ -292,20 +304,48 @@ impl TallySet {
                     }
                 })
                 .collect();
+            // (bins below the stack touch no layer and get no deposits)
+            t.straddle = (0..cfg.nz).map(|iz| if t.layers_touching(iz).count() > 1 { 1.0 } else { 0.0 }).collect();
+            t.any_straddle = t.straddle.contains(&1.0);
         }
         Ok(t)
     }
 
+    /// The straddling fluence deposit of lane `i`: dw μa,min/μa in a bin straddling an
+    /// interface, else 0.
+    #[inline(always)]
+    fn phi(&self, d: &Deposits, i: usize, iz: usize) -> f64 {
+        let scale = self.fluence_scale.get(d.layer[i] as usize).copied().unwrap_or(0.0);
+        d.dep[i] * scale * self.straddle[iz]
+    }
+
+    /// Add the straddling fluence deposits of `d` to the lanes' pending fluence sums (after
+    /// [`Tally::absorb_lanes`] has set the lanes' pending bins; out of line: only stacks with
+    /// an interface inside the depth grid need it).
+    #[inline(never)]
+    fn pend_fluence(&mut self, d: &Deposits, iz: &[usize; LANES]) {
+        for i in d.lanes() {
+            self.pend_phi[i] += self.phi(d, i, iz[i]);
+        }
+    }
+
     /// Add lane `i`'s pending deposits to the grids: to bin `irz` (= ir · nz + iz) of a_rz and
-    /// to bin iz of a_z.
+    /// to bin iz of a_z, and their straddling fluence sum (if any) to the fluence sums.
     #[inline]
     fn flush_lane(&mut self, i: usize) {
-        if self.pend_bin[i] != NO_BIN {
+        let (irz, iz) = (self.pend_bin[i], self.pend_iz[i]);
+        if irz != NO_BIN {
             let dw = self.pend[i];
-            self.acc[A_Z].add(self.pend_iz[i], dw);
-            self.acc[A_RZ].add(self.pend_bin[i], dw);
+            self.acc[A_Z].add(iz, dw);
+            self.acc[A_RZ].add(irz, dw);
+            let phi = self.pend_phi[i];
+            if phi != 0.0 {
+                self.acc[PHI_Z].add(iz, phi);
+                self.acc[PHI_RZ].add(irz, phi);
+            }
             self.pend_bin[i] = NO_BIN;
             self.pend[i] = 0.0;
+            self.pend_phi[i] = 0.0;
         }
     }
 
@@ -472,7 +512,11 @@ impl Tally for TallySet {
         self.absorb_lanes(&Deposits { x: &x, y: &y, z: &z, layer: &layer, dep: &dep, mask: 1 << lane });
     }
 
-    /// Bins of all lanes first (a loop LLVM vectorises), then the scattered adds.
+    /// Bins of all lanes first (a loop LLVM vectorises); when every depositing lane stays in
+    /// the bin of its pending sums, the sums are updated as one vector operation, else lane by
+    /// lane, where a lane that moved to another bin flushes its pending sums and starts new
+    /// ones. In thick or deep media most deposits land in the overflow bins, so most steps take
+    /// the vector path.
     #[inline(always)]
     fn absorb_lanes(&mut self, d: &Deposits) {
         if self.acc[A_Z].is_empty() || d.mask == 0 {
@@ -480,29 +524,33 @@ impl Tally for TallySet {
         }
         let (nz, nr) = (self.cfg.nz, self.cfg.nr);
         let (mut iz, mut irz) = ([0usize; LANES], [0usize; LANES]);
+        let mut same = 0u32;
         for i in 0..LANES {
             let r = (d.x[i] * d.x[i] + d.y[i] * d.y[i]).sqrt();
             let z = bin_clamped(d.z[i], self.inv_dz, nz);
             iz[i] = z;
             irz[i] = bin_clamped(r, self.inv_dr, nr) * nz + z;
+            same |= ((self.pend_bin[i] == irz[i]) as u32) << i;
         }
-        for i in d.lanes() {
-            let dw = d.dep[i];
-            if self.pend_bin[i] == irz[i] {
-                self.pend[i] += dw;
-            } else {
-                self.flush_lane(i);
-                self.pend_bin[i] = irz[i];
-                self.pend_iz[i] = iz[i];
-                self.pend[i] = dw;
+        if same & d.mask == d.mask {
+            // (+0.0 leaves a pending sum's bits as they are: the sums are never −0)
+            for i in 0..LANES {
+                self.pend[i] += if d.mask & (1 << i) != 0 { d.dep[i] } else { 0.0 };
             }
-            if self.bin_mua[iz[i]] < 0.0 {
-                let scale = self.fluence_scale.get(d.layer[i] as usize).copied().unwrap_or(0.0);
-                if scale > 0.0 {
-                    self.acc[PHI_Z].add(iz[i], dw * scale);
-                    self.acc[PHI_RZ].add(irz[i], dw * scale);
+        } else {
+            for i in d.lanes() {
+                if same & (1 << i) != 0 {
+                    self.pend[i] += d.dep[i];
+                } else {
+                    self.flush_lane(i);
+                    self.pend_bin[i] = irz[i];
+                    self.pend_iz[i] = iz[i];
+                    self.pend[i] = d.dep[i];
                 }
             }
+        }
+        if self.any_straddle {
+            self.pend_fluence(d, &iz);
         }
     }
 

@@ -409,3 +409,55 @@ fn fluence_in_a_bin_straddling_two_absorbing_layers() {
     // two photons are one batch: no standard error (see `accum`)
     assert!(fz.stderr[1].is_nan());
 }
+
+/// The lane kernel's path: deposits of 8 lanes at once (random masks, lanes often staying in
+/// their bin — the vector update of the pending sums — or moving, across an interface inside a
+/// straddling bin too), against per-bin sums made by hand.
+#[test]
+fn absorb_lanes_pending_sums_match_per_bin_sums() {
+    let s = Stack::new(
+        vec![Layer::new(1.4, 1.0, 5.0, 0.0, 0.015).unwrap(), Layer::new(1.4, 4.0, 5.0, 0.0, f64::INFINITY).unwrap()],
+        1.0,
+        1.0,
+    )
+    .unwrap();
+    let cfg = TallyConfig { nr: 2, dr: 0.1, nz: 3, dz: 0.01, errors: false, ..TallyConfig::default() };
+    let mut t = TallySet::new(&cfg, &s).unwrap();
+    // (r, z, layer) spots: bins 0, 1 (both layers: straddling), 2 (overflow), two radii
+    let spots =
+        [(0.05, 0.005, 0), (0.05, 0.012, 0), (0.05, 0.018, 1), (0.15, 0.018, 1), (0.15, 0.5, 1), (0.3, 0.002, 0)];
+    let mut rng = SplitMix64::new(9);
+    let (mut a, mut phi) = ([[0.0; 3]; 2], [[0.0; 3]; 2]);
+    let mut spot = [0usize; LANES];
+    for _ in 0..3000 {
+        let (mut x, mut y, mut z, mut dep) = ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        let mut layer = [0u32; LANES];
+        // (all lanes in one step out of 8, as in the overflow bins of a thick medium)
+        let all = if rng.next_u64().is_multiple_of(8) { 0xff } else { 0 };
+        let mask = (rng.next_u64() & 0xff) as u32 | all;
+        for i in 0..LANES {
+            if rng.next_u64().is_multiple_of(5) {
+                spot[i] = (rng.next_u64() % spots.len() as u64) as usize;
+            }
+            let (r, zz, l) = spots[spot[i]];
+            (x[i], y[i], z[i], layer[i], dep[i]) = (r * 0.6, r * 0.8, zz, l as u32, rng.next_f64());
+            if mask & (1 << i) != 0 {
+                let (ir, iz) = (usize::from(r > 0.1), ((zz / 0.01) as usize).min(2));
+                a[ir][iz] += dep[i];
+                phi[ir][iz] += dep[i] / s.layers[l].mua;
+            }
+        }
+        t.absorb_lanes(&Deposits { x: &x, y: &y, z: &z, layer: &layer, dep: &dep, mask });
+    }
+    let h = t.finalize(1);
+    let (az, arz, fz, frz) = (get(&h, "a_z"), get(&h, "a_rz"), get(&h, "fluence_z"), get(&h, "fluence_rz"));
+    let area = [PI * 0.01, PI * 0.03];
+    for iz in 0..3 {
+        assert!(close(az.values[iz], (a[0][iz] + a[1][iz]) / 0.01), "a_z {iz}");
+        assert!(close(fz.values[iz], (phi[0][iz] + phi[1][iz]) / 0.01), "fluence_z {iz}");
+        for ir in 0..2 {
+            assert!(close(arz.values[ir * 3 + iz], a[ir][iz] / 0.01 / area[ir]), "a_rz {ir} {iz}");
+            assert!(close(frz.values[ir * 3 + iz], phi[ir][iz] / 0.01 / area[ir]), "fluence_rz {ir} {iz}");
+        }
+    }
+}
