@@ -217,8 +217,8 @@ pub struct TallySet {
     /// The accumulators: rd side, tt side (each in [`SIDE_SPECS`] order), then a_z, a_rz and the
     /// straddling fluence sums; empty when disabled.
     acc: Vec<Accum>,
-    /// Per lane, the (r, z) bin of its latest absorption deposits and their sum, not yet added
-    /// to a_z/a_rz: consecutive deposits of a lane often fall in one bin (deep or far photons in
+    /// Per lane, the (r, z) bin and the layer of its latest absorption deposits and their sum,
+    /// not yet added to a_z/a_rz (and, in a bin straddling an interface, to the fluence sums): consecutive deposits of a lane often fall in one bin (deep or far photons in
     /// the overflow bins), and adding them up per lane avoids a chain of dependent
     /// read-modify-writes on that bin, and lets a step whose lanes all stay in their bins
     /// update the pending sums as one vector operation. Flushed when the lane moves to another
@@ -227,12 +227,11 @@ pub struct TallySet {
     /// The depth bin of `pend_bin` (saves a division per flush).
     pend_iz: [usize; LANES],
     pend: [f64; LANES],
-    /// The same for the straddling-bin fluence sums: Σ dw μa,min/μa of the pending deposits
-    /// (0 unless `pend_bin` straddles an interface).
-    pend_phi: [f64; LANES],
-    /// Per depth bin: 1 where the bin straddles an interface (its fluence has sums of its
-    /// own), else 0 (a factor on the deposit, so the pending update has no branch).
-    straddle: Vec<f64>,
+    /// The layer of `pend_bin`'s deposits (a lane that crosses an interface inside a bin starts
+    /// a new pending sum, so that one μa applies to each: Σ dw μa,min/μa = μa,min/μa Σ dw).
+    pend_layer: [u32; LANES],
+    /// Per depth bin: whether it straddles an interface (its fluence has sums of its own).
+    straddle: Vec<bool>,
     /// Whether any depth bin straddles an interface.
     any_straddle: bool,
 }
@@ -279,7 +278,7 @@ impl TallySet {
             pend_bin: [NO_BIN; LANES],
             pend_iz: [0; LANES],
             pend: [0.0; LANES],
-            pend_phi: [0.0; LANES],
+            pend_layer: [0; LANES],
             straddle: Vec::new(),
             any_straddle: false,
         };
@@ -305,32 +304,15 @@ impl TallySet {
                 })
                 .collect();
             // (bins below the stack touch no layer and get no deposits)
-            t.straddle = (0..cfg.nz).map(|iz| if t.layers_touching(iz).count() > 1 { 1.0 } else { 0.0 }).collect();
-            t.any_straddle = t.straddle.contains(&1.0);
+            t.straddle = (0..cfg.nz).map(|iz| t.layers_touching(iz).count() > 1).collect();
+            t.any_straddle = t.straddle.contains(&true);
         }
         Ok(t)
     }
 
-    /// The straddling fluence deposit of lane `i`: dw μa,min/μa in a bin straddling an
-    /// interface, else 0.
-    #[inline(always)]
-    fn phi(&self, d: &Deposits, i: usize, iz: usize) -> f64 {
-        let scale = self.fluence_scale.get(d.layer[i] as usize).copied().unwrap_or(0.0);
-        d.dep[i] * scale * self.straddle[iz]
-    }
-
-    /// Add the straddling fluence deposits of `d` to the lanes' pending fluence sums (after
-    /// [`Tally::absorb_lanes`] has set the lanes' pending bins; out of line: only stacks with
-    /// an interface inside the depth grid need it).
-    #[inline(never)]
-    fn pend_fluence(&mut self, d: &Deposits, iz: &[usize; LANES]) {
-        for i in d.lanes() {
-            self.pend_phi[i] += self.phi(d, i, iz[i]);
-        }
-    }
-
     /// Add lane `i`'s pending deposits to the grids: to bin `irz` (= ir · nz + iz) of a_rz and
-    /// to bin iz of a_z, and their straddling fluence sum (if any) to the fluence sums.
+    /// to bin iz of a_z, and, in a bin straddling an interface, Σ dw μa,min/μa to the fluence
+    /// sums.
     #[inline]
     fn flush_lane(&mut self, i: usize) {
         let (irz, iz) = (self.pend_bin[i], self.pend_iz[i]);
@@ -338,14 +320,15 @@ impl TallySet {
             let dw = self.pend[i];
             self.acc[A_Z].add(iz, dw);
             self.acc[A_RZ].add(irz, dw);
-            let phi = self.pend_phi[i];
-            if phi != 0.0 {
-                self.acc[PHI_Z].add(iz, phi);
-                self.acc[PHI_RZ].add(irz, phi);
+            if self.any_straddle && self.straddle[iz] {
+                let scale = self.fluence_scale.get(self.pend_layer[i] as usize).copied().unwrap_or(0.0);
+                if scale > 0.0 {
+                    self.acc[PHI_Z].add(iz, dw * scale);
+                    self.acc[PHI_RZ].add(irz, dw * scale);
+                }
             }
             self.pend_bin[i] = NO_BIN;
             self.pend[i] = 0.0;
-            self.pend_phi[i] = 0.0;
         }
     }
 
@@ -513,9 +496,9 @@ impl Tally for TallySet {
     }
 
     /// Bins of all lanes first (a loop LLVM vectorises); when every depositing lane stays in
-    /// the bin of its pending sums, the sums are updated as one vector operation, else lane by
-    /// lane, where a lane that moved to another bin flushes its pending sums and starts new
-    /// ones. In thick or deep media most deposits land in the overflow bins, so most steps take
+    /// the bin (and layer) of its pending sum, the sums are updated as one vector operation,
+    /// else lane by lane, where a lane that moved to another bin or layer flushes its pending
+    /// sum and starts a new one. In thick or deep media most deposits land in the overflow bins, so most steps take
     /// the vector path.
     #[inline(always)]
     fn absorb_lanes(&mut self, d: &Deposits) {
@@ -530,7 +513,7 @@ impl Tally for TallySet {
             let z = bin_clamped(d.z[i], self.inv_dz, nz);
             iz[i] = z;
             irz[i] = bin_clamped(r, self.inv_dr, nr) * nz + z;
-            same |= ((self.pend_bin[i] == irz[i]) as u32) << i;
+            same |= ((self.pend_bin[i] == irz[i] && self.pend_layer[i] == d.layer[i]) as u32) << i;
         }
         if same & d.mask == d.mask {
             // (+0.0 leaves a pending sum's bits as they are: the sums are never −0)
@@ -545,12 +528,10 @@ impl Tally for TallySet {
                     self.flush_lane(i);
                     self.pend_bin[i] = irz[i];
                     self.pend_iz[i] = iz[i];
+                    self.pend_layer[i] = d.layer[i];
                     self.pend[i] = d.dep[i];
                 }
             }
-        }
-        if self.any_straddle {
-            self.pend_fluence(d, &iz);
         }
     }
 
