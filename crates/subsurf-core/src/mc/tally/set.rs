@@ -548,28 +548,28 @@ impl Tally for TallySet {
         let ir = bin_clamped((p.pos[0] * p.pos[0] + p.pos[1] * p.pos[1]).sqrt(), self.inv_dr, c.nr);
         let mu = dir_out[2].abs().min(1.0);
         if !s[R].is_empty() {
-            s[R].add(ir, w);
+            s[R].add_once(ir, w);
         }
         if !s[A].is_empty() {
             let ia = self.theta.bin(mu);
-            s[A].add(ia, w);
+            s[A].add_once(ia, w);
             if !s[RA].is_empty() {
-                s[RA].add(ir * c.na + ia, w);
+                s[RA].add_once(ir * c.na + ia, w);
             }
         }
         if !s[T].is_empty() {
             let it = bin_clamped(p.path / C_MM_PER_PS, self.inv_dt, c.nt);
-            s[T].add(it, w);
+            s[T].add_once(it, w);
             if !s[RT].is_empty() {
-                s[RT].add(ir * c.nt + it, w);
+                s[RT].add_once(ir * c.nt + it, w);
             }
         }
         let ko = p.order.min(self.max_order + 1) as usize;
         let direct1 = p.order == 1 && p.reflections == 0;
         if !s[ORDER].is_empty() {
-            s[ORDER].add(ko, w);
+            s[ORDER].add_once(ko, w);
             if direct1 {
-                s[SINGLE].add(0, w);
+                s[SINGLE].add_once(0, w);
             }
         }
         if !s[BSDF].is_empty() {
@@ -580,12 +580,12 @@ impl Tally for TallySet {
             }
             let ip = bin_clamped(phi, self.n_phi as f64 / (2.0 * PI), self.n_phi);
             let b = ic * self.n_phi + ip;
-            s[BSDF].add(b, w);
+            s[BSDF].add_once(b, w);
             if !s[ORDER].is_empty() {
                 let nb = s[BSDF].len();
-                s[BSDF_ORDER].add(ko * nb + b, w);
+                s[BSDF_ORDER].add_once(ko * nb + b, w);
                 if direct1 {
-                    s[BSDF_SINGLE].add(b, w);
+                    s[BSDF_SINGLE].add_once(b, w);
                 }
             }
         }
