@@ -513,7 +513,10 @@ impl Tally for TallySet {
             let z = bin_clamped(d.z[i], self.inv_dz, nz);
             iz[i] = z;
             irz[i] = bin_clamped(r, self.inv_dr, nr) * nz + z;
-            same |= ((self.pend_bin[i] == irz[i] && self.pend_layer[i] == d.layer[i]) as u32) << i;
+        }
+        // (a loop of its own: in the one above it makes LLVM use 2-wide vectors)
+        for i in 0..LANES {
+            same |= ((self.pend_bin[i] == irz[i]) as u32 & (self.pend_layer[i] == d.layer[i]) as u32) << i;
         }
         if same & d.mask == d.mask {
             // (+0.0 leaves a pending sum's bits as they are: the sums are never −0)
