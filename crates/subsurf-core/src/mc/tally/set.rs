@@ -312,8 +312,9 @@ impl TallySet {
 
     /// Add lane `i`'s pending deposits to the grids: to bin `irz` (= ir · nz + iz) of a_rz and
     /// to bin iz of a_z, and, in a bin straddling an interface, Σ dw μa,min/μa to the fluence
-    /// sums.
-    #[inline]
+    /// sums. (Always inlined: in the lane kernel's loop a call cost more than the code it adds,
+    /// callgrind a mcml −3.4 % instructions.)
+    #[inline(always)]
     fn flush_lane(&mut self, i: usize) {
         let (irz, iz) = (self.pend_bin[i], self.pend_iz[i]);
         if irz != NO_BIN {
