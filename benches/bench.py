@@ -6,7 +6,11 @@ Prints, for the cases (a), (c), (d) below:
    errors) and with that set without errors; wall-clock rates and rates per CPU-second (what a
    core delivers when it is not shared: the machine may be busy);
 2. MCML (Wang, Jacques & Zheng 1995) on the same cases and grids, when ``MCML_BIN`` names a build
-   of it: photons/s per CPU-second of the MCML process, and the ratio subsurf / MCML per core;
+   of it: photons/s per CPU-second of the MCML process, the ratio subsurf / MCML per core, and the
+   machine's own multi-core ceiling (as many MCML processes at once as there are cores, against one);
+   each case runs in rounds (``--reps``), subsurf's configurations and MCML back to back in each, so
+   that the machine's drifting speed (±25 % over minutes on a shared VM) cancels in each round's
+   ratio: medians and [min-max] over the rounds are printed;
 3. MCX (Fang & Boas 2009) through ``pmcxcl`` (PyPI) on the CPU through PoCL (Debian
    ``pocl-opencl-icd``), the same cases as voxel media: its photon count, the kernel time it
    reports, photons/s, and the ratio subsurf (all cores) / pmcxcl (all cores).
@@ -20,7 +24,7 @@ Cases (cm in the MCML files; here mm and mm⁻¹):
       (0.02, 12, 0.9, 10);
   (d) n=1.4 in air, μa=0.01, μs=10 /mm, g=0.9, d=100 mm (long histories).
 
-Usage: python benches/bench.py [--seconds S] [--cases acd] [--no-peers] [--no-install]
+Usage: python benches/bench.py [--seconds S] [--cases acd] [--reps R] [--no-peers] [--no-install]
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ import os
 import re
 import resource
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -74,12 +79,23 @@ def measure(stack, threads, tallies, seconds):
     the CPU time of this process (all threads) during the run."""
     n = 2000
     while True:
-        c0 = time.process_time()
-        r = subsurf.simulate(stack, photons=n, seed=1, threads=threads, tallies=tallies)
-        cpu = time.process_time() - c0
+        r, cpu = run_ours(stack, n, threads, tallies)
         if r.elapsed_s >= 0.6 * seconds:
             return r, cpu
         n = int(n * min(100.0, 1.2 * seconds / max(r.elapsed_s, 1e-3)))
+
+
+def run_ours(stack, n, threads, tallies):
+    """One run of `n` photons (seed 1): the result and the CPU time of this process during it."""
+    c0 = time.process_time()
+    r = subsurf.simulate(stack, photons=n, seed=1, threads=threads, tallies=tallies)
+    return r, time.process_time() - c0
+
+
+def spread(xs) -> str:
+    """Median and range of repeated ratios, e.g. '3.41 [3.10-3.62]'."""
+    xs = sorted(xs)
+    return f"{statistics.median(xs):.2f} [{xs[0]:.2f}-{xs[-1]:.2f}]"
 
 
 # ------------------------------------------------------------------------------------------------
@@ -106,30 +122,37 @@ def mci_text(stack: Stack, photons: int, out: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_mcml(binary: str, stack: Stack, seconds: float):
-    """(photons, CPU seconds, Rd) of MCML on `stack`, sized to about `seconds` of CPU."""
-    with tempfile.TemporaryDirectory() as tmp:
-        n = 2000
-        while True:
-            path = os.path.join(tmp, "run.mci")
-            with open(path, "w") as f:
-                f.write(mci_text(stack, n, "run.mco"))
-            c0 = cpu_children()
-            subprocess.run(
-                [binary, path],
-                cwd=tmp,
-                stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL,
-                check=True,
-                timeout=30 * seconds + 60,
+def mcml_once(binary: str, stack: Stack, n: int, tmp: str, copies: int = 1):
+    """`copies` MCML processes of `n` photons each, started together in `tmp`: (CPU seconds of
+    all of them, wall seconds, Rd of the first)."""
+    procs = []
+    c0, w0 = cpu_children(), time.perf_counter()
+    for k in range(copies):
+        path = os.path.join(tmp, f"run{k}.mci")
+        with open(path, "w") as f:
+            f.write(mci_text(stack, n, f"run{k}.mco"))
+        procs.append(
+            subprocess.Popen(
+                [binary, path], cwd=tmp, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
             )
-            cpu = cpu_children() - c0
-            if cpu >= 0.6 * seconds:
-                text = open(os.path.join(tmp, "run.mco")).read()
-                m = re.search(r"^RAT[^\n]*\n\s*\S+[^\n]*\n\s*(\S+)", text, re.M)
-                return n, cpu, float(m.group(1)) if m else float("nan")
-            n = int(n * min(100.0, 1.2 * seconds / max(cpu, 1e-2)))
+        )
+    for p in procs:
+        if p.wait() != 0:
+            raise RuntimeError(f"MCML exited with status {p.returncode}")
+    wall, cpu = time.perf_counter() - w0, cpu_children() - c0
+    text = open(os.path.join(tmp, "run0.mco")).read()
+    m = re.search(r"^RAT[^\n]*\n\s*\S+[^\n]*\n\s*(\S+)", text, re.M)
+    return cpu, wall, float(m.group(1)) if m else float("nan")
+
+
+def size_mcml(binary: str, stack: Stack, seconds: float, tmp: str) -> int:
+    """Photons for an MCML run of about `seconds` of CPU on `stack`."""
+    n = 2000
+    while True:
+        cpu, _, _ = mcml_once(binary, stack, n, tmp)
+        if cpu >= 0.6 * seconds:
+            return n
+        n = int(n * min(100.0, 1.2 * seconds / max(cpu, 1e-2)))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -223,12 +246,66 @@ def run_pmcx(python: str, env: dict, key: str, stack: Stack, seconds: float):
 # ------------------------------------------------------------------------------------------------
 
 
+def bench_case(key, args, cores, mcml, tmp, peers):
+    """Rounds of case `key` (see main); prints subsurf's rows, fills `peers[key]` with MCML's
+    figures and returns subsurf's medians keyed (case, tallies, threads)."""
+    name, stack = CASES[key]
+    sizes = {t: measure(stack, 1, tallies, args.seconds)[0].photons for t, tallies in TALLY_SETS.items()}
+    n_mcml = size_mcml(mcml, stack, args.seconds, tmp) if mcml else 0
+    threads = (1, cores) if cores > 1 else (1,)
+    runs = {(t, th): [] for t in TALLY_SETS for th in threads}
+    mc = []
+    for _ in range(args.reps):
+        for t, tallies in TALLY_SETS.items():
+            for th in threads:
+                r, cpu = run_ours(stack, sizes[t] * th, 1 if th == 1 else None, tallies)
+                runs[(t, th)].append((r, cpu))
+        if mcml:
+            cpu, wall, rd = mcml_once(mcml, stack, n_mcml, tmp)
+            _, wall_n, _ = mcml_once(mcml, stack, n_mcml, tmp, copies=cores)
+            mc.append((n_mcml / cpu, cores * wall / wall_n, rd))
+    med = statistics.median
+    out = {}
+    for t in TALLY_SETS:
+        for th in threads:
+            rs = runs[(t, th)]
+            out[(key, t, th)] = dict(
+                ev=med(r.events / r.elapsed_s for r, _ in rs),
+                ph=med(r.photons / r.elapsed_s for r, _ in rs),
+                ev_cpu=med(r.events / c for r, c in rs),
+                ph_cpu=[r.photons / c for r, c in rs],
+                ev_per_ph=rs[0][0].events / rs[0][0].photons,
+                n=rs[0][0].photons,
+            )
+        one, all_ = runs[(t, 1)], runs[(t, threads[-1])]
+        scaling = [(ra.photons / ra.elapsed_s) / (r1.photons / r1.elapsed_s) for (r1, _), (ra, _) in zip(one, all_)]
+        for th in threads:
+            o = out[(key, t, th)]
+            sc = spread(scaling) if th > 1 else ""
+            print(
+                f"{name:<24} {t:<11} {th:>7} {o['n']:>9} {o['ev']:>10.3e} {o['ph']:>10.3e} "
+                f"{o['ev_cpu']:>10.3e} {med(o['ph_cpu']):>10.3e} {sc:>17}"
+            )
+    if mcml:
+        ph = [m[0] for m in mc]
+        peers[key] = dict(
+            n=n_mcml,
+            ph=med(ph),
+            ev=med(ph) * out[(key, "totals", 1)]["ev_per_ph"],
+            rd=mc[0][2],
+            x={t: [o / m for o, m in zip(out[(key, t, 1)]["ph_cpu"], ph)] for t in TALLY_SETS},
+            ceiling=[m[1] for m in mc],
+        )
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=2.0, help="duration of each measurement (s)")
     ap.add_argument("--cases", default="acd", help="which cases to run (letters of a, c, d)")
     ap.add_argument("--no-peers", action="store_true", help="skip MCML and pmcxcl")
     ap.add_argument("--no-install", action="store_true", help="never install a missing peer")
+    ap.add_argument("--reps", type=int, default=3, help="rounds per case (ratios: median and range)")
     args = ap.parse_args(argv)
     cores = os.cpu_count() or 1
     keys = [k for k in "acd" if k in args.cases]
@@ -238,60 +315,43 @@ def main(argv=None):
     )
     print("rates: wall-clock; 'per CPU-s' = per second of CPU time used (what a core delivers when not shared)")
     print(
-        f"{'case':<24} {'tallies':<11} {'threads':>7} {'photons':>9} {'events/s':>10} {'photons/s':>10} "
-        f"{'ev/CPU-s':>10} {'ph/CPU-s':>10} {'scaling':>7}"
+        f"each case: {args.reps} rounds, each running every configuration of subsurf (1 thread, then all cores) "
+        "and MCML back to back, so that the machine's drifting speed cancels in each round's ratios; "
+        "figures are medians over the rounds, [min-max] for ratios"
     )
-    ours = {}
-    for key in keys:
-        name, stack = CASES[key]
-        for tname, tallies in TALLY_SETS.items():
-            one = None
-            for threads in (1, None):
-                r, cpu = measure(stack, threads, tallies, args.seconds)
-                t = 1 if threads == 1 else cores
-                ev = r.events / r.elapsed_s
-                one = ev if threads == 1 else one
-                per_cpu = r.events / cpu if cpu > 0 else float("nan")
-                ph_cpu = r.photons / cpu if cpu > 0 else float("nan")
-                ours[(key, tname, t)] = dict(
-                    ev=ev,
-                    ph=r.photons / r.elapsed_s,
-                    ev_cpu=per_cpu,
-                    ph_cpu=ph_cpu,
-                    ev_per_ph=r.events / r.photons,
-                    rd=r.diffuse_reflectance,
-                )
-                print(
-                    f"{name:<24} {tname:<11} {t:>7} {r.photons:>9} {ev:>10.3e} {r.photons / r.elapsed_s:>10.3e} "
-                    f"{per_cpu:>10.3e} {ph_cpu:>10.3e} {ev / one:>7.2f}"
-                )
-    print(f"load average {os.getloadavg()[0]:.2f} after the subsurf runs")
+    mcml = os.environ.get("MCML_BIN")
+    have_mcml = bool(mcml) and os.access(mcml, os.X_OK) and not args.no_peers
+    print(
+        f"{'case':<24} {'tallies':<11} {'threads':>7} {'photons':>9} {'events/s':>10} {'photons/s':>10} "
+        f"{'ev/CPU-s':>10} {'ph/CPU-s':>10} {'scaling':>17}"
+    )
+    ours, peers = {}, {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for key in keys:
+            ours.update(bench_case(key, args, cores, mcml if have_mcml else None, tmp, peers))
+    print(f"load average {os.getloadavg()[0]:.2f} after the subsurf and MCML runs")
     if args.no_peers:
         print(TARGETS)
         return 0
-
     print("\nMCML (per core; CPU time of the MCML process; events/s = photons/s x subsurf's events per photon)")
-    mcml = os.environ.get("MCML_BIN")
-    if not mcml or not os.access(mcml, os.X_OK):
+    if not have_mcml:
         print(f"  MCML unavailable: set MCML_BIN to an MCML 1.2.x executable (MCML_BIN={mcml!r})")
     else:
         print(
-            f"{'case':<24} {'photons':>9} {'CPU s':>7} {'photons/s':>10} {'events/s':>10} {'Rd':>8} "
-            f"{'x totals':>8} {'x mcml':>7} {'x noerr':>7}"
+            f"{'case':<24} {'photons':>9} {'photons/s':>10} {'events/s':>10} {'Rd':>8} {'x totals':>17} "
+            f"{'x mcml':>17} {'x noerr':>17} {'MCML x' + str(cores):>17}"
         )
         for key in keys:
-            name, stack = CASES[key]
-            n, cpu, rd = run_mcml(mcml, stack, args.seconds)
-            ph = n / cpu
-            ev = ph * ours[(key, "totals", 1)]["ev_per_ph"]
-
-            def ratio(t, key=key, ph=ph):
-                return ours[(key, t, 1)]["ph_cpu"] / ph
-
+            p = peers[key]
             print(
-                f"{name:<24} {n:>9} {cpu:>7.2f} {ph:>10.3e} {ev:>10.3e} {rd:>8.5f} "
-                f"{ratio('totals'):>8.2f} {ratio('mcml'):>7.2f} {ratio('mcml-noerr'):>7.2f}"
+                f"{CASES[key][0]:<24} {p['n']:>9} {p['ph']:>10.3e} {p['ev']:>10.3e} {p['rd']:>8.5f} "
+                f"{spread(p['x']['totals']):>17} {spread(p['x']['mcml']):>17} {spread(p['x']['mcml-noerr']):>17} "
+                f"{spread(p['ceiling']):>17}"
             )
+        print(
+            f"'MCML x{cores}': {cores} MCML processes at once deliver this many times the photons/s of one "
+            "(the machine's own multi-core ceiling, to read subsurf's scaling against)"
+        )
 
     print(
         f"\nMCX through pmcxcl on the CPU (PoCL), all cores; photons/s = (photons - pilot's) / (kernel time - "

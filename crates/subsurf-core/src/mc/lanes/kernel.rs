@@ -318,7 +318,9 @@ impl SeedQueue {
 
 /// Start the next photon of `range` with some weight on lane `i` (a photon that enters with
 /// weight 0 — impossible for the sources allowed — has its history ended at once, as in
-/// `mc::kernel`); the lane stays dead when the range is exhausted.
+/// `mc::kernel`); returns `false`, and marks the lane dead, when the range is exhausted.
+/// (`live` is written only when it changes: the step reads it full width, and a lane store
+/// just before that load would stall it.)
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn refill<T: Tally>(
@@ -330,8 +332,7 @@ fn refill<T: Tally>(
     st: &mut Lanes,
     i: usize,
     tally: &mut T,
-) {
-    st.live[i] = 0;
+) -> bool {
     while *next < end {
         let photon = *next;
         *next += 1;
@@ -359,15 +360,19 @@ fn refill<T: Tally>(
         st.refl[i] = 0;
         st.hits[i] = 0;
         st.photon[i] = photon;
-        st.live[i] = !0;
+        if st.live[i] == 0 {
+            st.live[i] = !0;
+        }
         st.absorbed[i] = 0.0;
         st.absorbed_layer[i] = 0;
         if st.l_layer[i] != 0 {
             st.l.set(i, &lk.lay[0]);
             st.l_layer[i] = 0;
         }
-        return;
+        return true;
     }
+    st.live[i] = 0;
+    false
 }
 
 /// Hand lane `i`'s pending absorbed weight to a tally without positions.
@@ -680,8 +685,9 @@ fn run_lanes<T: Tally>(
         st.l.set(i, &lk.lay[0]);
     }
     let mut next = range.start;
+    let mut n_live = 0;
     for i in 0..L {
-        refill(lk, &mut q, seed, &mut next, range.end, &mut st, i, tally);
+        n_live += refill(lk, &mut q, seed, &mut next, range.end, &mut st, i, tally) as u32;
     }
     let mut events = 0u64;
     let mut steps = 0u32;
@@ -763,9 +769,11 @@ fn run_lanes<T: Tally>(
                 _ => {}
             }
             tally.end_photon(i);
-            refill(lk, &mut q, seed, &mut next, range.end, &mut st, i, tally);
+            if !refill(lk, &mut q, seed, &mut next, range.end, &mut st, i, tally) {
+                n_live -= 1;
+            }
         }
-        if !st.live.iter().any(|&l| on(l)) {
+        if n_live == 0 {
             return Some(events);
         }
     }
