@@ -378,14 +378,19 @@ fn switches_select_histograms() {
     assert!(TallySet::new(&bad, &stack()).unwrap_err().to_string().starts_with("tallies.nr"));
 }
 
-#[test]
-fn fluence_in_a_bin_straddling_two_absorbing_layers() {
-    let s = Stack::new(
+/// Two absorbing layers with an interface at 0.015 mm, inside depth bin 1 of a 0.01 mm grid.
+fn straddling_stack() -> Stack {
+    Stack::new(
         vec![Layer::new(1.4, 1.0, 5.0, 0.0, 0.015).unwrap(), Layer::new(1.4, 4.0, 5.0, 0.0, f64::INFINITY).unwrap()],
         1.0,
         1.0,
     )
-    .unwrap();
+    .unwrap()
+}
+
+#[test]
+fn fluence_in_a_bin_straddling_two_absorbing_layers() {
+    let s = straddling_stack();
     let cfg = TallyConfig { nr: 2, dr: 0.1, nz: 3, dz: 0.01, ..TallyConfig::default() };
     let mut t = TallySet::new(&cfg, &s).unwrap();
     t.begin_photon(0, 0);
@@ -415,12 +420,7 @@ fn fluence_in_a_bin_straddling_two_absorbing_layers() {
 /// straddling bin too), against per-bin sums made by hand.
 #[test]
 fn absorb_lanes_pending_sums_match_per_bin_sums() {
-    let s = Stack::new(
-        vec![Layer::new(1.4, 1.0, 5.0, 0.0, 0.015).unwrap(), Layer::new(1.4, 4.0, 5.0, 0.0, f64::INFINITY).unwrap()],
-        1.0,
-        1.0,
-    )
-    .unwrap();
+    let s = straddling_stack();
     let cfg = TallyConfig { nr: 2, dr: 0.1, nz: 3, dz: 0.01, errors: false, ..TallyConfig::default() };
     let mut t = TallySet::new(&cfg, &s).unwrap();
     // (r, z, layer) spots: bins 0, 1 (both layers: straddling), 2 (overflow), two radii
