@@ -92,13 +92,8 @@ impl Accum {
     /// Add `x` to bin `bin` (the caller guarantees `bin < len()`).
     #[inline(always)]
     pub fn add(&mut self, bin: usize, x: f64) {
-        if self.single {
-            self.mark(bin);
-            self.s1[bin] += x;
-            self.q[bin] += x * x;
-        } else if self.cur.is_empty() {
-            self.mark(bin);
-            self.s1[bin] += x;
+        if self.cur.is_empty() {
+            self.add_once(bin, x);
         } else {
             let c = &mut self.cur[bin];
             if *c == 0.0 {
@@ -108,8 +103,10 @@ impl Accum {
         }
     }
 
-    /// [`Accum::add`] for an accumulator made by [`Accum::per_photon`] (escapes): S₁ += x and,
-    /// with errors, Q += x² (the same sums, with fewer tests).
+    /// [`Accum::add`] for an accumulator without batches (made by [`Accum::per_photon`], or
+    /// without errors): S₁ += x and, with per-photon errors, Q += x²; a bin whose S₁ was 0 is
+    /// listed as dirty (only listed bins are non-zero; Q changes only with S₁). The escape
+    /// tallies call it directly (one bounds check, no mode tests).
     #[inline(always)]
     pub fn add_once(&mut self, bin: usize, x: f64) {
         debug_assert!(self.cur.is_empty(), "add_once on a batched accumulator");
@@ -120,15 +117,6 @@ impl Accum {
             *q += x * x;
         }
         if was == 0.0 {
-            self.list(bin);
-        }
-    }
-
-    /// List `bin` as dirty before its sums change, unless it is already listed (S₁ ≠ 0: only
-    /// listed bins are non-zero; Q changes only together with S₁, so S₁ = 0 covers it).
-    #[inline(always)]
-    fn mark(&mut self, bin: usize) {
-        if self.s1[bin] == 0.0 {
             self.list(bin);
         }
     }

@@ -218,8 +218,9 @@ pub struct TallySet {
     /// straddling fluence sums; empty when disabled.
     acc: Vec<Accum>,
     /// Per lane, the (r, z) bin and the layer of its latest absorption deposits and their sum,
-    /// not yet added to a_z/a_rz (and, in a bin straddling an interface, to the fluence sums): consecutive deposits of a lane often fall in one bin (deep or far photons in
-    /// the overflow bins), and adding them up per lane avoids a chain of dependent
+    /// not yet added to a_z/a_rz (and, in a bin straddling an interface, to the fluence sums):
+    /// consecutive deposits of a lane often fall in one bin (deep or far photons in the
+    /// overflow bins), and adding them up per lane avoids a chain of dependent
     /// read-modify-writes on that bin, and lets a step whose lanes all stay in their bins
     /// update the pending sums as one vector operation. Flushed when the lane moves to another
     /// bin, at each batch end and before draining.
@@ -499,8 +500,8 @@ impl Tally for TallySet {
     /// Bins of all lanes first (a loop LLVM vectorises); when every depositing lane stays in
     /// the bin (and layer) of its pending sum, the sums are updated as one vector operation,
     /// else lane by lane, where a lane that moved to another bin or layer flushes its pending
-    /// sum and starts a new one. In thick or deep media most deposits land in the overflow bins, so most steps take
-    /// the vector path.
+    /// sum and starts a new one. In thick or deep media most deposits land in the overflow
+    /// bins, so most steps take the vector path.
     #[inline(always)]
     fn absorb_lanes(&mut self, d: &Deposits) {
         if self.acc[A_Z].is_empty() || d.mask == 0 {
