@@ -307,6 +307,10 @@ def main(argv=None):
     ap.add_argument("--no-install", action="store_true", help="never install a missing peer")
     ap.add_argument("--reps", type=int, default=3, help="rounds per case (ratios: median and range)")
     args = ap.parse_args(argv)
+    if args.reps < 1:
+        ap.error(f"--reps: {args.reps} is not allowed (an integer >= 1)")
+    if not args.seconds > 0:
+        ap.error(f"--seconds: {args.seconds} is not allowed (a number > 0)")
     cores = os.cpu_count() or 1
     keys = [k for k in "acd" if k in args.cases]
     print(
@@ -329,7 +333,7 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         for key in keys:
             ours.update(bench_case(key, args, cores, mcml if have_mcml else None, tmp, peers))
-    print(f"load average {os.getloadavg()[0]:.2f} after the subsurf and MCML runs")
+    print(f"load average {os.getloadavg()[0]:.2f} after the subsurf (and MCML) runs")
     if args.no_peers:
         print(TARGETS)
         return 0
