@@ -17,7 +17,9 @@
 //! whatever its neighbours or the instruction set, so a photon's history depends on its own
 //! stream only.
 
-use super::math::{cos_sin_2pi, neg_ln, sel};
+mod step;
+
+use super::math::{cos_sin_2pi_f32, neg_ln_f32, open01_f32, sel, sel_f32, to_f32_up};
 use super::{Isa, LANES};
 use crate::mc::config::{ROULETTE_M, ROULETTE_THRESHOLD};
 use crate::mc::kernel::{KLayer, Kernel};
@@ -27,9 +29,14 @@ use crate::optics::Phase;
 use crate::rng::{philox4x32_10, u32_to_open01, PhotonRng};
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
+use step::{advance, interfaces};
+#[cfg(test)]
+pub(super) use step::{hg_one_minus_cos, spin_word};
 
 const L: usize = LANES;
 type F = [f64; L];
+/// f32 lanes: the direction (see "Precision" in the module docs of `mc::lanes`).
+type F32 = [f32; L];
 type U = [u32; L];
 /// A mask per lane: 0 or all ones, as u64 (the width of the f64 lanes: no conversions).
 type B = [u64; L];
@@ -45,8 +52,7 @@ fn on(m: u64) -> bool {
 }
 
 use crate::mc::kernel::{clear_bounces, Crossing, CLEAR_HITS_STEPWISE, MAX_HITS_WITHOUT_INTERACTION, STOP_POLL_STEPS};
-/// One layer as the lanes copy it into their state: f64 fields only (`iso` is 1.0 for an
-/// isotropic layer), in the order of [`LaneLayer`]'s arrays.
+/// One layer as the lanes copy it into their state, in the order of [`LaneLayer`]'s arrays.
 #[derive(Clone, Copy, Debug, Default)]
 struct LLayer {
     z0: f64,
@@ -57,9 +63,8 @@ struct LLayer {
     /// σs/σt: the weight kept at an interaction (w′ = w σs/σt, deposit w − w′, exact as in
     /// `mc::kernel`).
     keep_frac: f64,
-    /// HG constants 1 + g², 1/(2g), 1 − g², 1 − g, 2g (as `mc::kernel::hg_cos`).
-    hg: [f64; 5],
-    iso: f64,
+    /// HG constants 1 − g, 2g, 1 − g² in f32 (see [`step::hg_one_minus_cos`]).
+    hg: [f32; 3],
     n_up: f64,
     n_down: f64,
     eta_up: f64,
@@ -77,8 +82,7 @@ impl From<&KLayer> for LLayer {
             sigma_t: k.sigma_t,
             inv_sigma_t: k.inv_sigma_t,
             keep_frac: k.keep_frac,
-            hg: [k.hg.one_plus_g2, k.hg.inv_two_g, k.hg.one_minus_g2, k.hg.one_minus_g, k.hg.two_g],
-            iso: if k.hg.isotropic { 1.0 } else { 0.0 },
+            hg: [k.hg.one_minus_g as f32, k.hg.two_g as f32, k.hg.one_minus_g2 as f32],
             n_up: k.n_up,
             n_down: k.n_down,
             eta_up: k.eta_up,
@@ -92,20 +96,20 @@ impl From<&KLayer> for LLayer {
 /// `LaneLayer`: the parameters of each lane's current layer, copied in when the lane enters the
 /// layer (at launch and at each crossing, both rare next to interactions), so the vector loops
 /// read plain arrays instead of gathering from the layer table at every step. One array per
-/// [`LLayer`] field (and five for its HG constants).
+/// [`LLayer`] field (and three for its HG constants).
 macro_rules! lane_layer {
     ($($f:ident),*) => {
         #[derive(Clone, Debug, Default)]
         struct LaneLayer {
             $($f: F,)*
-            hg: [F; 5],
+            hg: [F32; 3],
         }
 
         impl LaneLayer {
             #[inline(always)]
             fn set(&mut self, i: usize, l: &LLayer) {
                 $(self.$f[i] = l.$f;)*
-                for k in 0..5 {
+                for k in 0..3 {
                     self.hg[k][i] = l.hg[k];
                 }
             }
@@ -113,7 +117,7 @@ macro_rules! lane_layer {
     };
 }
 
-lane_layer!(z0, z1, n, sigma_t, inv_sigma_t, keep_frac, iso, n_up, n_down, eta_up, eta_down, cc_up, cc_down);
+lane_layer!(z0, z1, n, sigma_t, inv_sigma_t, keep_frac, n_up, n_down, eta_up, eta_down, cc_up, cc_down);
 
 /// The lanes' state, structure of arrays.
 #[derive(Clone, Debug, Default)]
@@ -121,9 +125,10 @@ struct Lanes {
     x: F,
     y: F,
     z: F,
-    ux: F,
-    uy: F,
-    uz: F,
+    /// Unit direction, f32, renormalised at each scattering ([`step::spin_word`]).
+    ux: F32,
+    uy: F32,
+    uz: F32,
     w: F,
     /// Unused optical depth.
     s_left: F,
@@ -269,7 +274,7 @@ isa_entry!("aarch64", neon, "neon");
 fn packet(st: &Lanes, i: usize) -> Packet {
     Packet {
         pos: [st.x[i], st.y[i], st.z[i]],
-        dir: [st.ux[i], st.uy[i], st.uz[i]],
+        dir: [st.ux[i] as f64, st.uy[i] as f64, st.uz[i] as f64],
         w: st.w[i],
         layer: st.layer[i] as usize,
         order: st.order[i],
@@ -350,7 +355,7 @@ fn refill<T: Tally>(
             st.s[k][i] = s[k];
         }
         (st.x[i], st.y[i], st.z[i]) = (0.0, 0.0, 0.0);
-        (st.ux[i], st.uy[i], st.uz[i]) = (dir[0], dir[1], dir[2]);
+        (st.ux[i], st.uy[i], st.uz[i]) = (dir[0] as f32, dir[1] as f32, to_f32_up(dir[2]));
         st.w[i] = w0;
         st.w_min[i] = ROULETTE_THRESHOLD * w0;
         st.s_left[i] = 0.0;
@@ -402,8 +407,8 @@ struct Scratch {
     /// as wide as it was written).
     att: B,
     interact: B,
-    /// cos θ per lane when the stack has phase-function mixtures (sampled lane by lane).
-    cos_theta: F,
+    /// 1 − cos θ per lane when the stack has phase-function mixtures (sampled lane by lane).
+    one_minus_cos: F32,
     ox: F,
     oy: F,
     oz: F,
@@ -424,212 +429,6 @@ fn draw_words(st: &mut Lanes, sc: &mut Scratch) {
         for k in 0..4 {
             st.s[k][i] = t[k];
         }
-    }
-}
-
-/// cos θ from a Henyey–Greenstein lobe by inverting its CDF (MCML eq. 3.28; as
-/// `mc::kernel::hg_cos`, constants `k` = 1 + g², 1/(2g), 1 − g², 1 − g, 2g), or 2u − 1 for
-/// an isotropic layer.
-#[inline(always)]
-pub(super) fn hg_cos(k: [f64; 5], iso: bool, u: f64) -> f64 {
-    let [a, b, c, d, e] = k;
-    let t = c / (d + e * u);
-    // (max/min, not clamp: clamp's NaN assertions keep LLVM from vectorising.)
-    #[allow(clippy::manual_clamp)]
-    let ct = ((a - t * t) * b).max(-1.0).min(1.0);
-    sel(iso, 2.0 * u - 1.0, ct)
-}
-
-/// MCML's direction update (Wang et al. 1995, eq. 3.30; [`crate::optics::spin`]) of the unit
-/// direction (ux, uy, uz) by the polar cosine `cth` and the azimuth φ = 2πu of the 32-bit
-/// `word` ([`cos_sin_2pi`]), with one square root and one division:
-/// q = sin θ / √(1 − uz²), u′x = q (ux uz cos φ − uy sin φ) + ux cos θ,
-/// u′y = q (uy uz cos φ + ux sin φ) + uy cos θ, u′z = −q cos φ (1 − uz²) + uz cos θ; for
-/// |uz| > 1 − 10⁻¹² the normal-incidence form (sin θ cos φ, sin θ sin φ, ± cos θ).
-#[inline(always)]
-pub(super) fn spin_word(ux: f64, uy: f64, uz: f64, cth: f64, word: u32) -> (f64, f64, f64) {
-    let (cp, sp) = cos_sin_2pi(word);
-    let t2 = 1.0 - uz * uz;
-    let normal = uz.abs() > crate::optics::SPIN_POLE_COS;
-    let den = sel(normal, 1.0, t2);
-    let q = ((1.0 - cth * cth).max(0.0) / den).sqrt();
-    let (a, b) = (q * cp, q * sp);
-    let gx = a * ux * uz - b * uy + ux * cth;
-    let gy = a * uy * uz + b * ux + uy * cth;
-    let gz = -a * t2 + uz * cth;
-    let nz_normal = sel(uz > 0.0, cth, -cth);
-    (sel(normal, a, gx), sel(normal, b, gy), sel(normal, nz_normal, gz))
-}
-
-/// Phase 1, one loop over the lanes: step every live lane to its interaction point or to the
-/// interface ahead; a lane that stays inside its layer then interacts: absorption by weight,
-/// scattering (cos θ from its Henyey–Greenstein lobe, MCML eq. 3.28 as `mc::kernel::hg_cos`,
-/// or from `sc.cos_theta` when `mixture`; azimuth from its word; MCML's direction update as
-/// `mc::kernel::spin_disc`) and roulette. Lanes that hit an interface go to [`interfaces`].
-/// Returns the number of scattering events. (`positions` and `mixture` are constant per run:
-/// their branches are hoisted; `CLEAR` is false when no layer is clear, which removes the
-/// clear-layer rules' masks from the loop.)
-#[inline(always)]
-fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> u32 {
-    let mut n_int = [0u32; L];
-    for i in 0..L {
-        // Step.
-        let live = on(st.live[i]);
-        let (sigma_t, inv_sigma_t, z0, z1) = (st.l.sigma_t[i], st.l.inv_sigma_t[i], st.l.z0[i], st.l.z1[i]);
-        let clear = CLEAR && sigma_t == 0.0;
-        let need = live & (st.s_left[i] <= 0.0) & !clear;
-        let fresh = neg_ln(u32_to_open01(sc.words[0][i]));
-        let sl = sel(need, fresh, st.s_left[i]);
-        let s = sl * inv_sigma_t;
-        let (x, y, z) = (st.x[i], st.y[i], st.z[i]);
-        let (ux, uy, uz) = (st.ux[i], st.uy[i], st.uz[i]);
-        let zn = z + s * uz;
-        let crossed = clear | (zn > z1) | (zn < z0);
-        // `mc::kernel`'s termination rules: down a semi-infinite clear layer the packet is
-        // transmitted; an interface hit counts towards the trapping limit (parallel to the
-        // faces of a clear layer it is trapped at once); after `CLEAR_HITS_STEPWISE` hits in a
-        // finite clear layer its remaining bounces are sampled at once. All three are rare
-        // and handled lane by lane.
-        let h1 = st.hits[i].wrapping_add(1);
-        let clear_down = live & clear & (uz > 0.0) & (z1 == f64::INFINITY);
-        let trapped = live & !clear_down & ((clear & (uz == 0.0)) | (crossed & (h1 > MAX_HITS_WITHOUT_INTERACTION)));
-        let bounces = live & clear & !clear_down & !trapped & (h1 > CLEAR_HITS_STEPWISE) & (z1 < f64::INFINITY);
-        let moving = live & !clear_down & !trapped & !bounces;
-        let h = moving & crossed;
-        // A lane that reaches an interface is moved onto it by `interfaces` (the distance
-        // needs a division, which the common path does without).
-        let stp = sel(moving & !h, s, 0.0);
-        st.x[i] = x + stp * ux;
-        st.y[i] = y + stp * uy;
-        st.z[i] = z + stp * uz;
-        st.path[i] += st.l.n[i] * stp;
-        st.s_left[i] = sel(moving & !h, 0.0, sl);
-        st.hits[i] = selu(h | bounces, h1, selu(moving, 0, st.hits[i]));
-        sc.hit[i] = mk(h);
-        let f = selq(clear_down, fate::CLEAR_DOWN, fate::MOVING);
-        let f = selq(trapped, fate::TRAPPED, f);
-        let f = selq(bounces, fate::BOUNCES, f);
-        // Interaction.
-        let it = moving & !h;
-        sc.interact[i] = mk(it);
-        let w0 = st.w[i];
-        let w1 = w0 * st.l.keep_frac[i];
-        let dw = w0 - w1;
-        let absorbed_all = w1 <= 0.0;
-        let scatter = it & !absorbed_all;
-        let cth = if mixture {
-            sc.cos_theta[i]
-        } else {
-            let hg = &st.l.hg;
-            let k = [hg[0][i], hg[1][i], hg[2][i], hg[3][i], hg[4][i]];
-            hg_cos(k, st.l.iso[i] != 0.0, u32_to_open01(sc.words[1][i]))
-        };
-        let (nx, ny, nz) = spin_word(ux, uy, uz, cth, sc.words[2][i]);
-        st.ux[i] = sel(scatter, nx, ux);
-        st.uy[i] = sel(scatter, ny, uy);
-        st.uz[i] = sel(scatter, nz, uz);
-        st.order[i] = st.order[i].wrapping_add(scatter as u32);
-        n_int[i] = scatter as u32;
-        // Russian roulette below `ROULETTE_THRESHOLD` × the entering weight; its zero-mean
-        // control term goes to `Tally::roulette` (not to absorption), lane by lane.
-        let low = scatter & (w1 < st.w_min[i]);
-        let ur = u32_to_open01(sc.words[3][i]);
-        let survive = ur * ROULETTE_M <= 1.0;
-        let (kept, boosted) = (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M);
-        let control = sel(survive, kept, w1);
-        sc.rou[i] = sel(low, control, 0.0);
-        let dep = sel(it, dw, 0.0);
-        sc.dep[i] = dep;
-        if !positions {
-            st.absorbed[i] += dep;
-        }
-        let w_low = sel(survive, boosted, 0.0);
-        let w2 = sel(low, w_low, w1);
-        st.w[i] = sel(it, w2, w0);
-        let died = it & (absorbed_all | (low & !survive));
-        sc.fate[i] = selq(died, fate::DIED, f);
-        sc.att[i] = mk(died | clear_down | trapped | bounces | low);
-    }
-    n_int.iter().sum()
-}
-
-/// The sign bit of a lane mask: [`interfaces`] adds it to `Scratch::att` (OR-ing all ones
-/// there makes LLVM emit a masked store, which the next load cannot forward from).
-const SIGN: u64 = 1 << 63;
-
-/// Phase 2: Fresnel reflection or refraction of the lanes that hit an interface.
-#[inline(always)]
-fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) {
-    for i in 0..L {
-        let l = &st.l;
-        let h = on(sc.hit[i]);
-        let uz = st.uz[i];
-        let up = uz < 0.0;
-        let n_t = sel(up, l.n_up[i], l.n_down[i]);
-        let eta = sel(up, l.eta_up[i], l.eta_down[i]);
-        let cc = sel(up, l.cc_up[i], l.cc_down[i]);
-        let ni = l.n[i];
-        // Onto the interface ahead, keeping the unused optical depth (MCML's HitBoundary).
-        let zb = sel(up, l.z0[i], l.z1[i]);
-        let db = (zb - st.z[i]) / uz;
-        let d = sel(h, db, 0.0);
-        st.x[i] += d * st.ux[i];
-        st.y[i] += d * st.uy[i];
-        st.z[i] = sel(h, zb, st.z[i]);
-        st.path[i] += ni * d;
-        st.s_left[i] -= d * l.sigma_t[i];
-        let ci = uz.abs().min(1.0);
-        if MATCHED {
-            // Every index equal (`MATCHED`): no reflection, no refraction, no draw.
-            let layer = st.layer[i];
-            let out = (up & (layer == 0)) | (!up & (layer == last));
-            let cross = h & !out;
-            sc.ox[i] = st.ux[i];
-            sc.oy[i] = st.uy[i];
-            sc.oz[i] = uz;
-            let (dn, upl) = (layer.wrapping_add(1), layer.wrapping_sub(1));
-            st.layer[i] = selu(cross, selu(up, upl, dn), layer);
-            let esc = selq(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
-            sc.fate[i] = selq(h & out, esc, selq(cross, fate::CROSSED, sc.fate[i]));
-            sc.att[i] |= mk(h) & SIGN;
-            continue;
-        }
-        // Fresnel (as optics::fr_dielectric_cos_t): sin²θt = η²(1 − cos²θi).
-        let st2 = eta * eta * (1.0 - ci * ci).max(0.0);
-        let ct = (1.0 - st2).max(0.0).sqrt();
-        let rs = (ni * ci - n_t * ct) / (ni * ci + n_t * ct);
-        let rp = (n_t * ci - ni * ct) / (n_t * ci + ni * ct);
-        let tir = (ci <= cc) | (st2 >= 1.0);
-        let matched = ni == n_t;
-        let rf = 0.5 * (rs * rs + rp * rp);
-        let r = sel(matched, 0.0, rf);
-        let r = sel(tir, 1.0, r);
-        let cos_t = sel(matched, ci, ct);
-        let cos_t = sel(tir, 0.0, cos_t);
-        let need = h & (r > 0.0) & (r < 1.0);
-        let u = u32_to_open01(draw(&mut st.s, i, need));
-        let transmit = (r <= 0.0) | (need & (u > r));
-        let layer = st.layer[i];
-        let out = transmit & ((up & (layer == 0)) | (!up & (layer == last)));
-        let cross = h & transmit & !out;
-        let refl = h & !transmit;
-        let nz = sel(up, -cos_t, cos_t);
-        let (ox, oy) = (st.ux[i] * eta, st.uy[i] * eta);
-        sc.ox[i] = ox;
-        sc.oy[i] = oy;
-        sc.oz[i] = nz;
-        st.ux[i] = sel(cross, ox, st.ux[i]);
-        st.uy[i] = sel(cross, oy, st.uy[i]);
-        let uz_new = sel(refl, -uz, uz);
-        st.uz[i] = sel(cross, nz, uz_new);
-        let (dn, upl) = (layer.wrapping_add(1), layer.wrapping_sub(1));
-        let next = selu(up, upl, dn);
-        st.layer[i] = selu(cross, next, layer);
-        st.refl[i] = st.refl[i].wrapping_add(refl as u32);
-        let esc = selq(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
-        let f = selq(cross, fate::CROSSED, sc.fate[i]);
-        sc.fate[i] = selq(h & out, esc, f);
-        sc.att[i] |= mk(cross | (h & out)) & SIGN;
     }
 }
 
@@ -654,7 +453,7 @@ fn bounce_out<T: Tally>(lk: &LaneKernel, st: &mut Lanes, i: usize, p: &mut Packe
     }
     if inside {
         (st.x[i], st.y[i], st.z[i]) = (p.pos[0], p.pos[1], p.pos[2]);
-        (st.ux[i], st.uy[i], st.uz[i]) = (p.dir[0], p.dir[1], p.dir[2]);
+        (st.ux[i], st.uy[i], st.uz[i]) = (p.dir[0] as f32, p.dir[1] as f32, to_f32_up(p.dir[2]));
         st.path[i] = p.path;
         st.refl[i] = p.reflections;
         let j = p.layer as u32;
@@ -702,7 +501,7 @@ fn run_lanes<T: Tally>(
         if mixture {
             for i in 0..L {
                 let j = (st.layer[i] as usize).min(lk.mixture.len() - 1);
-                sc.cos_theta[i] = lk.mixture[j].sample(u32_to_open01(sc.words[1][i]));
+                sc.one_minus_cos[i] = (1.0 - lk.mixture[j].sample(u32_to_open01(sc.words[1][i]))) as f32;
             }
         }
         events += if lk.any_clear {

@@ -6,8 +6,9 @@
 //! The kernel is written once as loops over fixed-width lane arrays with branch-free bodies
 //! (`if c { a } else { b }` selects, bit tricks, no calls), which LLVM vectorises; the same
 //! code is compiled for each instruction set with std's `#[target_feature]` and chosen at run
-//! time ([`Isa::detect`], cached): AVX-512 (8 f64 per register), AVX2 + FMA (2 × 4), NEON on
-//! arm64 (4 × 2), and the target's baseline as the scalar fallback. `std::simd` is unstable;
+//! time ([`Isa::detect`], cached): AVX-512 (16 f32 or 8 f64 per register), AVX2 + FMA
+//! (8 f32 or 4 f64), NEON on arm64 (4 f32 or 2 f64), and the target's baseline as the
+//! scalar fallback. `std::simd` is unstable;
 //! `wide` selects its instructions at *compile* time (no runtime dispatch without building
 //! the crate several times); `pulp` dispatches at run time but offers no gathers nor mixed
 //! u32/f64 lanes, which this kernel needs (per-lane layer tables, 32-bit random words). Plain
@@ -17,20 +18,40 @@
 //! instruction set produces the same bits** for the same photon ([`Isa::available`] lists the
 //! ones a machine can run; the tests compare them).
 //!
-//! # Precision (f64 throughout the state)
-//! Position and path must be f64: interfaces sit at depths up to 10² mm (f32's step there is
-//! 8·10⁻⁶ mm, a thousandth of a mean free path in tissue) and packets are placed *exactly* on
-//! them. Weights and every tally accumulate in f64 (deposits span 10⁻⁸…1). Directions stay
-//! f64 too: MCML's update renormalises nothing, so f32 round-off (6·10⁻⁸ per event) would
-//! random-walk |u| by ~10⁻⁵ over the 10⁴ events of a thick-slab history; and f32 arithmetic
-//! only pays with twice the lanes (16 per AVX-512 register), where every f64 quantity would
-//! then take two registers and each step two conversions per quantity (not measured: a
-//! possible next step for the direction update and the azimuth). The random words stay
-//! 32-bit (xoshiro128++ as in [`crate::rng`]).
+//! # Precision (f64 where it is needed, f32 where it pays)
+//! The kernel is bound by vector throughput, and f32 doubles the lanes per register (16 per
+//! AVX-512 register, [`LANES`] = 16), so each quantity is f32 unless it needs more:
+//! - **f64: position, path, unused optical depth, weights, roulette threshold, every deposit
+//!   and tally.** Interfaces sit at depths up to 10² mm (f32's spacing there is 8·10⁻⁶ mm, a
+//!   thousandth of a mean free path in tissue) and packets are placed *exactly* on them;
+//!   deposits span 10⁻⁸…1 and sum over 10⁹ events; the energy balance holds to 10⁻¹².
+//! - **f64: interfaces** (Fresnel, refraction, the distance to the interface): rare next to
+//!   interactions; the f32 direction is converted, the refracted one stored back as f32.
+//! - **f32: the direction** (ux, uy, uz) and everything that makes a new one: the HG polar
+//!   angle, the azimuth's cos/sin and MCML's direction update ([`kernel`]'s `spin_word`), and
+//!   −ln ξ for the optical depth (converted to f64 before it scales a step). A direction
+//!   error of 10⁻⁷ rad moves a packet 10⁻⁷ of its step, far below any tally bin; the
+//!   sampled distributions are what the tests check (χ² of 1 − cos θ × φ with cells down to
+//!   10⁻⁵ in cos θ, at g up to 0.95 and next to the pole).
+//!
+//! Measured (tests in `math.rs` and `tests.rs`): −ln u in f32 within 0.83 ulp of f64's `ln`;
+//! cos/sin 2πu within 1.2·10⁻⁷ absolute (2.6 ulp); 1 − cos θ is sampled in the
+//! cancellation-free form (1 − g)(1 − ξ)(t + 1 − g)/(1 − g + 2gξ), within 4.1·10⁻⁷ *relative*
+//! of f64 at every ξ (so sin θ = √(m(2 − m)) keeps its relative precision at the forward peak
+//! of g = 0.9, where 1 − cos θ from the textbook cos θ would lose it to cancellation); the
+//! direction update uses ρ² = ux² + uy² instead of 1 − uz² for the same reason near the
+//! pole, and one Newton step u ← u(3 − |u|²)/2 renormalises it: |u| stays within 1.3·10⁻⁷
+//! of 1 over 10⁶ successive scatterings (MCML's update renormalises nothing, and f32
+//! rounding would random-walk |u| over a 10⁴-event history). The Newton step is 5 f32
+//! operations; a division by √|u|² costs a square root and a division in the same loop. The
+//! uniforms in f32 are (k + ½)·2⁻²³ from the top 23 bits of a word ([`math::open01_f32`]):
+//! an optical depth is at most −ln 2⁻²⁴ = 16.6 (probability e⁻¹⁶·⁶ = 6·10⁻⁸ lost from the
+//! tail of the exponential). The roulette ξ is compared as an integer (exact). The random
+//! words stay 32-bit (xoshiro128++ as in [`crate::rng`]).
 //!
 //! Random-number order within a photon's stream (differs from the scalar reference kernel
 //! only there): source draws, then four words per lane step, drawn whether or not the step
-//! uses them (optical depth, phase ξ, azimuth φ = 2πu by [`math::cos_sin_2pi`], roulette ξ),
+//! uses them (optical depth, phase ξ, azimuth φ = 2πu by [`math::cos_sin_2pi_f32`], roulette ξ),
 //! and a Fresnel ξ at an interface hit with 0 < R < 1 (see `kernel::draw_words`); the
 //! clear-layer bounce sampling of `mc::kernel` draws its two uniforms from the lane's stream.
 
@@ -39,10 +60,10 @@ pub mod math;
 
 pub(crate) use kernel::trace_range;
 #[cfg(test)]
-use kernel::{hg_cos, spin_word};
+use kernel::{hg_one_minus_cos, spin_word};
 
 /// Photon histories traced together by one core.
-pub const LANES: usize = 8;
+pub const LANES: usize = 16;
 
 /// An instruction set the lane kernel is compiled for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -17,51 +17,106 @@ use crate::mc::tally::totals::Total;
 use crate::mc::tally::{HistogramOut, TallyConfig, TallySet};
 use crate::mc::{run, RunConfig};
 use crate::optics::Phase;
-use crate::rng::{u32_to_open01, PhotonRng};
+use crate::rng::PhotonRng;
 use crate::stats::{chi2_test_cos_phi, graded_cos_edges, sidak_alpha, uniform_edges};
 use std::f64::consts::PI;
 use std::sync::atomic::AtomicU64;
 
-/// The lane kernel's scattering (HG cos θ by [`hg_cos`], azimuth from one 32-bit word and
-/// MCML's update by [`spin_word`], the code the kernel's loop inlines) against the HG pdf ×
-/// uniform φ, in the frame of the incident direction: χ² on a graded (cos θ, φ) grid, 4 HG
-/// values × 2 incident directions (one at normal incidence, |uz| > 1 − 10⁻¹², which takes the
-/// special form) at overall α = 0.01 (Šidák), 2·10⁵ samples each.
+/// The lane kernel's scattering (HG 1 − cos θ by [`hg_one_minus_cos`] and the azimuth and
+/// MCML's update by [`spin_word`], in f32: the code the kernel's loop inlines) against the HG
+/// pdf × uniform φ, in the frame of the incident direction: χ² on a graded (cos θ, φ) grid
+/// (cells down to 10⁻⁵ in cos θ at both ends), 5 HG values × 3 incident directions (normal
+/// incidence, which takes the special form; a generic one; one 10⁻⁴ rad from the pole, where
+/// 1 − uz² has lost its precision in f32) at overall α = 0.01 (Šidák), 2·10⁵ samples each.
 #[test]
 fn lane_scattering_chi2() {
-    let alpha = sidak_alpha(0.01, 8).unwrap();
-    let s = 1.0 / 3.0f64.sqrt();
-    let dirs = [[0.0, 0.0, -1.0], [s, -s, s]];
-    for (k, g) in [0.0, 0.75, 0.95, -0.5].into_iter().enumerate() {
+    let dirs = [[0.0, 0.0, -1.0], [1.0, -1.0, 1.0], [6e-5, 8e-5, 1.0]];
+    let gs = [0.0, 0.75, 0.9, 0.95, -0.5];
+    let alpha = sidak_alpha(0.01, gs.len() * dirs.len()).unwrap();
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let unit = |v: [f64; 3]| {
+        let l = dot(v, v).sqrt();
+        [v[0] / l, v[1] / l, v[2] / l]
+    };
+    for (k, g) in gs.into_iter().enumerate() {
         let phase = Phase::hg(g).unwrap();
-        let kc = [1.0 + g * g, 0.5 / g, (1.0 - g) * (1.0 + g), 1.0 - g, 2.0 * g];
+        let kc = [(1.0 - g) as f32, (2.0 * g) as f32, ((1.0 - g) * (1.0 + g)) as f32];
         for (j, d) in dirs.into_iter().enumerate() {
-            // An orthonormal frame (t1, t2, d).
-            let t1 = if d[2].abs() > 0.9 { [1.0, 0.0, 0.0] } else { [s, s, 0.0] };
-            let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-            let t1n = {
-                let p = dot(t1, d);
-                let v = [t1[0] - p * d[0], t1[1] - p * d[1], t1[2] - p * d[2]];
-                let l = dot(v, v).sqrt();
-                [v[0] / l, v[1] / l, v[2] / l]
-            };
-            let t2 = [d[1] * t1n[2] - d[2] * t1n[1], d[2] * t1n[0] - d[0] * t1n[2], d[0] * t1n[1] - d[1] * t1n[0]];
+            let d = unit(d);
+            let df = [d[0] as f32, d[1] as f32, d[2] as f32];
+            // An orthonormal frame (t1, t2, d) of the f32 direction.
+            let d = [df[0] as f64, df[1] as f64, df[2] as f64];
+            let d = unit(d);
+            let t1 = if d[2].abs() > 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 0.0, 1.0] };
+            let p = dot(t1, d);
+            let t1 = unit([t1[0] - p * d[0], t1[1] - p * d[1], t1[2] - p * d[2]]);
+            let t2 = [d[1] * t1[2] - d[2] * t1[1], d[2] * t1[0] - d[0] * t1[2], d[0] * t1[1] - d[1] * t1[0]];
             let mut rng = PhotonRng::new(40 + k as u64, j as u64);
             let samples: Vec<(f64, f64)> = (0..200_000)
                 .map(|_| {
-                    let ct = hg_cos(kc, g == 0.0, u32_to_open01(rng.next_u32()));
-                    let e = spin_word(d[0], d[1], d[2], ct, rng.next_u32());
-                    let e = [e.0, e.1, e.2];
-                    let p = dot(e, t2).atan2(dot(e, t1n));
+                    let m = hg_one_minus_cos(kc, super::math::open01_f32(rng.next_u32()));
+                    let e = spin_word(df[0], df[1], df[2], m, rng.next_u32());
+                    let e = unit([e.0 as f64, e.1 as f64, e.2 as f64]);
+                    let p = dot(e, t2).atan2(dot(e, t1));
                     (dot(e, d).clamp(-1.0, 1.0), if p < 0.0 { p + 2.0 * PI } else { p })
                 })
                 .collect();
             let edges = graded_cos_edges(12, 16, 1e-5).unwrap();
             let r =
                 chi2_test_cos_phi(&samples, &|c, _| phase.pdf(c), &edges, &uniform_edges(0.0, 2.0 * PI, 8)).unwrap();
+            println!("g = {g}, direction {j}: p = {:.3}", r.p_value);
             assert!(r.p_value > alpha, "g = {g}, direction {d:?}: {r:?}");
         }
     }
+}
+
+/// 1 − cos θ keeps its relative precision at the forward peak: against the f64 formula
+/// 1 − cos θ = (t² − (1 − g)²)/(2g) evaluated in exact-enough f64 at the same f32 ξ, within
+/// 6·10⁻⁷ relative (10 roundings of 2⁻²⁴: the formula has 7 correctly rounded operations,
+/// the denominator's error entering twice) over 10⁶ words and the words nearest ξ = 1, for
+/// g = 0.9, 0.99, 10⁻³, −0.7; and 2(1 − ξ) exactly for g = 0.
+#[test]
+fn hg_one_minus_cos_is_relatively_precise() {
+    let mut rng = PhotonRng::new(9, 10);
+    for g in [0.9f64, 0.99, 1e-3, -0.7, 0.0] {
+        let k = [(1.0 - g) as f32, (2.0 * g) as f32, ((1.0 - g) * (1.0 + g)) as f32];
+        let (gf, omg) = (k[1] as f64 / 2.0, k[0] as f64);
+        let mut worst = 0.0f64;
+        let top = (0..4096u32).map(|i| u32::MAX - (i << 9));
+        for w in top.chain((0..1_000_000).map(|_| rng.next_u32())) {
+            let u = super::math::open01_f32(w);
+            let m = hg_one_minus_cos(k, u) as f64;
+            let uf = u as f64;
+            // reference from the f32-rounded constants (the sampler's own g), in f64
+            let d = omg + 2.0 * gf * uf;
+            let exact = omg * (1.0 - uf) * ((k[2] as f64) / d + omg) / d;
+            if g == 0.0 {
+                assert_eq!(m, 2.0 * (1.0 - uf));
+            }
+            worst = worst.max(((m - exact) / exact).abs());
+        }
+        println!("g = {g}: 1 − cos θ within {worst:.2e} relative");
+        assert!(worst < 6e-7, "g = {g}: {worst}");
+    }
+}
+
+/// A long f32 history keeps |u| = 1: 10⁶ successive scatterings (g = 0.9) of one direction
+/// by [`spin_word`] stay within 2.5·10⁻⁷ of unit length (without the Newton step f32
+/// rounding would random-walk |u| by ~10⁻⁴); prints the worst.
+#[test]
+fn spin_word_keeps_unit_length() {
+    let mut rng = PhotonRng::new(11, 12);
+    let k = [0.1f32, 1.8, 0.19];
+    let (mut ux, mut uy, mut uz) = (0.0f32, 0.0f32, 1.0f32);
+    let mut worst = 0.0f64;
+    for _ in 0..1_000_000 {
+        let m = hg_one_minus_cos(k, super::math::open01_f32(rng.next_u32()));
+        (ux, uy, uz) = spin_word(ux, uy, uz, m, rng.next_u32());
+        let n = ((ux as f64).powi(2) + (uy as f64).powi(2) + (uz as f64).powi(2)).sqrt();
+        worst = worst.max((n - 1.0).abs());
+    }
+    println!("spin_word: ||u| − 1| ≤ {worst:.2e} over 10⁶ scatterings");
+    assert!(worst < 2.5e-7, "{worst}");
 }
 
 /// A stack with every feature the kernel branches on: a clear layer, mismatched indices,

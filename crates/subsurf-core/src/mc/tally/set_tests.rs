@@ -415,7 +415,7 @@ fn fluence_in_a_bin_straddling_two_absorbing_layers() {
     assert!(fz.stderr[1].is_nan());
 }
 
-/// The lane kernel's path: deposits of 8 lanes at once (random masks, lanes often staying in
+/// The lane kernel's path: deposits of [`LANES`] lanes at once (random masks, lanes often staying in
 /// their bin — the vector update of the pending sums — or moving, across an interface inside a
 /// straddling bin too), against per-bin sums made by hand.
 #[test]
@@ -433,8 +433,9 @@ fn absorb_lanes_pending_sums_match_per_bin_sums() {
         let (mut x, mut y, mut z, mut dep) = ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
         let mut layer = [0u32; LANES];
         // (all lanes in one step out of 8, as in the overflow bins of a thick medium)
-        let all = if rng.next_u64().is_multiple_of(8) { 0xff } else { 0 };
-        let mask = (rng.next_u64() & 0xff) as u32 | all;
+        let full = ((1u64 << LANES) - 1) as u32;
+        let all = if rng.next_u64().is_multiple_of(8) { full } else { 0 };
+        let mask = rng.next_u64() as u32 & full | all;
         for i in 0..LANES {
             if rng.next_u64().is_multiple_of(5) {
                 spot[i] = (rng.next_u64() % spots.len() as u64) as usize;

@@ -1,0 +1,228 @@
+//! Phases 1 and 2 of the lane step (see `super`): stepping, interaction and scattering, and
+//! Fresnel at interfaces; and the f32 scattering samplers they inline.
+
+use super::*;
+
+/// 1 − cos θ from a Henyey–Greenstein lobe, in f32, by inverting its CDF (MCML eq. 3.28:
+/// cos θ = (1 + g² − t²)/(2g), t = (1 − g²)/(1 − g + 2gξ)) in the cancellation-free form
+/// 1 − cos θ = (t² − (1 − g)²)/(2g) = (1 − g)(1 − ξ)(t + 1 − g)/(1 − g + 2gξ)
+/// (t − (1 − g) = 2g(1 − g)(1 − ξ)/(1 − g + 2gξ)), which keeps its relative precision as
+/// θ → 0 (so does sin²θ = m(2 − m) computed from it: the forward peak at g = 0.9) and needs
+/// no 1/g (g = 0 gives 2(1 − ξ) exactly: isotropic scattering without a special case).
+/// Constants `k` = 1 − g, 2g, 1 − g² (f32); the result is clamped to ≤ 2 (rounding).
+#[inline(always)]
+pub(in crate::mc::lanes) fn hg_one_minus_cos(k: [f32; 3], u: f32) -> f32 {
+    let [omg, two_g, omg2] = k;
+    let d = omg + two_g * u;
+    let t = omg2 / d;
+    (omg * (1.0 - u) * (t + omg) / d).min(2.0)
+}
+
+/// |ux|² + |uy|² below which [`spin_word`] uses the normal-incidence form (the transverse
+/// part of an f32 direction keeps full relative precision down to here).
+const POLE_T2: f32 = 1e-12;
+
+/// MCML's direction update (Wang et al. 1995, eq. 3.30; [`crate::optics::spin`]) in f32 of
+/// the direction (ux, uy, uz) by the polar angle given as m = 1 − cos θ and the azimuth
+/// φ = 2πu of the 32-bit `word` ([`cos_sin_2pi_f32`]), with one square root and one division:
+/// ρ² = ux² + uy² (not 1 − uz², which loses its relative precision as |uz| → 1),
+/// q = sin θ/ρ, u′x = q (ux uz cos φ − uy sin φ) + ux cos θ, u′y = q (uy uz cos φ +
+/// ux sin φ) + uy cos θ, u′z = −q cos φ ρ² + uz cos θ; for ρ² < [`POLE_T2`] the
+/// normal-incidence form (sin θ cos φ, sin θ sin φ, ± cos θ). Then one Newton step towards
+/// |u′| = 1, u′ ← u′ (3 − |u′|²)/2, so that f32 rounding does not random-walk |u| over a
+/// long history (see "Precision" in the module docs of `mc::lanes`).
+#[inline(always)]
+pub(in crate::mc::lanes) fn spin_word(ux: f32, uy: f32, uz: f32, m: f32, word: u32) -> (f32, f32, f32) {
+    let (cp, sp) = cos_sin_2pi_f32(word);
+    let cth = 1.0 - m;
+    let t2 = ux * ux + uy * uy;
+    let normal = t2 < POLE_T2;
+    let den = sel_f32(normal, 1.0, t2);
+    let q = (m * (2.0 - m) / den).sqrt();
+    let (a, b) = (q * cp, q * sp);
+    let gx = a * ux * uz - b * uy + ux * cth;
+    let gy = a * uy * uz + b * ux + uy * cth;
+    let gz = -a * t2 + uz * cth;
+    let nz_normal = sel_f32(uz > 0.0, cth, -cth);
+    let (nx, ny, nz) = (sel_f32(normal, a, gx), sel_f32(normal, b, gy), sel_f32(normal, nz_normal, gz));
+    let k = 1.5 - 0.5 * (nx * nx + ny * ny + nz * nz);
+    (nx * k, ny * k, nz * k)
+}
+
+/// The largest roulette word that survives: u = (r + ½)·2⁻³² ≤ 1/M ⇔ r ≤ 2³²/M − ½ (an
+/// integer comparison, exact).
+const SURVIVE_MAX: u32 = (4_294_967_296.0 / ROULETTE_M - 0.5) as u32;
+
+/// Phase 1, one loop over the lanes: step every live lane to its interaction point or to the
+/// interface ahead; a lane that stays inside its layer then interacts: absorption by weight,
+/// scattering (1 − cos θ from its Henyey–Greenstein lobe by [`hg_one_minus_cos`], or from
+/// `sc.one_minus_cos` when `mixture`; azimuth from its word; MCML's direction update by
+/// [`spin_word`]) and roulette. Lanes that hit an interface go to [`interfaces`].
+/// Returns the number of scattering events. (`positions` and `mixture` are constant per run:
+/// their branches are hoisted; `CLEAR` is false when no layer is clear, which removes the
+/// clear-layer rules' masks from the loop.)
+#[inline(always)]
+pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> u32 {
+    let mut n_int = [0u32; L];
+    for i in 0..L {
+        // Step.
+        let live = on(st.live[i]);
+        let (sigma_t, inv_sigma_t, z0, z1) = (st.l.sigma_t[i], st.l.inv_sigma_t[i], st.l.z0[i], st.l.z1[i]);
+        let clear = CLEAR && sigma_t == 0.0;
+        let need = live & (st.s_left[i] <= 0.0) & !clear;
+        let fresh = neg_ln_f32(open01_f32(sc.words[0][i])) as f64;
+        let sl = sel(need, fresh, st.s_left[i]);
+        let s = sl * inv_sigma_t;
+        let (x, y, z) = (st.x[i], st.y[i], st.z[i]);
+        let (ux, uy, uz) = (st.ux[i], st.uy[i], st.uz[i]);
+        let (uxd, uyd, uzd) = (ux as f64, uy as f64, uz as f64);
+        let zn = z + s * uzd;
+        let crossed = clear | (zn > z1) | (zn < z0);
+        // `mc::kernel`'s termination rules: down a semi-infinite clear layer the packet is
+        // transmitted; an interface hit counts towards the trapping limit (parallel to the
+        // faces of a clear layer it is trapped at once); after `CLEAR_HITS_STEPWISE` hits in a
+        // finite clear layer its remaining bounces are sampled at once. All three are rare
+        // and handled lane by lane.
+        let h1 = st.hits[i].wrapping_add(1);
+        let clear_down = live & clear & (uz > 0.0) & (z1 == f64::INFINITY);
+        let trapped = live & !clear_down & ((clear & (uz == 0.0)) | (crossed & (h1 > MAX_HITS_WITHOUT_INTERACTION)));
+        let bounces = live & clear & !clear_down & !trapped & (h1 > CLEAR_HITS_STEPWISE) & (z1 < f64::INFINITY);
+        let moving = live & !clear_down & !trapped & !bounces;
+        let h = moving & crossed;
+        // A lane that reaches an interface is moved onto it by `interfaces` (the distance
+        // needs a division, which the common path does without).
+        let stp = sel(moving & !h, s, 0.0);
+        st.x[i] = x + stp * uxd;
+        st.y[i] = y + stp * uyd;
+        st.z[i] = z + stp * uzd;
+        st.path[i] += st.l.n[i] * stp;
+        st.s_left[i] = sel(moving & !h, 0.0, sl);
+        st.hits[i] = selu(h | bounces, h1, selu(moving, 0, st.hits[i]));
+        sc.hit[i] = mk(h);
+        let f = selq(clear_down, fate::CLEAR_DOWN, fate::MOVING);
+        let f = selq(trapped, fate::TRAPPED, f);
+        let f = selq(bounces, fate::BOUNCES, f);
+        // Interaction.
+        let it = moving & !h;
+        sc.interact[i] = mk(it);
+        let w0 = st.w[i];
+        let w1 = w0 * st.l.keep_frac[i];
+        let dw = w0 - w1;
+        let absorbed_all = w1 <= 0.0;
+        let scatter = it & !absorbed_all;
+        let m = if mixture {
+            sc.one_minus_cos[i]
+        } else {
+            let hg = &st.l.hg;
+            hg_one_minus_cos([hg[0][i], hg[1][i], hg[2][i]], open01_f32(sc.words[1][i]))
+        };
+        let (nx, ny, nz) = spin_word(ux, uy, uz, m, sc.words[2][i]);
+        st.ux[i] = sel_f32(scatter, nx, ux);
+        st.uy[i] = sel_f32(scatter, ny, uy);
+        st.uz[i] = sel_f32(scatter, nz, uz);
+        st.order[i] = st.order[i].wrapping_add(scatter as u32);
+        n_int[i] = scatter as u32;
+        // Russian roulette below `ROULETTE_THRESHOLD` × the entering weight; its zero-mean
+        // control term goes to `Tally::roulette` (not to absorption), lane by lane.
+        let low = scatter & (w1 < st.w_min[i]);
+        let survive = sc.words[3][i] <= SURVIVE_MAX;
+        let (kept, boosted) = (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M);
+        let control = sel(survive, kept, w1);
+        sc.rou[i] = sel(low, control, 0.0);
+        let dep = sel(it, dw, 0.0);
+        sc.dep[i] = dep;
+        if !positions {
+            st.absorbed[i] += dep;
+        }
+        let w_low = sel(survive, boosted, 0.0);
+        let w2 = sel(low, w_low, w1);
+        st.w[i] = sel(it, w2, w0);
+        let died = it & (absorbed_all | (low & !survive));
+        sc.fate[i] = selq(died, fate::DIED, f);
+        sc.att[i] = mk(died | clear_down | trapped | bounces | low);
+    }
+    n_int.iter().sum()
+}
+
+/// The sign bit of a lane mask: [`interfaces`] adds it to `Scratch::att` (OR-ing all ones
+/// there makes LLVM emit a masked store, which the next load cannot forward from).
+const SIGN: u64 = 1 << 63;
+
+/// Phase 2: Fresnel reflection or refraction of the lanes that hit an interface.
+#[inline(always)]
+pub(super) fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) {
+    for i in 0..L {
+        let l = &st.l;
+        let h = on(sc.hit[i]);
+        let uz = st.uz[i] as f64;
+        let (ux, uy) = (st.ux[i] as f64, st.uy[i] as f64);
+        let up = uz < 0.0;
+        let n_t = sel(up, l.n_up[i], l.n_down[i]);
+        let eta = sel(up, l.eta_up[i], l.eta_down[i]);
+        let cc = sel(up, l.cc_up[i], l.cc_down[i]);
+        let ni = l.n[i];
+        // Onto the interface ahead, keeping the unused optical depth (MCML's HitBoundary).
+        let zb = sel(up, l.z0[i], l.z1[i]);
+        let db = (zb - st.z[i]) / uz;
+        let d = sel(h, db, 0.0);
+        st.x[i] += d * ux;
+        st.y[i] += d * uy;
+        st.z[i] = sel(h, zb, st.z[i]);
+        st.path[i] += ni * d;
+        st.s_left[i] -= d * l.sigma_t[i];
+        let ci = uz.abs().min(1.0);
+        if MATCHED {
+            // Every index equal (`MATCHED`): no reflection, no refraction, no draw.
+            let layer = st.layer[i];
+            let out = (up & (layer == 0)) | (!up & (layer == last));
+            let cross = h & !out;
+            sc.ox[i] = ux;
+            sc.oy[i] = uy;
+            sc.oz[i] = uz;
+            let (dn, upl) = (layer.wrapping_add(1), layer.wrapping_sub(1));
+            st.layer[i] = selu(cross, selu(up, upl, dn), layer);
+            let esc = selq(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
+            sc.fate[i] = selq(h & out, esc, selq(cross, fate::CROSSED, sc.fate[i]));
+            sc.att[i] |= mk(h) & SIGN;
+            continue;
+        }
+        // Fresnel (as optics::fr_dielectric_cos_t): sin²θt = η²(1 − cos²θi).
+        let st2 = eta * eta * (1.0 - ci * ci).max(0.0);
+        let ct = (1.0 - st2).max(0.0).sqrt();
+        let rs = (ni * ci - n_t * ct) / (ni * ci + n_t * ct);
+        let rp = (n_t * ci - ni * ct) / (n_t * ci + ni * ct);
+        let tir = (ci <= cc) | (st2 >= 1.0);
+        let matched = ni == n_t;
+        let rf = 0.5 * (rs * rs + rp * rp);
+        let r = sel(matched, 0.0, rf);
+        let r = sel(tir, 1.0, r);
+        let cos_t = sel(matched, ci, ct);
+        let cos_t = sel(tir, 0.0, cos_t);
+        let need = h & (r > 0.0) & (r < 1.0);
+        let u = u32_to_open01(draw(&mut st.s, i, need));
+        let transmit = (r <= 0.0) | (need & (u > r));
+        let layer = st.layer[i];
+        let out = transmit & ((up & (layer == 0)) | (!up & (layer == last)));
+        let cross = h & transmit & !out;
+        let refl = h & !transmit;
+        let nz = sel(up, -cos_t, cos_t);
+        let (ox, oy) = (ux * eta, uy * eta);
+        sc.ox[i] = ox;
+        sc.oy[i] = oy;
+        sc.oz[i] = nz;
+        // (back to f32: a refracted direction is (η ux, η uy, ±cos θt), unit to f64 rounding;
+        // |uz| rounded up, see `to_f32_up`)
+        st.ux[i] = sel_f32(cross, ox as f32, st.ux[i]);
+        st.uy[i] = sel_f32(cross, oy as f32, st.uy[i]);
+        let uz_new = sel_f32(refl, -st.uz[i], st.uz[i]);
+        st.uz[i] = sel_f32(cross, to_f32_up(nz), uz_new);
+        let (dn, upl) = (layer.wrapping_add(1), layer.wrapping_sub(1));
+        let next = selu(up, upl, dn);
+        st.layer[i] = selu(cross, next, layer);
+        st.refl[i] = st.refl[i].wrapping_add(refl as u32);
+        let esc = selq(up, fate::ESCAPE_TOP, fate::ESCAPE_BOTTOM);
+        let f = selq(cross, fate::CROSSED, sc.fate[i]);
+        sc.fate[i] = selq(h & out, esc, f);
+        sc.att[i] |= mk(cross | (h & out)) & SIGN;
+    }
+}
