@@ -28,7 +28,7 @@
 //! - **f64: interfaces** (Fresnel, refraction, the distance to the interface): rare next to
 //!   interactions; the f32 direction is converted, the refracted one stored back as f32.
 //! - **f32: the direction** (ux, uy, uz) and everything that makes a new one: the HG polar
-//!   angle, the azimuth's cos/sin and MCML's direction update ([`kernel`]'s `spin_word`), and
+//!   angle, the azimuth's cos/sin and MCML's direction update (`kernel::step::spin_word`), and
 //!   −ln ξ for the optical depth (converted to f64 before it scales a step). A direction
 //!   error of 10⁻⁷ rad moves a packet 10⁻⁷ of its step, far below any tally bin; the
 //!   sampled distributions are what the tests check (χ² of 1 − cos θ × φ with cells down to
@@ -42,16 +42,25 @@
 //! direction update uses ρ² = ux² + uy² instead of 1 − uz² for the same reason near the
 //! pole, and one Newton step u ← u(3 − |u|²)/2 renormalises it: |u| stays within 1.3·10⁻⁷
 //! of 1 over 10⁶ successive scatterings (MCML's update renormalises nothing, and f32
-//! rounding would random-walk |u| over a 10⁴-event history). The Newton step is 5 f32
-//! operations; a division by √|u|² costs a square root and a division in the same loop. The
+//! rounding would random-walk |u| over a 10⁴-event history). Dividing by √|u|² instead
+//! (1.2·10⁻⁷) measured the same speed on case c and 4 % slower on case d (medians of 7 A/B
+//! pairs), so the Newton step stays. The
 //! uniforms in f32 are (k + ½)·2⁻²³ from the top 23 bits of a word ([`math::open01_f32`]):
 //! an optical depth is at most −ln 2⁻²⁴ = 16.6 (probability e⁻¹⁶·⁶ = 6·10⁻⁸ lost from the
 //! tail of the exponential). The roulette ξ is compared as an integer (exact). The random
 //! words stay 32-bit (xoshiro128++ as in [`crate::rng`]).
 //!
+//! Speed (2026-12-01, shared 2-core AVX-512 Xeon, medians of 7 interleaved A/B pairs of
+//! `examples/mc_speed`, 1 thread, against the 8-lane all-f64 kernel): totals 1.07× (case a),
+//! 1.32× (c), 1.23× (d); MCML's tally set 1.06×, 1.14×, 1.10×. On AVX2 (forced) 1.01× (c)
+//! and 1.13× (d); callgrind's instructions per event on AVX2 −4 % (a), −8 % (c), −11 % (d).
+//! The results are not those of the all-f64 kernel bit for bit, but nearly: the same words
+//! drive the same choices, so the published tables moved in their last digit only.
+//!
 //! Random-number order within a photon's stream (differs from the scalar reference kernel
 //! only there): source draws, then four words per lane step, drawn whether or not the step
-//! uses them (optical depth, phase ξ, azimuth φ = 2πu by [`math::cos_sin_2pi_f32`], roulette ξ),
+//! uses them (optical depth, phase ξ, azimuth φ = 2πu by [`math::cos_sin_2pi_f32`], roulette
+//! word compared as an integer),
 //! and a Fresnel ξ at an interface hit with 0 < R < 1 (see `kernel::draw_words`); the
 //! clear-layer bounce sampling of `mc::kernel` draws its two uniforms from the lane's stream.
 
