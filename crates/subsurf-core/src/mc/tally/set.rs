@@ -497,11 +497,12 @@ impl Tally for TallySet {
         self.absorb_lanes(&Deposits { x: &x, y: &y, z: &z, layer: &layer, dep: &dep, mask: 1 << lane });
     }
 
-    /// Bins of all lanes first (a loop LLVM vectorises); when every depositing lane stays in
-    /// the bin (and layer) of its pending sum, the sums are updated as one vector operation,
-    /// else lane by lane, where a lane that moved to another bin or layer flushes its pending
-    /// sum and starts a new one. In thick or deep media most deposits land in the overflow
-    /// bins, so most steps take the vector path.
+    /// Bins of all lanes first (a loop LLVM vectorises); the depositing lanes that stay in the
+    /// bin (and layer) of their pending sums update them as one masked vector add, then each
+    /// lane that moved to another bin or layer flushes its pending sum and starts a new one.
+    /// (A branch per lane on "moved" mispredicted in 18 % of its runs in case c, callgrind's
+    /// branch simulation; the loop over the moved lanes' bits has none: the run's
+    /// mispredictions fell from 0.47 to 0.18 per event.)
     #[inline(always)]
     fn absorb_lanes(&mut self, d: &Deposits) {
         if self.acc[A_Z].is_empty() || d.mask == 0 {
@@ -520,23 +521,22 @@ impl Tally for TallySet {
         for i in 0..LANES {
             same |= ((self.pend_bin[i] == irz[i]) as u32 & (self.pend_layer[i] == d.layer[i]) as u32) << i;
         }
-        if same & d.mask == d.mask {
-            // (+0.0 leaves a pending sum's bits as they are: the sums are never −0)
-            for i in 0..LANES {
-                self.pend[i] += if d.mask & (1 << i) != 0 { d.dep[i] } else { 0.0 };
-            }
-        } else {
-            for i in d.lanes() {
-                if same & (1 << i) != 0 {
-                    self.pend[i] += d.dep[i];
-                } else {
-                    self.flush_lane(i);
-                    self.pend_bin[i] = irz[i];
-                    self.pend_iz[i] = iz[i];
-                    self.pend_layer[i] = d.layer[i];
-                    self.pend[i] = d.dep[i];
-                }
-            }
+        // Lanes that stay in their pending bins: one masked vector add (+0.0 leaves a pending
+        // sum's bits as they are: the sums are never −0); then, lane by lane, only those that
+        // moved to another bin (no branch per lane: the loop visits the set bits).
+        let keep = same & d.mask;
+        for i in 0..LANES {
+            self.pend[i] += if keep & (1 << i) != 0 { d.dep[i] } else { 0.0 };
+        }
+        let mut moved = d.mask & !same;
+        while moved != 0 {
+            let i = moved.trailing_zeros() as usize;
+            moved &= moved - 1;
+            self.flush_lane(i);
+            self.pend_bin[i] = irz[i];
+            self.pend_iz[i] = iz[i];
+            self.pend_layer[i] = d.layer[i];
+            self.pend[i] = d.dep[i];
         }
     }
 
