@@ -224,9 +224,9 @@ pub struct TallySet {
     /// read-modify-writes on that bin, and lets a step whose lanes all stay in their bins
     /// update the pending sums as one vector operation. Flushed when the lane moves to another
     /// bin, at each batch end and before draining.
-    pend_bin: [usize; LANES],
+    pend_bin: [u32; LANES],
     /// The depth bin of `pend_bin` (saves a division per flush).
-    pend_iz: [usize; LANES],
+    pend_iz: [u32; LANES],
     pend: [f64; LANES],
     /// The layer of `pend_bin`'s deposits (a lane that crosses an interface inside a bin starts
     /// a new pending sum, so that one μa applies to each: Σ dw μa,min/μa = μa,min/μa Σ dw).
@@ -238,7 +238,7 @@ pub struct TallySet {
 }
 
 /// No pending deposit.
-const NO_BIN: usize = usize::MAX;
+const NO_BIN: u32 = u32::MAX;
 
 /// The name or description of spec `text` for side `side` (0 = rd, 1 = tt).
 fn expand(text: &str, side: usize, max_order: u32) -> String {
@@ -317,8 +317,8 @@ impl TallySet {
     /// callgrind a mcml −3.4 % instructions.)
     #[inline(always)]
     fn flush_lane(&mut self, i: usize) {
-        let (irz, iz) = (self.pend_bin[i], self.pend_iz[i]);
-        if irz != NO_BIN {
+        let (irz, iz) = (self.pend_bin[i] as usize, self.pend_iz[i] as usize);
+        if self.pend_bin[i] != NO_BIN {
             let dw = self.pend[i];
             self.acc[A_Z].add(iz, dw);
             self.acc[A_RZ].add(irz, dw);
@@ -509,13 +509,15 @@ impl Tally for TallySet {
             return;
         }
         let (nz, nr) = (self.cfg.nz, self.cfg.nr);
-        let (mut iz, mut irz) = ([0usize; LANES], [0usize; LANES]);
+        // (u32 bins: below `MAX_BINS` < 2³², and the lanes' bins fit one vector register)
+        let (nz, nr) = (nz as u32, nr);
+        let (mut iz, mut irz) = ([0u32; LANES], [0u32; LANES]);
         let mut same = 0u32;
         for i in 0..LANES {
             let r = (d.x[i] * d.x[i] + d.y[i] * d.y[i]).sqrt();
-            let z = bin_clamped(d.z[i], self.inv_dz, nz);
+            let z = bin_clamped(d.z[i], self.inv_dz, nz as usize) as u32;
             iz[i] = z;
-            irz[i] = bin_clamped(r, self.inv_dr, nr) * nz + z;
+            irz[i] = bin_clamped(r, self.inv_dr, nr) as u32 * nz + z;
         }
         // (a loop of its own: in the one above it makes LLVM use 2-wide vectors)
         for i in 0..LANES {
