@@ -224,9 +224,9 @@ pub struct TallySet {
     /// read-modify-writes on that bin, and lets a step whose lanes all stay in their bins
     /// update the pending sums as one vector operation. Flushed when the lane moves to another
     /// bin, at each batch end and before draining.
-    pend_bin: [usize; LANES],
+    pend_bin: [u32; LANES],
     /// The depth bin of `pend_bin` (saves a division per flush).
-    pend_iz: [usize; LANES],
+    pend_iz: [u32; LANES],
     pend: [f64; LANES],
     /// The layer of `pend_bin`'s deposits (a lane that crosses an interface inside a bin starts
     /// a new pending sum, so that one μa applies to each: Σ dw μa,min/μa = μa,min/μa Σ dw).
@@ -238,7 +238,7 @@ pub struct TallySet {
 }
 
 /// No pending deposit.
-const NO_BIN: usize = usize::MAX;
+const NO_BIN: u32 = u32::MAX;
 
 /// The name or description of spec `text` for side `side` (0 = rd, 1 = tt).
 fn expand(text: &str, side: usize, max_order: u32) -> String {
@@ -317,8 +317,8 @@ impl TallySet {
     /// callgrind a mcml −3.4 % instructions.)
     #[inline(always)]
     fn flush_lane(&mut self, i: usize) {
-        let (irz, iz) = (self.pend_bin[i], self.pend_iz[i]);
-        if irz != NO_BIN {
+        let (irz, iz) = (self.pend_bin[i] as usize, self.pend_iz[i] as usize);
+        if self.pend_bin[i] != NO_BIN {
             let dw = self.pend[i];
             self.acc[A_Z].add(iz, dw);
             self.acc[A_RZ].add(irz, dw);
@@ -497,46 +497,48 @@ impl Tally for TallySet {
         self.absorb_lanes(&Deposits { x: &x, y: &y, z: &z, layer: &layer, dep: &dep, mask: 1 << lane });
     }
 
-    /// Bins of all lanes first (a loop LLVM vectorises); when every depositing lane stays in
-    /// the bin (and layer) of its pending sum, the sums are updated as one vector operation,
-    /// else lane by lane, where a lane that moved to another bin or layer flushes its pending
-    /// sum and starts a new one. In thick or deep media most deposits land in the overflow
-    /// bins, so most steps take the vector path.
+    /// Bins of all lanes first (a loop LLVM vectorises); the depositing lanes that stay in the
+    /// bin (and layer) of their pending sums update them as one masked vector add, then each
+    /// lane that moved to another bin or layer flushes its pending sum and starts a new one.
+    /// (A branch per lane on "moved" mispredicted in 18 % of its runs in case c, callgrind's
+    /// branch simulation; the loop over the moved lanes' bits has none: the run's
+    /// mispredictions fell from 0.47 to 0.18 per event.)
     #[inline(always)]
     fn absorb_lanes(&mut self, d: &Deposits) {
         if self.acc[A_Z].is_empty() || d.mask == 0 {
             return;
         }
         let (nz, nr) = (self.cfg.nz, self.cfg.nr);
-        let (mut iz, mut irz) = ([0usize; LANES], [0usize; LANES]);
+        // (u32 bins: below `MAX_BINS` < 2³², and the lanes' bins fit one vector register)
+        let (nz, nr) = (nz as u32, nr);
+        let (mut iz, mut irz) = ([0u32; LANES], [0u32; LANES]);
         let mut same = 0u32;
         for i in 0..LANES {
             let r = (d.x[i] * d.x[i] + d.y[i] * d.y[i]).sqrt();
-            let z = bin_clamped(d.z[i], self.inv_dz, nz);
+            let z = bin_clamped(d.z[i], self.inv_dz, nz as usize) as u32;
             iz[i] = z;
-            irz[i] = bin_clamped(r, self.inv_dr, nr) * nz + z;
+            irz[i] = bin_clamped(r, self.inv_dr, nr) as u32 * nz + z;
         }
         // (a loop of its own: in the one above it makes LLVM use 2-wide vectors)
         for i in 0..LANES {
             same |= ((self.pend_bin[i] == irz[i]) as u32 & (self.pend_layer[i] == d.layer[i]) as u32) << i;
         }
-        if same & d.mask == d.mask {
-            // (+0.0 leaves a pending sum's bits as they are: the sums are never −0)
-            for i in 0..LANES {
-                self.pend[i] += if d.mask & (1 << i) != 0 { d.dep[i] } else { 0.0 };
-            }
-        } else {
-            for i in d.lanes() {
-                if same & (1 << i) != 0 {
-                    self.pend[i] += d.dep[i];
-                } else {
-                    self.flush_lane(i);
-                    self.pend_bin[i] = irz[i];
-                    self.pend_iz[i] = iz[i];
-                    self.pend_layer[i] = d.layer[i];
-                    self.pend[i] = d.dep[i];
-                }
-            }
+        // Lanes that stay in their pending bins: one masked vector add (+0.0 leaves a pending
+        // sum's bits as they are: the sums are never −0); then, lane by lane, only those that
+        // moved to another bin (no branch per lane: the loop visits the set bits).
+        let keep = same & d.mask;
+        for i in 0..LANES {
+            self.pend[i] += if keep & (1 << i) != 0 { d.dep[i] } else { 0.0 };
+        }
+        let mut moved = d.mask & !same;
+        while moved != 0 {
+            let i = moved.trailing_zeros() as usize;
+            moved &= moved - 1;
+            self.flush_lane(i);
+            self.pend_bin[i] = irz[i];
+            self.pend_iz[i] = iz[i];
+            self.pend_layer[i] = d.layer[i];
+            self.pend[i] = d.dep[i];
         }
     }
 
