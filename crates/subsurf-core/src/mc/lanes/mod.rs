@@ -50,10 +50,11 @@
 //! tail of the exponential). The roulette ξ is compared as an integer (exact). The random
 //! words stay 32-bit (xoshiro128++ as in [`crate::rng`]).
 //!
-//! Speed (2026-12-01, shared 2-core AVX-512 Xeon, medians of 7 interleaved A/B pairs of
-//! `examples/mc_speed`, 1 thread, against the 8-lane all-f64 kernel): totals 1.07× (case a),
-//! 1.32× (c), 1.23× (d); MCML's tally set 1.06×, 1.14×, 1.10×. On AVX2 (forced) 1.01× (c)
-//! and 1.13× (d); callgrind's instructions per event on AVX2 −4 % (a), −8 % (c), −11 % (d).
+//! Speed (2026-12-01, shared 2-core AVX-512 Xeon, `examples/mc_speed`, 1 thread, medians of
+//! 7 interleaved A/B pairs against the 8-lane all-f64 kernel, two sessions): totals 1.07–1.21×
+//! (case a), 1.30–1.32× (c), 1.23–1.37× (d); MCML's tally set 1.06–1.09×, 1.05–1.14×,
+//! 1.03–1.10× (the tallies' share of the time does not shrink). AVX2 (forced): 1.01× (c),
+//! 1.13× (d); callgrind's instructions per event on AVX2: −2 % (a), −7 % (c), −10 % (d).
 //! The results are not those of the all-f64 kernel bit for bit, but nearly: the same words
 //! drive the same choices, so the published tables moved in their last digit only.
 //!
