@@ -19,7 +19,7 @@
 
 mod step;
 
-use super::math::{cos_sin_2pi_f32, neg_ln_f32, open01_f32, sel, sel_f32, to_f32_up};
+use super::math::{cos_sin_2pi_f32, neg_ln_f32, open01_f32, open01_f32_fine, sel, sel_f32, to_f32_up};
 use super::{Isa, LANES};
 use crate::mc::config::{ROULETTE_M, ROULETTE_THRESHOLD};
 use crate::mc::kernel::{KLayer, Kernel};

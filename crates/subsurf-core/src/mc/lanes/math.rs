@@ -15,7 +15,8 @@
 //!   x = 2π(2r′ + 1)·2⁻³³ rounded once, then Cephes' single-precision kernels (sinf.c,
 //!   cosf.c, Moshier 1985–1989: sin x = x + x³ P(x²), cos x = 1 − x²/2 + x⁴ Q(x²), |x| ≤ π/4);
 //!   measured ≤ 1.2·10⁻⁷ absolute (≤ 2.6 ulp of the f32 result) against f64's.
-//! - [`open01_f32`]: a 32-bit word to the f32 uniform (k + ½)·2⁻²³, k = r >> 9, exact.
+//! - [`open01_f32`]: a 32-bit word to the f32 uniform (k + ½)·2⁻²³, k = r >> 9, exact;
+//!   [`open01_f32_fine`] the finer one of the optical depth (31 bits, spacing ≤ 2⁻²³ relative).
 
 /// fdlibm e_logf.c: ln 2 = LN2_HI_F + LN2_LO_F (LN2_HI_F has 12 trailing zero bits, so
 /// e · LN2_HI_F is exact for |e| < 2¹²), and the Remez coefficients Lg1…Lg4.
@@ -31,7 +32,19 @@ pub fn open01_f32(r: u32) -> f32 {
     f32::from_bits(0x3F80_0000 | (r >> 9)) - (1.0 - 0.5 / 8_388_608.0)
 }
 
-/// −ln u for a normal f32 0 < u < 1 (see the module docs); ≥ 0.
+/// The f32 uniform of the top 31 bits k = r >> 1 of a 32-bit word for the optical depth
+/// −ln u: u = (f32(k) + ½)·2⁻³¹ in [2⁻³², 1] (k converted with rounding to nearest — a signed
+/// conversion, which every instruction set has and rounds alike — then ½ added with one more
+/// rounding; within 2⁻²³ relative of (k + ½)·2⁻³¹). Relative spacing ≤ 2⁻²³ down to the smallest u, so an optical depth reaches
+/// −ln 2⁻³² = 22.2 (the exponential's tail beyond it, 2.3·10⁻¹⁰, is lost; with
+/// [`open01_f32`]'s 23 bits it would be 16.6 and 6·10⁻⁸). The top 64 words round to u = 1, an
+/// optical depth of 0 (the mass of [0, 3·10⁻⁸) moved to 0).
+#[inline(always)]
+pub fn open01_f32_fine(r: u32) -> f32 {
+    ((r >> 1) as i32 as f32 + 0.5) * (1.0 / 2_147_483_648.0)
+}
+
+/// −ln u for a normal f32 0 < u ≤ 1 (see the module docs); ≥ 0 (−ln 1 = 0).
 #[inline(always)]
 pub fn neg_ln_f32(u: f32) -> f32 {
     let bits = u.to_bits();
@@ -138,6 +151,29 @@ mod tests {
         }
     }
 
+    /// The optical depth's uniform: (f32(r >> 1) + ½)·2⁻³¹ within 2⁻²³ relative (two roundings of
+    /// at most 2⁻²⁴) of the exact
+    /// (k + ½)·2⁻³¹, in [2⁻³², 1], exact for k < 2²³, and 1 (−ln u = 0) only for the top words.
+    #[test]
+    fn open01_f32_fine_is_within_an_ulp() {
+        let mut r = PhotonRng::new(15, 16);
+        let edges = (0..4096u32).chain((0..4096u32).map(|k| u32::MAX - k));
+        for x in edges.chain((0..1_000_000).map(|_| r.next_u32())) {
+            let u = open01_f32_fine(x);
+            let exact = ((x >> 1) as f64 + 0.5) / 2_147_483_648.0;
+            assert!(((u as f64 - exact) / exact).abs() <= 1.0 / 8_388_608.0, "r = {x:#x}: {u} vs {exact}");
+            assert!(u > 0.0 && u <= 1.0);
+            if x >> 1 < 1 << 23 {
+                assert_eq!(u as f64, exact);
+            }
+        }
+        assert_eq!(open01_f32_fine(0) as f64, 2f64.powi(-32));
+        assert_eq!(open01_f32_fine(u32::MAX), 1.0);
+        assert!(open01_f32_fine(u32::MAX - 128) < 1.0);
+        assert_eq!(neg_ln_f32(1.0), 0.0);
+        assert_eq!(neg_ln_f32(open01_f32_fine(0)) as f64, (32.0 * std::f64::consts::LN_2) as f32 as f64);
+    }
+
     /// −ln u in f32 within 1 ulp of f64's `ln` (rounded argument: the f32 uniform itself) over
     /// every uniform the kernel can draw near the ends, powers of two, both sides of √2 and
     /// 10⁶ random words; prints the largest error.
@@ -148,9 +184,10 @@ mod tests {
         let words = [0x6A09_E667u32, 0xB504_F333, 0xB504_F400, 0x8000_0000, 0x4000_0000];
         let mut worst = 0.0f64;
         for x in edges.chain(words).chain((0..1_000_000).map(|_| r.next_u32())) {
-            let u = open01_f32(x);
-            let e = ulps_f32(neg_ln_f32(u), -(u as f64).ln());
-            worst = worst.max(e);
+            for u in [open01_f32(x), open01_f32_fine(x), open01_f32_fine(x >> 9)] {
+                let e = ulps_f32(neg_ln_f32(u), -(u as f64).ln());
+                worst = worst.max(e);
+            }
         }
         println!("neg_ln_f32: max error {worst:.3} ulp");
         assert!(worst <= 1.0, "{worst} ulp");

@@ -45,9 +45,11 @@
 //! rounding would random-walk |u| over a 10⁴-event history). Dividing by √|u|² instead
 //! (1.2·10⁻⁷) measured the same speed on case c and 4 % slower on case d (medians of 7 A/B
 //! pairs), so the Newton step stays. The
-//! uniforms in f32 are (k + ½)·2⁻²³ from the top 23 bits of a word ([`math::open01_f32`]):
-//! an optical depth is at most −ln 2⁻²⁴ = 16.6 (probability e⁻¹⁶·⁶ = 6·10⁻⁸ lost from the
-//! tail of the exponential). The roulette ξ is compared as an integer (exact). The random
+//! uniforms of the polar angle are (k + ½)·2⁻²³ from the top 23 bits of a word
+//! ([`math::open01_f32`]); the optical depth's uses 31 bits ([`math::open01_f32_fine`],
+//! relative spacing ≤ 2⁻²³ down to 2⁻³²): an optical depth is at most −ln 2⁻³² = 22.2, the
+//! same cut as f64 uniforms of a 32-bit word (e⁻²²·² = 2.3·10⁻¹⁰ lost from the tail of the
+//! exponential; 23 bits would cut at 16.6 and lose 6·10⁻⁸). The roulette ξ is compared as an integer (exact). The random
 //! words stay 32-bit (xoshiro128++ as in [`crate::rng`]).
 //!
 //! Speed (2026-12-01, shared 2-core AVX-512 Xeon, `examples/mc_speed`, 1 thread, medians of

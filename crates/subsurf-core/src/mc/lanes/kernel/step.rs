@@ -70,7 +70,7 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, posit
         let (sigma_t, inv_sigma_t, z0, z1) = (st.l.sigma_t[i], st.l.inv_sigma_t[i], st.l.z0[i], st.l.z1[i]);
         let clear = CLEAR && sigma_t == 0.0;
         let need = live & (st.s_left[i] <= 0.0) & !clear;
-        let fresh = neg_ln_f32(open01_f32(sc.words[0][i])) as f64;
+        let fresh = neg_ln_f32(open01_f32_fine(sc.words[0][i])) as f64;
         let sl = sel(need, fresh, st.s_left[i]);
         let s = sl * inv_sigma_t;
         let (x, y, z) = (st.x[i], st.y[i], st.z[i]);
