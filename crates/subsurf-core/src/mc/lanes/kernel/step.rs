@@ -58,12 +58,11 @@ const SURVIVE_MAX: u32 = (4_294_967_296.0 / ROULETTE_M - 0.5) as u32;
 /// scattering (1 − cos θ from its Henyey–Greenstein lobe by [`hg_one_minus_cos`], or from
 /// `sc.one_minus_cos` when `mixture`; azimuth from its word; MCML's direction update by
 /// [`spin_word`]) and roulette. Lanes that hit an interface go to [`interfaces`].
-/// Returns the number of scattering events. (`positions` and `mixture` are constant per run:
+/// Counts the scattering events per lane in `Lanes::events`. (`positions` and `mixture` are constant per run:
 /// their branches are hoisted; `CLEAR` is false when no layer is clear, which removes the
 /// clear-layer rules' masks from the loop.)
 #[inline(always)]
-pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) -> u32 {
-    let mut n_int = [0u32; L];
+pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) {
     for i in 0..L {
         // Step.
         let live = on(st.live[i]);
@@ -121,7 +120,7 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, posit
         st.uy[i] = sel_f32(scatter, ny, uy);
         st.uz[i] = sel_f32(scatter, nz, uz);
         st.order[i] = st.order[i].wrapping_add(scatter as u32);
-        n_int[i] = scatter as u32;
+        st.events[i] += scatter as u64;
         // Russian roulette below `ROULETTE_THRESHOLD` × the entering weight; its zero-mean
         // control term goes to `Tally::roulette` (not to absorption), lane by lane.
         let low = scatter & (w1 < st.w_min[i]);
@@ -141,7 +140,6 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, posit
         sc.fate[i] = selq(died, fate::DIED, f);
         sc.att[i] = mk(died | clear_down | trapped | bounces | low);
     }
-    n_int.iter().sum()
 }
 
 /// The sign bit of a lane mask: [`interfaces`] adds it to `Scratch::att` (OR-ing all ones
