@@ -29,7 +29,7 @@ use crate::optics::Phase;
 use crate::rng::{philox4x32_10, u32_to_open01, PhotonRng};
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
-use step::{advance, interfaces};
+use step::{advance, interfaces, sample};
 #[cfg(test)]
 pub(super) use step::{hg_one_minus_cos, spin_word};
 
@@ -413,6 +413,11 @@ struct Scratch {
     interact: B,
     /// 1 − cos θ per lane when the stack has phase-function mixtures (sampled lane by lane).
     one_minus_cos: F32,
+    /// A fresh optical depth and the direction after a scattering, per lane ([`sample`]).
+    tau: F32,
+    nx: F32,
+    ny: F32,
+    nz: F32,
     ox: F,
     oy: F,
     oz: F,
@@ -507,10 +512,11 @@ fn run_lanes<T: Tally>(
                 sc.one_minus_cos[i] = (1.0 - lk.mixture[j].sample(u32_to_open01(sc.words[1][i]))) as f32;
             }
         }
+        sample(&st, &mut sc, mixture);
         if lk.any_clear {
-            advance::<true>(&mut st, &mut sc, T::POSITIONS, mixture);
+            advance::<true>(&mut st, &mut sc, T::POSITIONS);
         } else {
-            advance::<false>(&mut st, &mut sc, T::POSITIONS, mixture);
+            advance::<false>(&mut st, &mut sc, T::POSITIONS);
         }
         if sc.hit.iter().any(|&h| on(h)) {
             if lk.matched {

@@ -53,23 +53,42 @@ pub(in crate::mc::lanes) fn spin_word(ux: f32, uy: f32, uz: f32, m: f32, word: u
 /// integer comparison, exact).
 const SURVIVE_MAX: u32 = (4_294_967_296.0 / ROULETTE_M - 0.5) as u32;
 
-/// Phase 1, one loop over the lanes: step every live lane to its interaction point or to the
+/// Phase 1a, a loop over the lanes in f32 only (so that LLVM vectorises it 16 wide, a whole
+/// AVX-512 register of f32, where a loop that mixes in f64 runs 8 wide): for every lane,
+/// whether it will use them or not, the fresh optical depth −ln ξ and the direction after a
+/// scattering (1 − cos θ from the lane's Henyey–Greenstein lobe by [`hg_one_minus_cos`], or
+/// `sc.one_minus_cos` when `mixture`; azimuth from its word; MCML's update by
+/// [`spin_word`]), into `sc.tau` and `sc.nx/ny/nz` for [`advance`].
+#[inline(always)]
+pub(super) fn sample(st: &Lanes, sc: &mut Scratch, mixture: bool) {
+    for i in 0..L {
+        sc.tau[i] = neg_ln_f32(open01_f32_fine(sc.words[0][i]));
+        let m = if mixture {
+            sc.one_minus_cos[i]
+        } else {
+            let hg = &st.l.hg;
+            hg_one_minus_cos([hg[0][i], hg[1][i], hg[2][i]], open01_f32(sc.words[1][i]))
+        };
+        (sc.nx[i], sc.ny[i], sc.nz[i]) = spin_word(st.ux[i], st.uy[i], st.uz[i], m, sc.words[2][i]);
+    }
+}
+
+/// Phase 1b, one loop over the lanes: step every live lane to its interaction point or to the
 /// interface ahead; a lane that stays inside its layer then interacts: absorption by weight,
-/// scattering (1 − cos θ from its Henyey–Greenstein lobe by [`hg_one_minus_cos`], or from
-/// `sc.one_minus_cos` when `mixture`; azimuth from its word; MCML's direction update by
-/// [`spin_word`]) and roulette. Lanes that hit an interface go to [`interfaces`].
-/// Counts the scattering events per lane in `Lanes::events`. (`positions` and `mixture` are constant per run:
+/// scattering into the direction [`sample`] prepared, and roulette. Lanes that hit an
+/// interface go to [`interfaces`]. Counts the scattering events per lane in
+/// `Lanes::events`. (`positions` is constant per run:
 /// their branches are hoisted; `CLEAR` is false when no layer is clear, which removes the
 /// clear-layer rules' masks from the loop.)
 #[inline(always)]
-pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, positions: bool, mixture: bool) {
+pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, positions: bool) {
     for i in 0..L {
         // Step.
         let live = on(st.live[i]);
         let (sigma_t, inv_sigma_t, z0, z1) = (st.l.sigma_t[i], st.l.inv_sigma_t[i], st.l.z0[i], st.l.z1[i]);
         let clear = CLEAR && sigma_t == 0.0;
         let need = live & (st.s_left[i] <= 0.0) & !clear;
-        let fresh = neg_ln_f32(open01_f32_fine(sc.words[0][i])) as f64;
+        let fresh = sc.tau[i] as f64;
         let sl = sel(need, fresh, st.s_left[i]);
         let s = sl * inv_sigma_t;
         let (x, y, z) = (st.x[i], st.y[i], st.z[i]);
@@ -109,13 +128,7 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, posit
         let dw = w0 - w1;
         let absorbed_all = w1 <= 0.0;
         let scatter = it & !absorbed_all;
-        let m = if mixture {
-            sc.one_minus_cos[i]
-        } else {
-            let hg = &st.l.hg;
-            hg_one_minus_cos([hg[0][i], hg[1][i], hg[2][i]], open01_f32(sc.words[1][i]))
-        };
-        let (nx, ny, nz) = spin_word(ux, uy, uz, m, sc.words[2][i]);
+        let (nx, ny, nz) = (sc.nx[i], sc.ny[i], sc.nz[i]);
         st.ux[i] = sel_f32(scatter, nx, ux);
         st.uy[i] = sel_f32(scatter, ny, uy);
         st.uz[i] = sel_f32(scatter, nz, uz);
