@@ -148,8 +148,8 @@ struct Lanes {
     s: [U; 4],
     photon: [u64; L],
     live: B,
-    /// Weight absorbed and not yet handed to a tally without positions (`Tally::POSITIONS`
-    /// false), and the layer it was absorbed in.
+    /// Weight absorbed and not yet handed to a tally without positions (`Tally::PENDING`:
+    /// `Tally::absorb_pending`), and the layer it was absorbed in.
     absorbed: F,
     absorbed_layer: U,
     /// Which layer's parameters `l` holds for each lane.
@@ -384,13 +384,13 @@ fn refill<T: Tally>(
     false
 }
 
-/// Hand lane `i`'s pending absorbed weight to a tally without positions.
+/// Hand lane `i`'s pending absorbed weight to the tally (`Tally::absorb_pending`).
 #[inline(always)]
 fn flush_absorbed<T: Tally>(st: &mut Lanes, i: usize, tally: &mut T) {
     if st.absorbed[i] != 0.0 {
         let mut p = packet(st, i);
         p.layer = st.absorbed_layer[i] as usize;
-        tally.absorb(i, &p, st.absorbed[i]);
+        tally.absorb_pending(i, &p, st.absorbed[i]);
         st.absorbed[i] = 0.0;
     }
     st.absorbed_layer[i] = st.layer[i];
@@ -514,9 +514,9 @@ fn run_lanes<T: Tally>(
         }
         sample(&st, &mut sc, mixture);
         if lk.any_clear {
-            advance::<true>(&mut st, &mut sc, T::POSITIONS);
+            advance::<true>(&mut st, &mut sc, T::PENDING);
         } else {
-            advance::<false>(&mut st, &mut sc, T::POSITIONS);
+            advance::<false>(&mut st, &mut sc, T::PENDING);
         }
         if sc.hit.iter().any(|&h| on(h)) {
             if lk.matched {
@@ -557,7 +557,7 @@ fn run_lanes<T: Tally>(
             if f == fate::MOVING {
                 continue;
             }
-            if !T::POSITIONS {
+            if T::PENDING {
                 flush_absorbed(&mut st, i, tally);
             }
             if f == fate::CROSSED {

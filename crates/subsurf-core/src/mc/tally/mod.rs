@@ -154,6 +154,9 @@ pub trait Tally: Send {
     /// the kernel may add up a lane's deposits in one layer and report them together, with the
     /// packet where the sum is handed over (its `layer` is right, its position is not).
     const POSITIONS: bool = true;
+    /// Whether some part of the tally takes the lane kernel's per-lane sums of deposits
+    /// ([`Tally::absorb_pending`]): a tally without positions; of a pair, either side.
+    const PENDING: bool = !Self::POSITIONS;
     /// Whether the tally needs [`Tally::end_batch`] calls (batch-means standard errors); the
     /// kernel then traces each batch of [`crate::mc::config::BATCH_PHOTONS`] to its end
     /// before starting the next.
@@ -167,6 +170,18 @@ pub trait Tally: Send {
     /// Weight `dw ≥ 0` physically absorbed (w σa/σt at an interaction) at the packet's position
     /// `p.pos` in layer `p.layer`.
     fn absorb(&mut self, lane: usize, p: &Packet, dw: f64);
+    /// A lane's deposits summed by the lane kernel since it entered the layer `p.layer` (the
+    /// kernel's pending sum, handed over at each layer change and at the end of the history;
+    /// `p.pos` is where it was handed over, not where the weight was absorbed): what a tally
+    /// without positions scores, instead of [`Tally::absorb_lanes`]. By default
+    /// [`Tally::absorb`] for a tally without positions, nothing for one with positions (it
+    /// has seen every deposit in [`Tally::absorb_lanes`]).
+    #[inline]
+    fn absorb_pending(&mut self, lane: usize, p: &Packet, dw: f64) {
+        if !Self::POSITIONS {
+            self.absorb(lane, p, dw);
+        }
+    }
     /// The physical deposits of one lane step (see [`Deposits`]); by default one
     /// [`Tally::absorb`] per lane. Absorption tallies override it to bin all lanes at once.
     #[inline]
@@ -224,9 +239,13 @@ impl Tally for () {
     }
 }
 
-/// Two tallies side by side, e.g. `(Totals, TallySet)`: each sees every event.
+/// Two tallies side by side, e.g. `(Totals, TallySet)`: each sees every event, absorption
+/// in the form it takes: the lane kernel's per-lane sums ([`Tally::absorb_pending`]) for a
+/// side without positions (the totals: no vector pass over the lanes at every step), the
+/// step's deposits ([`Tally::absorb_lanes`]) for a side with positions.
 impl<A: Tally, B: Tally> Tally for (A, B) {
     const POSITIONS: bool = A::POSITIONS || B::POSITIONS;
+    const PENDING: bool = A::PENDING || B::PENDING;
     fn batched(&self) -> bool {
         self.0.batched() || self.1.batched()
     }
@@ -245,10 +264,19 @@ impl<A: Tally, B: Tally> Tally for (A, B) {
         self.0.absorb(lane, p, dw);
         self.1.absorb(lane, p, dw);
     }
+    #[inline]
+    fn absorb_pending(&mut self, lane: usize, p: &Packet, dw: f64) {
+        self.0.absorb_pending(lane, p, dw);
+        self.1.absorb_pending(lane, p, dw);
+    }
     #[inline(always)]
     fn absorb_lanes(&mut self, d: &Deposits) {
-        self.0.absorb_lanes(d);
-        self.1.absorb_lanes(d);
+        if A::POSITIONS {
+            self.0.absorb_lanes(d);
+        }
+        if B::POSITIONS {
+            self.1.absorb_lanes(d);
+        }
     }
     #[inline]
     fn roulette(&mut self, lane: usize, p: &Packet, dw: f64) {
@@ -281,5 +309,54 @@ impl<A: Tally, B: Tally> Tally for (A, B) {
     fn load_from(&mut self, state: &[ChannelState], photons: u64) -> usize {
         let a = self.0.load_from(state, photons);
         a + self.1.load_from(&state[a..], photons)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Records the absorption calls it receives; `P`: its `POSITIONS`.
+    #[derive(Default)]
+    struct Rec<const P: bool> {
+        calls: Vec<(&'static str, usize, f64)>,
+    }
+
+    impl<const P: bool> Tally for Rec<P> {
+        const POSITIONS: bool = P;
+        fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
+        fn specular(&mut self, _lane: usize, _w: f64) {}
+        fn absorb(&mut self, lane: usize, _p: &Packet, dw: f64) {
+            self.calls.push(("absorb", lane, dw));
+        }
+        fn roulette(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
+        fn escape(&mut self, _lane: usize, _p: &Packet, _side: Side, _dir_out: [f64; 3], _w: f64) {}
+        fn end_photon(&mut self, _lane: usize) {}
+        fn channels(&self, _out: &mut Vec<Channel>) {}
+        fn drain_into(&mut self, _state: &mut [ChannelState]) -> Option<usize> {
+            Some(0)
+        }
+        fn load_from(&mut self, _state: &[ChannelState], _photons: u64) -> usize {
+            0
+        }
+    }
+
+    /// A pair hands the kernel's per-lane sums to its side without positions only, and the
+    /// step's deposits to its side with positions only; `PENDING` and `POSITIONS` combine.
+    #[test]
+    fn pairs_route_absorption_by_kind() {
+        type Pair = (Rec<false>, Rec<true>);
+        const { assert!(Pair::PENDING && Pair::POSITIONS) };
+        const { assert!(!<(Rec<true>, Rec<true>)>::PENDING && !<(Rec<false>, ())>::POSITIONS) };
+        let mut t: Pair = Default::default();
+        let p = Packet { pos: [0.0; 3], dir: [0.0, 0.0, 1.0], w: 1.0, layer: 0, order: 0, reflections: 0, path: 0.0 };
+        t.absorb_pending(3, &p, 0.25);
+        let zero = [0.0; LANES];
+        let mut dep = [0.0; LANES];
+        dep[1] = 0.5;
+        let d = Deposits { x: &zero, y: &zero, z: &zero, layer: &[0; LANES], dep: &dep, mask: 1 << 1 };
+        t.absorb_lanes(&d);
+        assert_eq!(t.0.calls, vec![("absorb", 3, 0.25)]);
+        assert_eq!(t.1.calls, vec![("absorb", 1, 0.5)]);
     }
 }

@@ -19,7 +19,7 @@
 //! and a survivor never weighs more than 10⁻³ of it, a photon never leaves with more than it
 //! brought, so `absorbed` is never negative either.
 
-use super::{Channel, ChannelState, Deposits, Tally};
+use super::{Channel, ChannelState, Tally};
 use crate::mc::lanes::LANES;
 use crate::mc::packet::{Packet, Side};
 
@@ -72,14 +72,6 @@ pub struct Totals {
     /// photons: `end_photon` clears them as it reads them.
     cur: [[f64; NQ]; LANES],
     cur_layer: Vec<f64>,
-    /// Per lane, the absorption deposits ([`Tally::absorb_lanes`]) since the lane's last
-    /// layer change, and that layer: added to `cur_layer` when the layer changes and at the
-    /// end of the photon, so that a step whose depositing lanes all stay in their layers is
-    /// one masked vector add instead of a scattered add per lane. The grouping is the kernel's
-    /// own for tallies without positions (its pending absorbed weight, flushed at each layer
-    /// change), so the totals have the same bits with or without a grid.
-    pend: [f64; LANES],
-    pend_layer: [u32; LANES],
     /// Over photons, slots of the [`Total`]s then of the layers: Σx, Σx², and the bounds of x
     /// (a chunk keeps only whether x was the same for every photon — cheaper than min/max per
     /// photon — as bounds (x, x), or (−∞, ∞) when it varied; merged states then hold the true
@@ -115,20 +107,11 @@ impl Totals {
             layers,
             cur: [[0.0; NQ]; LANES],
             cur_layer: vec![0.0; layers * LANES],
-            pend: [0.0; LANES],
-            pend_layer: [0; LANES],
             sum: vec![0.0; n],
             sum2: vec![0.0; n],
             min: vec![f64::INFINITY; n],
             max: vec![f64::NEG_INFINITY; n],
         }
-    }
-
-    /// Add lane `i`'s pending deposits to its photon's absorption in their layer.
-    #[inline(always)]
-    fn flush_pending(&mut self, i: usize) {
-        let p = std::mem::take(&mut self.pend[i]);
-        self.cur_layer[i * self.layers + self.pend_layer[i] as usize] += p;
     }
 
     /// Photons scored.
@@ -211,26 +194,6 @@ impl Tally for Totals {
     fn absorb(&mut self, lane: usize, p: &Packet, dw: f64) {
         self.cur_layer[lane * self.layers + p.layer] += dw;
     }
-    #[inline(always)]
-    fn absorb_lanes(&mut self, d: &Deposits) {
-        let mut same = 0u32;
-        for i in 0..LANES {
-            same |= ((self.pend_layer[i] == d.layer[i]) as u32) << i;
-        }
-        // (+0.0 leaves a pending sum's bits as they are: deposits are never −0)
-        let keep = same & d.mask;
-        for i in 0..LANES {
-            self.pend[i] += if keep & (1 << i) != 0 { d.dep[i] } else { 0.0 };
-        }
-        let mut moved = d.mask & !same;
-        while moved != 0 {
-            let i = moved.trailing_zeros() as usize;
-            moved &= moved - 1;
-            self.flush_pending(i);
-            self.pend_layer[i] = d.layer[i];
-            self.pend[i] = d.dep[i];
-        }
-    }
     #[inline]
     fn roulette(&mut self, lane: usize, _p: &Packet, dw: f64) {
         self.cur[lane][Total::Roulette as usize] += dw;
@@ -253,7 +216,6 @@ impl Tally for Totals {
     fn end_photon(&mut self, lane: usize) {
         self.photons += 1;
         let first = self.photons == 1;
-        self.flush_pending(lane);
         let nl = self.layers;
         let lay = &mut self.cur_layer[lane * nl..(lane + 1) * nl];
         let physical = lay.iter().fold(0.0, |a, &x| a + x);
@@ -332,51 +294,6 @@ mod tests {
         let mut u = Totals::new(1);
         assert_eq!(u.load_from(&st, 4), 2);
         assert_eq!((u.get(Total::Diffuse), u.get(Total::Specular)), before);
-    }
-
-    /// `absorb_lanes` (pending sums per lane, flushed at layer changes and at the end of the
-    /// photon) scores what `absorb` scores deposit by deposit: masked-off lanes ignored, a
-    /// lane that leaves a layer and comes back, a lane whose previous photon ended in another
-    /// layer.
-    #[test]
-    fn absorb_lanes_matches_absorb() {
-        // (lane, layer, deposit) per step; dyadic deposits: every grouping is exact
-        let steps: [&[(usize, u32, f64)]; 5] = [
-            &[(0, 0, 0.125), (1, 1, 0.5)],
-            &[(0, 0, 0.25), (2, 1, 0.0625)],
-            &[(0, 1, 0.03125), (1, 1, 0.25)],
-            &[(0, 0, 0.0078125)],
-            &[(2, 0, 0.5), (1, 0, 0.015625)],
-        ];
-        let (mut a, mut b) = (Totals::new(2), Totals::new(2));
-        let p = pkt();
-        let zero = [0.0; LANES];
-        for t in [&mut a, &mut b] {
-            // a previous photon on lane 2 ended in layer 1
-            t.absorb(2, &Packet { layer: 1, ..p }, 0.25);
-            t.end_photon(2);
-        }
-        let d0 = Deposits { x: &zero, y: &zero, z: &zero, layer: &[1; LANES], dep: &[0.25; LANES], mask: 1 << 2 };
-        b.absorb_lanes(&d0);
-        b.end_photon(2);
-        a.absorb(2, &Packet { layer: 1, ..p }, 0.25);
-        a.end_photon(2);
-        for step in steps {
-            let (mut layer, mut dep, mut mask) = ([0u32; LANES], [7.0; LANES], 0u32);
-            for &(i, l, x) in step {
-                (layer[i], dep[i]) = (l, x);
-                mask |= 1 << i;
-                a.absorb(i, &Packet { layer: l as usize, ..p }, x);
-            }
-            b.absorb_lanes(&Deposits { x: &zero, y: &zero, z: &zero, layer: &layer, dep: &dep, mask });
-        }
-        for i in 0..3 {
-            a.end_photon(i);
-            b.end_photon(i);
-        }
-        assert_eq!(a.absorbed_per_layer(), b.absorbed_per_layer());
-        assert_eq!(a.get(Total::Absorbed), b.get(Total::Absorbed));
-        assert_eq!(b.photons(), 5);
     }
 
     #[test]

@@ -77,11 +77,11 @@ pub(super) fn sample(st: &Lanes, sc: &mut Scratch, mixture: bool) {
 /// interface ahead; a lane that stays inside its layer then interacts: absorption by weight,
 /// scattering into the direction [`sample`] prepared, and roulette. Lanes that hit an
 /// interface go to [`interfaces`]. Counts the scattering events per lane in
-/// `Lanes::events`. (`positions` is constant per run:
-/// their branches are hoisted; `CLEAR` is false when no layer is clear, which removes the
+/// `Lanes::events`. (`pending`, whether the tally takes per-lane sums of the deposits, is
+/// constant per run: its branch is hoisted; `CLEAR` is false when no layer is clear, which removes the
 /// clear-layer rules' masks from the loop.)
 #[inline(always)]
-pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, positions: bool) {
+pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pending: bool) {
     for i in 0..L {
         // Step.
         let live = on(st.live[i]);
@@ -143,7 +143,7 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, posit
         sc.rou[i] = sel(low, control, 0.0);
         let dep = sel(it, dw, 0.0);
         sc.dep[i] = dep;
-        if !positions {
+        if pending {
             st.absorbed[i] += dep;
         }
         let w_low = sel(survive, boosted, 0.0);
