@@ -56,7 +56,7 @@
 //! 7 interleaved A/B pairs against the 8-lane all-f64 kernel): 16 f32 lanes in the mixed
 //! f32/f64 loop gave totals 1.07–1.21× (case a), 1.30–1.32× (c), 1.23–1.37× (d), MCML's tally
 //! set 1.03–1.14×; but LLVM vectorised that loop 8 wide (f32 in half registers). The f32
-//! sampling in a loop of its own ([`kernel`]'s `sample`) runs 16 wide: a further 1.35×, 1.14×,
+//! sampling in a loop of its own (`kernel::sample`) runs 16 wide: a further 1.35×, 1.14×,
 //! 1.20× on the totals. With the tally changes of the same day, the kernel and tallies as a
 //! whole against the 8-lane f64 kernel: totals 1.29× (a), 1.53× (c), 1.61× (d); MCML's tally
 //! set 1.12×, 1.40×, 1.57×.
