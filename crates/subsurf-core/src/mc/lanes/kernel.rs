@@ -426,8 +426,8 @@ struct Scratch {
 /// Every lane step consumes four words of the lane's stream, drawn here at once whether or
 /// not the step uses them (so no lane waits on a mask): [0] the optical depth −ln ξ (used
 /// when the previous one is spent), [1] the phase-function ξ, [2] the azimuth, [3] the
-/// roulette word (survives when ≤ 2³²/M − ½, i.e. ξ ≤ 1/M). A Fresnel ξ, drawn in [`interfaces`] only by a lane at an interface with
-/// 0 < R < 1, follows them. The words a photon consumes depend on its own history only.
+/// roulette word (survives when ≤ 2³²/M − ½, i.e. ξ ≤ 1/M). A Fresnel ξ, drawn in
+/// [`interfaces`] only by a lane at an interface with 0 < R < 1, follows them. The words a photon consumes depend on its own history only.
 #[inline(always)]
 fn draw_words(st: &mut Lanes, sc: &mut Scratch) {
     for i in 0..L {

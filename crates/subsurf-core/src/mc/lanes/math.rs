@@ -35,10 +35,11 @@ pub fn open01_f32(r: u32) -> f32 {
 /// The f32 uniform of the top 31 bits k = r >> 1 of a 32-bit word for the optical depth
 /// −ln u: u = (f32(k) + ½)·2⁻³¹ in [2⁻³², 1] (k converted with rounding to nearest — a signed
 /// conversion, which every instruction set has and rounds alike — then ½ added with one more
-/// rounding; within 2⁻²³ relative of (k + ½)·2⁻³¹). Relative spacing ≤ 2⁻²³ down to the smallest u, so an optical depth reaches
-/// −ln 2⁻³² = 22.2 (the exponential's tail beyond it, 2.3·10⁻¹⁰, is lost; with
-/// [`open01_f32`]'s 23 bits it would be 16.6 and 6·10⁻⁸). The top 64 words round to u = 1, an
-/// optical depth of 0 (the mass of [0, 3·10⁻⁸) moved to 0).
+/// rounding; within 2⁻²³ relative of (k + ½)·2⁻³¹). Relative spacing ≤ 2⁻²³ down to the
+/// smallest u, so an optical depth reaches −ln 2⁻³² = 22.2 (the exponential's tail beyond it,
+/// 2.3·10⁻¹⁰, is lost; with [`open01_f32`]'s 23 bits it would be 16.6 and 6·10⁻⁸). The top
+/// 128 words (k ≥ 2³¹ − 64) round to u = 1, an optical depth of 0 (the mass of [0, 3·10⁻⁸)
+/// moved to 0).
 #[inline(always)]
 pub fn open01_f32_fine(r: u32) -> f32 {
     ((r >> 1) as i32 as f32 + 0.5) * (1.0 / 2_147_483_648.0)
@@ -151,9 +152,9 @@ mod tests {
         }
     }
 
-    /// The optical depth's uniform: (f32(r >> 1) + ½)·2⁻³¹ within 2⁻²³ relative (two roundings of
-    /// at most 2⁻²⁴) of the exact
-    /// (k + ½)·2⁻³¹, in [2⁻³², 1], exact for k < 2²³, and 1 (−ln u = 0) only for the top words.
+    /// The optical depth's uniform: (f32(r >> 1) + ½)·2⁻³¹ within 2⁻²³ relative (two
+    /// roundings of at most 2⁻²⁴) of the exact (k + ½)·2⁻³¹, in [2⁻³², 1], exact for k < 2²³,
+    /// and 1 (−ln u = 0) exactly for the top 128 words.
     #[test]
     fn open01_f32_fine_is_within_an_ulp() {
         let mut r = PhotonRng::new(15, 16);

@@ -49,8 +49,8 @@
 //! ([`math::open01_f32`]); the optical depth's uses 31 bits ([`math::open01_f32_fine`],
 //! relative spacing ≤ 2⁻²³ down to 2⁻³²): an optical depth is at most −ln 2⁻³² = 22.2, the
 //! same cut as f64 uniforms of a 32-bit word (e⁻²²·² = 2.3·10⁻¹⁰ lost from the tail of the
-//! exponential; 23 bits would cut at 16.6 and lose 6·10⁻⁸). The roulette ξ is compared as an integer (exact). The random
-//! words stay 32-bit (xoshiro128++ as in [`crate::rng`]).
+//! exponential; 23 bits would cut at 16.6 and lose 6·10⁻⁸). The roulette ξ is compared as
+//! an integer (exact). The random words stay 32-bit (xoshiro128++ as in [`crate::rng`]).
 //!
 //! Speed (2026-12-01, shared 2-core AVX-512 Xeon, `examples/mc_speed`, 1 thread, medians of
 //! 7 interleaved A/B pairs against the 8-lane all-f64 kernel): 16 f32 lanes in the mixed

@@ -510,14 +510,13 @@ impl Tally for TallySet {
         }
         let (nz, nr) = (self.cfg.nz, self.cfg.nr);
         // (u32 bins: below `MAX_BINS` < 2³², and the lanes' bins fit one vector register)
-        let (nz, nr) = (nz as u32, nr);
         let (mut iz, mut irz) = ([0u32; LANES], [0u32; LANES]);
         let mut same = 0u32;
         for i in 0..LANES {
             let r = (d.x[i] * d.x[i] + d.y[i] * d.y[i]).sqrt();
-            let z = bin_clamped(d.z[i], self.inv_dz, nz as usize) as u32;
+            let z = bin_clamped(d.z[i], self.inv_dz, nz) as u32;
             iz[i] = z;
-            irz[i] = bin_clamped(r, self.inv_dr, nr) as u32 * nz + z;
+            irz[i] = bin_clamped(r, self.inv_dr, nr) as u32 * nz as u32 + z;
         }
         // (a loop of its own: in the one above it makes LLVM use 2-wide vectors)
         for i in 0..LANES {

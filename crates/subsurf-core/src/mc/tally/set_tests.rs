@@ -415,9 +415,9 @@ fn fluence_in_a_bin_straddling_two_absorbing_layers() {
     assert!(fz.stderr[1].is_nan());
 }
 
-/// The lane kernel's path: deposits of [`LANES`] lanes at once (random masks, lanes often staying in
-/// their bin — the vector update of the pending sums — or moving, across an interface inside a
-/// straddling bin too), against per-bin sums made by hand.
+/// The lane kernel's path: deposits of [`LANES`] lanes at once (random masks, lanes often
+/// staying in their bin — the vector update of the pending sums — or moving, across an
+/// interface inside a straddling bin too), against per-bin sums made by hand.
 #[test]
 fn absorb_lanes_pending_sums_match_per_bin_sums() {
     let s = straddling_stack();

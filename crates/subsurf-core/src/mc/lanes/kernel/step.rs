@@ -78,8 +78,8 @@ pub(super) fn sample(st: &Lanes, sc: &mut Scratch, mixture: bool) {
 /// scattering into the direction [`sample`] prepared, and roulette. Lanes that hit an
 /// interface go to [`interfaces`]. Counts the scattering events per lane in
 /// `Lanes::events`. (`pending`, whether the tally takes per-lane sums of the deposits, is
-/// constant per run: its branch is hoisted; `CLEAR` is false when no layer is clear, which removes the
-/// clear-layer rules' masks from the loop.)
+/// constant per run: its branch is hoisted; `CLEAR` is false when no layer is clear, which
+/// removes the clear-layer rules' masks from the loop.)
 #[inline(always)]
 pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pending: bool) {
     for i in 0..L {
