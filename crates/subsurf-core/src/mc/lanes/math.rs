@@ -164,6 +164,7 @@ mod tests {
             let exact = ((x >> 1) as f64 + 0.5) / 2_147_483_648.0;
             assert!(((u as f64 - exact) / exact).abs() <= 1.0 / 8_388_608.0, "r = {x:#x}: {u} vs {exact}");
             assert!(u > 0.0 && u <= 1.0);
+            assert_eq!(u == 1.0, x >= u32::MAX - 127, "r = {x:#x}");
             if x >> 1 < 1 << 23 {
                 assert_eq!(u as f64, exact);
             }

@@ -74,9 +74,22 @@ fn lane_scattering_chi2() {
 /// 1 − cos θ = (t² − (1 − g)²)/(2g) evaluated in exact-enough f64 at the same f32 ξ, within
 /// 6·10⁻⁷ relative (10 roundings of 2⁻²⁴: the formula has 7 correctly rounded operations,
 /// the denominator's error entering twice) over 10⁶ words and the words nearest ξ = 1, for
-/// g = 0.9, 0.99, 10⁻³, −0.7; and 2(1 − ξ) exactly for g = 0.
+/// g = 0.9, 0.99, 10⁻³, −0.7; and 2(1 − ξ) exactly for g = 0. The rearranged form itself is
+/// checked in f64 against the textbook 1 − cos θ = 1 − (1 + g² − t²)/(2g) (MCML eq. 3.28) on a
+/// grid of ξ, within that form's own rounding: 8 ε (1 + g² + t²)/(2|g|) absolute.
 #[test]
 fn hg_one_minus_cos_is_relatively_precise() {
+    for g in [0.9f64, 0.99, 1e-3, -0.7] {
+        for i in 0..=1000 {
+            let u = i as f64 / 1000.0;
+            let d = 1.0 - g + 2.0 * g * u;
+            let t = (1.0 - g * g) / d;
+            let rearranged = (1.0 - g) * (1.0 - u) * (t + 1.0 - g) / d;
+            let textbook = 1.0 - (1.0 + g * g - t * t) / (2.0 * g);
+            let tol = 8.0 * f64::EPSILON * (1.0 + g * g + t * t) / (2.0 * g.abs());
+            assert!((rearranged - textbook).abs() <= tol, "g = {g}, ξ = {u}: {rearranged} vs {textbook}");
+        }
+    }
     let mut rng = PhotonRng::new(9, 10);
     for g in [0.9f64, 0.99, 1e-3, -0.7, 0.0] {
         let k = [(1.0 - g) as f32, (2.0 * g) as f32, ((1.0 - g) * (1.0 + g)) as f32];
@@ -103,7 +116,9 @@ fn hg_one_minus_cos_is_relatively_precise() {
 /// The f32 direction update against the same update in f64 (on the same f32 inputs, std's
 /// f64 cos/sin of the same azimuth and f64's 1 − cos θ) at polar distances 10⁻¹…10⁻⁵ rad
 /// from ±z and generic directions: within 6·10⁻⁷ (Euclidean) over 10⁵ draws each; with
-/// ρ² = 1 − uz² instead of ux² + uy² the error near the pole is ~ρ; prints the worst.
+/// ρ² = 1 − uz² instead of ux² + uy² the error near the pole is ~ρ; prints the worst. Where
+/// 1 − uz² keeps 10⁻¹² relative in f64 (ρ ≥ 10⁻²), also against the engine's own f64 update
+/// [`crate::optics::spin`], within the same bound.
 #[test]
 fn spin_word_matches_f64_near_the_pole() {
     let mut rng = PhotonRng::new(15, 16);
@@ -133,6 +148,12 @@ fn spin_word_matches_f64_near_the_pole() {
             ];
             let err = ((e.0 as f64 - r[0]).powi(2) + (e.1 as f64 - r[1]).powi(2) + (e.2 as f64 - r[2]).powi(2)).sqrt();
             worst = worst.max(err);
+            if rho >= 1e-2 {
+                let o = crate::optics::spin([ux, uy, uz], cth, cp, sp);
+                let err =
+                    ((e.0 as f64 - o[0]).powi(2) + (e.1 as f64 - o[1]).powi(2) + (e.2 as f64 - o[2]).powi(2)).sqrt();
+                worst = worst.max(err);
+            }
         }
     }
     println!("spin_word: within {worst:.2e} of the f64 update");
