@@ -90,7 +90,51 @@ impl<const L: usize> Fixed<L> {
 
     /// Add `x` exactly (rounded to the grid 2^−FRAC, ties to even, when |x| < 2^(53 − FRAC)).
     /// Returns `false` (and adds nothing) when `x` is not finite or |x| ≥ 2^(INT_BITS − 2).
+    ///
+    /// Fast path (every chunk sum of a run in practice): a normal `x` whose 53-bit significand,
+    /// shifted to its grid position, lies within two adjacent limbs below the top one is added
+    /// as one 128-bit integer (an add-with-carry pair, no carry loop unless the carry leaves
+    /// those two limbs); everything else takes [`Fixed::add_f64_general`]. Same integers.
+    #[inline(always)]
     pub fn add_f64(&mut self, x: f64) -> bool {
+        let bits = x.to_bits();
+        // the grid position of the significand's least significant bit (biased exponent
+        // − 1075 + FRAC); subnormals, 0, ∞ and NaN all fall outside [0, 64 (L − 1))
+        let shift = ((bits >> 52) & 0x7ff) as i32 - 1075 + Self::FRAC;
+        if bits << 1 == 0 {
+            return true; // ±0
+        }
+        if bits & (0x7ff << 52) == 0 || !(0..64 * (L as i32 - 1)).contains(&shift) {
+            return self.add_f64_general(x);
+        }
+        let m = (bits & ((1u64 << 52) - 1)) | (1u64 << 52);
+        let (li, v) = ((shift >> 6) as usize, (m as u128) << (shift & 63)); // v < 2¹¹⁷
+        let cur = self.0[li] as u128 | (self.0[li + 1] as u128) << 64;
+        let (s, c) = if bits >> 63 == 0 { cur.overflowing_add(v) } else { cur.overflowing_sub(v) };
+        (self.0[li], self.0[li + 1]) = (s as u64, (s >> 64) as u64);
+        if c {
+            self.carry_from(li + 2, bits >> 63 == 1);
+        }
+        true
+    }
+
+    /// Propagate a carry (`neg`: a borrow) into limbs `i`, `i + 1`, … (wrapping at the top).
+    #[cold]
+    #[inline(never)]
+    fn carry_from(&mut self, i: usize, neg: bool) {
+        for limb in &mut self.0[i.min(L)..] {
+            let (s, c) = if neg { limb.overflowing_sub(1) } else { limb.overflowing_add(1) };
+            *limb = s;
+            if !c {
+                break;
+            }
+        }
+    }
+
+    /// [`Fixed::add_f64`] for any `x` (zeros, subnormals, values below the grid or out of
+    /// range): limb by limb, with carry loops.
+    #[inline(never)]
+    fn add_f64_general(&mut self, x: f64) -> bool {
         if x == 0.0 {
             return true;
         }
@@ -239,5 +283,60 @@ mod tests {
         assert!(n.add_f64(-3.5));
         assert!(n.is_negative());
         assert_eq!(n.to_f64(), -3.5);
+    }
+
+    /// A random f64 from every region the fast and general paths treat differently: the fast
+    /// range, just outside it, below the grid (ties included), subnormals, ±0, ±∞, NaN, and
+    /// values past the exact range; both signs.
+    fn tricky_f64(rng: &mut SplitMix64, frac: i32) -> f64 {
+        let sign = if rng.next_u64() & 1 == 1 { -1.0 } else { 1.0 };
+        let m = (1u64 << 52 | rng.next_u64() >> 12) as f64; // a full 53-bit significand
+        let x = match rng.next_u64() % 10 {
+            0 => f64::from_bits(rng.next_u64() & ((1 << 52) - 1)), // subnormal (or 0)
+            1 => [0.0, f64::INFINITY, f64::NAN, f64::MAX, f64::MIN_POSITIVE][(rng.next_u64() % 5) as usize],
+            // an odd multiple of half a grid unit (a rounding tie) or a few units
+            2 => (2 * (rng.next_u64() % 8) + 1) as f64 * 2f64.powi(-frac - 1),
+            3 => (rng.next_u64() % 64) as f64 * 2f64.powi(-frac - (rng.next_u64() % 8) as i32),
+            // any exponent from far below the grid to past the range
+            4 | 5 => m * 2f64.powi((rng.next_u64() % 400) as i32 - frac - 120),
+            // around the fast path's edges: shift near 0 and near 64 (L − 1)
+            6 => m * 2f64.powi(-frac - 52 + (rng.next_u64() % 5) as i32 - 2),
+            7 => m * 2f64.powi(INT_BITS as i32 - 119 + (rng.next_u64() % 9) as i32 - 4),
+            _ => m * 2f64.powi(-52 - (rng.next_u64() % 80) as i32), // chunk-sum-like
+        };
+        sign * x
+    }
+
+    /// The fast path of `add_f64` gives the same integers (and the same refusals) as the
+    /// general one, over random accumulators (limbs near all-ones and all-zeros, so carries and
+    /// borrows cross limbs and the top) and tricky values.
+    fn fast_path_matches_general<const L: usize>(seed: u64) {
+        let mut rng = SplitMix64::new(seed);
+        for _ in 0..200_000 {
+            let limb = |r: &mut SplitMix64| match r.next_u64() % 4 {
+                0 => u64::MAX,
+                1 => 0,
+                2 => u64::MAX - (r.next_u64() % 4096),
+                _ => r.next_u64(),
+            };
+            let mut a = Fixed::<L>([0; L]);
+            for l in a.0.iter_mut() {
+                *l = limb(&mut rng);
+            }
+            let x = tricky_f64(&mut rng, Fixed::<L>::FRAC);
+            let mut b = a;
+            let (fa, fb) = (a.add_f64(x), b.add_f64_general(x));
+            assert_eq!((fa, a), (fb, b), "{x:e} = {:#x}", x.to_bits());
+        }
+    }
+
+    #[test]
+    fn fast_path_matches_general_sum1() {
+        fast_path_matches_general::<4>(3);
+    }
+
+    #[test]
+    fn fast_path_matches_general_sum2() {
+        fast_path_matches_general::<5>(4);
     }
 }
