@@ -34,10 +34,10 @@ pub struct Accum {
     /// Current batch totals (empty without errors).
     cur: Vec<f64>,
     /// Bins deposited into in the current batch (may repeat; closing a batch zeroes `cur`).
-    touched: Vec<u32>,
+    touched: List,
     /// Bins whose sums may be non-zero since the last drain (may repeat): every bin not listed
     /// has S₁ = Q = 0, so a drain walks the bins a chunk touched, not the whole grid.
-    dirty: Vec<u32>,
+    dirty: List,
     /// At most one deposit per photon (escapes): Q = Σ x², no batches.
     single: bool,
 }
@@ -51,8 +51,8 @@ impl Accum {
             s1: vec![0.0; n],
             q: vec![0.0; e],
             cur: vec![0.0; e],
-            touched: Vec::new(),
-            dirty: Vec::new(),
+            touched: List::default(),
+            dirty: List::default(),
             single: false,
         }
     }
@@ -65,8 +65,8 @@ impl Accum {
             s1: vec![0.0; n],
             q: vec![0.0; e],
             cur: Vec::new(),
-            touched: Vec::new(),
-            dirty: Vec::new(),
+            touched: List::default(),
+            dirty: List::default(),
             single: errors,
         }
     }
@@ -96,10 +96,9 @@ impl Accum {
             self.add_once(bin, x);
         } else {
             let c = &mut self.cur[bin];
-            if *c == 0.0 {
-                self.touched.push(bin as u32);
-            }
+            let first = *c == 0.0;
             *c += x;
+            self.touched.push_if(bin as u32, first);
         }
     }
 
@@ -116,26 +115,15 @@ impl Accum {
         if let Some(q) = self.q.get_mut(bin) {
             *q += x * x;
         }
-        if was == 0.0 {
-            self.list(bin);
-        }
-    }
-
-    /// Append `bin` to the dirty list (out of line: once per bin and chunk).
-    #[cold]
-    #[inline(never)]
-    fn list(&mut self, bin: usize) {
-        self.dirty.push(bin as u32);
+        self.dirty.push_if(bin as u32, was == 0.0);
     }
 
     /// Close the current batch of `photons` photons (see the module docs).
     pub fn end_batch(&mut self, photons: u64) {
         let inv_n = 1.0 / photons.max(1) as f64;
-        for &b in &self.touched {
+        for &b in self.touched.as_slice() {
             let b = b as usize;
-            if self.s1[b] == 0.0 {
-                self.dirty.push(b as u32);
-            }
+            self.dirty.push_if(b as u32, self.s1[b] == 0.0);
             let t = std::mem::take(&mut self.cur[b]);
             self.s1[b] += t;
             self.q[b] += t * t * inv_n;
@@ -148,9 +136,9 @@ impl Accum {
     /// Costs the bins deposited into since the last drain, not the whole grid.
     pub fn drain_into(&mut self, state: &mut super::ChannelState) -> bool {
         debug_assert_eq!(self.len(), state.s1.len());
-        debug_assert!(self.touched.is_empty(), "drain with an open batch");
+        debug_assert!(self.touched.as_slice().is_empty(), "drain with an open batch");
         let mut ok = true;
-        for &i in &self.dirty {
+        for &i in self.dirty.as_slice() {
             let i = i as usize;
             let (s1, q) = (std::mem::take(&mut self.s1[i]), self.q.get_mut(i).map_or(0.0, std::mem::take));
             if s1 != 0.0 || q != 0.0 {
@@ -172,9 +160,7 @@ impl Accum {
             if let Some(x) = self.q.get_mut(i) {
                 *x = q;
             }
-            if s1 != 0.0 || q != 0.0 {
-                self.dirty.push(i as u32);
-            }
+            self.dirty.push_if(i as u32, s1 != 0.0 || q != 0.0);
         }
     }
 
@@ -213,6 +199,55 @@ pub fn batch_mean_stderr(s1: f64, q: f64, n: u64, batches: u64) -> (f64, f64) {
 }
 
 pub use super::totals::mean_stderr;
+
+/// A list of bins whose appends are conditional without a branch: [`List::push_if`] always
+/// writes the bin into the slot past the end and advances the length by the condition. Whether
+/// a deposit is the first into its bin (the lists above) is a coin flip in a sparse grid: as a
+/// branch it mispredicted 0.4 times per event (2.0 per photon in case a with MCML's tally set,
+/// callgrind's branch simulation; 60 % of the run's mispredictions).
+#[derive(Clone, Debug, Default)]
+struct List {
+    /// Slots; those at `len` and beyond are scratch.
+    buf: Vec<u32>,
+    len: usize,
+}
+
+impl List {
+    /// Append `bin` if `cond`.
+    #[inline(always)]
+    fn push_if(&mut self, bin: u32, cond: bool) {
+        if self.len == self.buf.len() {
+            self.grow();
+        }
+        self.buf[self.len] = bin;
+        self.len += cond as usize;
+    }
+
+    /// Make room for more slots (doubling; out of line: a list grows to its largest length
+    /// once and keeps its slots).
+    #[cold]
+    #[inline(never)]
+    fn grow(&mut self) {
+        self.buf.resize((2 * self.buf.len()).max(64), 0);
+    }
+
+    #[inline]
+    fn as_slice(&self) -> &[u32] {
+        &self.buf[..self.len]
+    }
+
+    #[inline]
+    fn clear(&mut self) {
+        self.len = 0;
+    }
+}
+
+/// Equal when the listed bins are (the scratch slots do not count).
+impl PartialEq for List {
+    fn eq(&self, o: &Self) -> bool {
+        self.as_slice() == o.as_slice()
+    }
+}
 
 #[cfg(test)]
 mod tests {
