@@ -225,6 +225,13 @@ impl ThetaBins {
     /// The bin of direction cosine `mu` ∈ [0, 1] (NaN gives 0).
     #[inline(always)]
     pub fn bin(&self, mu: f64) -> usize {
+        self.refine(mu, self.guess(mu))
+    }
+
+    /// The guess of [`ThetaBins::bin`] (for many `mu` at once: without the `acos` of more than
+    /// 1000 bins, a loop of guesses vectorises).
+    #[inline(always)]
+    pub fn guess(&self, mu: f64) -> usize {
         let n = self.cos_edge.len() - 1;
         let theta = if self.exact_guess {
             mu.acos()
@@ -232,7 +239,13 @@ impl ThetaBins {
             let m = mu.clamp(0.0, 1.0);
             (1.0 - m).sqrt() * (1.570_728_8 + m * (-0.212_114_4 + m * (0.074_261_0 - 0.018_729_3 * m)))
         };
-        let mut k = bin_clamped(theta, self.inv_da, n);
+        bin_clamped(theta, self.inv_da, n)
+    }
+
+    /// The bin of `mu` from a guess `k` < n (see the type's docs).
+    #[inline(always)]
+    pub fn refine(&self, mu: f64, mut k: usize) -> usize {
+        let n = self.cos_edge.len() - 1;
         while k > 0 && mu > self.cos_edge[k] {
             k -= 1;
         }

@@ -14,6 +14,7 @@
 
 pub mod accum;
 pub mod config;
+mod escapes;
 pub mod exact;
 pub mod histogram;
 pub mod set;

@@ -42,6 +42,7 @@ use std::f64::consts::PI;
 
 use super::accum::Accum;
 use super::config::TallyConfig;
+use super::escapes::{Escapes, ESCAPES};
 use super::histogram::{bin_clamped, histogram, Axis, AxisKind, HistogramOut, ThetaBins};
 use super::Deposits;
 use super::{Channel, ChannelState, Tally};
@@ -235,6 +236,11 @@ pub struct TallySet {
     straddle: Vec<bool>,
     /// Whether any depth bin straddles an interface.
     any_straddle: bool,
+    /// Whether any escape tally is on.
+    any_escape: bool,
+    /// Escapes not yet binned (see [`super::escapes`]): binned when the buffer is full and
+    /// before draining.
+    esc: Box<Escapes>,
 }
 
 /// No pending deposit.
@@ -282,6 +288,8 @@ impl TallySet {
             pend_layer: [0; LANES],
             straddle: Vec::new(),
             any_straddle: false,
+            any_escape: false,
+            esc: Box::default(),
         };
         // Escape tallies (both sides) get exact per-photon errors, absorption grids batch means.
         t.acc = (0..N_ACC)
@@ -294,6 +302,7 @@ impl TallySet {
                 }
             })
             .collect();
+        t.any_escape = t.acc[..A_Z].iter().any(|a| !a.is_empty());
         if cfg.spatial {
             t.bin_mua = (0..cfg.nz)
                 .map(|iz| {
@@ -332,6 +341,72 @@ impl TallySet {
             self.pend_bin[i] = NO_BIN;
             self.pend[i] = 0.0;
         }
+    }
+
+    /// Bin the buffered escapes: the radial bins and polar-angle guesses of the whole buffer in
+    /// vectorised passes (stale entries past `n` are finite and harmless), then each escape's
+    /// scores in arrival order (see [`super::escapes`]).
+    #[inline(never)]
+    fn flush_escapes(&mut self) {
+        let TallySet { cfg: c, acc, esc, theta, inv_dr, inv_dt, n_cos, n_phi, max_order, .. } = self;
+        let e = &**esc;
+        let (mut irs, mut ias) = ([0u32; ESCAPES], [0u32; ESCAPES]);
+        for k in 0..ESCAPES {
+            irs[k] = bin_clamped((e.x[k] * e.x[k] + e.y[k] * e.y[k]).sqrt(), *inv_dr, c.nr) as u32;
+        }
+        if c.angular {
+            for k in 0..ESCAPES {
+                ias[k] = theta.guess(e.mu[k]) as u32;
+            }
+        }
+        for k in 0..e.n {
+            let (ir, w, mu) = (irs[k] as usize, e.w[k], e.mu[k]);
+            // (the side without a branch: it is a coin flip in a thin slab)
+            let side = e.bottom[k] as usize * PER_SIDE;
+            let s = &mut acc[side..side + PER_SIDE];
+            if !s[R].is_empty() {
+                s[R].add_once(ir, w);
+            }
+            if !s[A].is_empty() {
+                let ia = theta.refine(mu, ias[k] as usize);
+                s[A].add_once(ia, w);
+                if !s[RA].is_empty() {
+                    s[RA].add_once(ir * c.na + ia, w);
+                }
+            }
+            if !s[T].is_empty() {
+                let it = bin_clamped(e.path[k] / C_MM_PER_PS, *inv_dt, c.nt);
+                s[T].add_once(it, w);
+                if !s[RT].is_empty() {
+                    s[RT].add_once(ir * c.nt + it, w);
+                }
+            }
+            let ko = e.order[k].min(*max_order + 1) as usize;
+            if !s[ORDER].is_empty() {
+                s[ORDER].add_once(ko, w);
+                if e.direct1[k] {
+                    s[SINGLE].add_once(0, w);
+                }
+            }
+            if !s[BSDF].is_empty() {
+                let ic = bin_clamped(mu, *n_cos as f64, *n_cos);
+                let mut phi = e.oy[k].atan2(e.ox[k]);
+                if phi < 0.0 {
+                    phi += 2.0 * PI;
+                }
+                let ip = bin_clamped(phi, *n_phi as f64 / (2.0 * PI), *n_phi);
+                let b = ic * *n_phi + ip;
+                s[BSDF].add_once(b, w);
+                if !s[ORDER].is_empty() {
+                    let nb = s[BSDF].len();
+                    s[BSDF_ORDER].add_once(ko * nb + b, w);
+                    if e.direct1[k] {
+                        s[BSDF_SINGLE].add_once(b, w);
+                    }
+                }
+            }
+        }
+        esc.n = 0;
     }
 
     /// The spec of accumulator `i` and its side (0 = rd, 1 = tt; 0 for the absorption ones).
@@ -436,11 +511,12 @@ impl TallySet {
     /// Normalise everything into histograms for a run of `photons` photons (see the module docs
     /// for each normalisation). Only the enabled tallies are returned.
     pub fn finalize(&self, photons: u64) -> Vec<HistogramOut> {
-        if self.pend_bin.iter().any(|&b| b != NO_BIN) {
+        if self.pend_bin.iter().any(|&b| b != NO_BIN) || self.esc.n > 0 {
             let mut t = self.clone();
             for i in 0..LANES {
                 t.flush_lane(i);
             }
+            t.flush_escapes();
             return t.finalize(photons);
         }
         let mut out: Vec<HistogramOut> =
@@ -544,56 +620,11 @@ impl Tally for TallySet {
     #[inline]
     fn roulette(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
 
+    /// Buffered (see [`super::escapes`]); binned by [`TallySet::flush_escapes`].
     #[inline]
     fn escape(&mut self, _lane: usize, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
-        let c = &self.cfg;
-        let s = match side {
-            Side::Top => &mut self.acc[..PER_SIDE],
-            Side::Bottom => &mut self.acc[PER_SIDE..2 * PER_SIDE],
-        };
-        let ir = bin_clamped((p.pos[0] * p.pos[0] + p.pos[1] * p.pos[1]).sqrt(), self.inv_dr, c.nr);
-        let mu = dir_out[2].abs().min(1.0);
-        if !s[R].is_empty() {
-            s[R].add_once(ir, w);
-        }
-        if !s[A].is_empty() {
-            let ia = self.theta.bin(mu);
-            s[A].add_once(ia, w);
-            if !s[RA].is_empty() {
-                s[RA].add_once(ir * c.na + ia, w);
-            }
-        }
-        if !s[T].is_empty() {
-            let it = bin_clamped(p.path / C_MM_PER_PS, self.inv_dt, c.nt);
-            s[T].add_once(it, w);
-            if !s[RT].is_empty() {
-                s[RT].add_once(ir * c.nt + it, w);
-            }
-        }
-        let ko = p.order.min(self.max_order + 1) as usize;
-        let direct1 = p.order == 1 && p.reflections == 0;
-        if !s[ORDER].is_empty() {
-            s[ORDER].add_once(ko, w);
-            if direct1 {
-                s[SINGLE].add_once(0, w);
-            }
-        }
-        if !s[BSDF].is_empty() {
-            let ic = bin_clamped(mu, self.n_cos as f64, self.n_cos);
-            let mut phi = dir_out[1].atan2(dir_out[0]);
-            if phi < 0.0 {
-                phi += 2.0 * PI;
-            }
-            let ip = bin_clamped(phi, self.n_phi as f64 / (2.0 * PI), self.n_phi);
-            let b = ic * self.n_phi + ip;
-            s[BSDF].add_once(b, w);
-            if !s[ORDER].is_empty() {
-                let nb = s[BSDF].len();
-                s[BSDF_ORDER].add_once(ko * nb + b, w);
-                if direct1 {
-                    s[BSDF_SINGLE].add_once(b, w);
-                }
-            }
+        if self.any_escape && self.esc.push(p, side, dir_out, w) {
+            self.flush_escapes();
         }
     }
 
@@ -621,6 +652,7 @@ impl Tally for TallySet {
         for i in 0..LANES {
             self.flush_lane(i);
         }
+        self.flush_escapes();
         let mut k = 0;
         let mut ok = true;
         for a in self.acc.iter_mut().filter(|a| !a.is_empty()) {
