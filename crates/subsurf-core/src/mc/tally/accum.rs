@@ -216,19 +216,20 @@ impl List {
     /// Append `bin` if `cond`.
     #[inline(always)]
     fn push_if(&mut self, bin: u32, cond: bool) {
-        if self.len == self.buf.len() {
-            self.grow();
+        match self.buf.get_mut(self.len) {
+            Some(slot) => *slot = bin,
+            None => self.grow(bin),
         }
-        self.buf[self.len] = bin;
         self.len += cond as usize;
     }
 
     /// Make room for more slots (doubling; out of line: a list grows to its largest length
-    /// once and keeps its slots).
+    /// once and keeps its slots) and write `bin` into the slot at `len`.
     #[cold]
     #[inline(never)]
-    fn grow(&mut self) {
+    fn grow(&mut self, bin: u32) {
         self.buf.resize((2 * self.buf.len()).max(64), 0);
+        self.buf[self.len] = bin;
     }
 
     #[inline]
