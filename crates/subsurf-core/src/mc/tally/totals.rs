@@ -230,7 +230,11 @@ impl Tally for Totals {
         score(first, &xs, &mut sum[..NQ], &mut sum2[..NQ], &mut min[..NQ], &mut max[..NQ]);
         score(first, lay, &mut sum[NQ..], &mut sum2[NQ..], &mut min[NQ..], &mut max[NQ..]);
         *cur = [0.0; NQ];
-        lay.fill(0.0);
+        // (store by store: `fill` on this short, variable-length slice became a call to
+        // memset, 2.6 % of case a's time)
+        for x in lay.iter_mut() {
+            *std::hint::black_box(x) = 0.0;
+        }
     }
     fn channels(&self, out: &mut Vec<Channel>) {
         out.extend(Totals::layout(self.layers));
