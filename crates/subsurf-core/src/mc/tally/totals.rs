@@ -64,6 +64,28 @@ pub const TOTAL_NAMES: [&str; NQ] = [
 /// Slots per block of [`Totals`]' arrays (one AVX-512 register of f64).
 const W: usize = 8;
 
+/// [`W`] slots on a cache line of their own (64-byte aligned and sized): the totals write
+/// their blocks at every photon, and a block that shared a line with another thread's
+/// allocation (tallies move between workers) would be falsely shared.
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Block([f64; W]);
+
+impl std::ops::Deref for Block {
+    type Target = [f64; W];
+    #[inline(always)]
+    fn deref(&self) -> &[f64; W] {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Block {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut [f64; W] {
+        &mut self.0
+    }
+}
+
 /// Totals with per-photon second moments and extremes. Scores are kept in slots: the
 /// [`Total`]s, then one absorbed fraction per layer, in blocks of [`W`] (the last one padded
 /// with slots that stay 0), so that a photon's scores are added up with a few whole-block
@@ -77,15 +99,15 @@ pub struct Totals {
     /// Each lane's current photon's scores, lane-major (`cur[lane · blocks + block]`). Zero
     /// between photons: `end_photon` clears them as it reads them ([`Total::Absorbed`] is
     /// set there, never added to).
-    cur: Vec<[f64; W]>,
+    cur: Vec<Block>,
     /// Over photons, per slot: Σx, Σx², and the bounds of x (a chunk keeps only whether x was
     /// the same for every photon — cheaper than min/max per photon — as bounds (x, x), or
     /// (−∞, ∞) when it varied; merged states then hold the true "all equal" answer, which is
     /// all [`Totals::get`] needs).
-    sum: Vec<[f64; W]>,
-    sum2: Vec<[f64; W]>,
-    min: Vec<[f64; W]>,
-    max: Vec<[f64; W]>,
+    sum: Vec<Block>,
+    sum2: Vec<Block>,
+    min: Vec<Block>,
+    max: Vec<Block>,
 }
 
 /// Sample mean and standard error of the mean from Σx = `s1` and Σx² = `s2` over `n` samples
@@ -112,23 +134,34 @@ impl Totals {
             photons: 0,
             layers,
             blocks,
-            cur: vec![[0.0; W]; blocks * LANES],
-            sum: vec![[0.0; W]; blocks],
-            sum2: vec![[0.0; W]; blocks],
-            min: vec![[f64::INFINITY; W]; blocks],
-            max: vec![[f64::NEG_INFINITY; W]; blocks],
+            cur: vec![Block([0.0; W]); blocks * LANES],
+            sum: vec![Block([0.0; W]); blocks],
+            sum2: vec![Block([0.0; W]); blocks],
+            min: vec![Block([f64::INFINITY; W]); blocks],
+            max: vec![Block([f64::NEG_INFINITY; W]); blocks],
         }
     }
 
     /// Slot `i` of a blocked array.
     #[inline]
-    fn at(a: &[[f64; W]], i: usize) -> f64 {
+    fn at(a: &[Block], i: usize) -> f64 {
         a[i / W][i % W]
     }
 
     #[inline]
-    fn at_mut(a: &mut [[f64; W]], i: usize) -> &mut f64 {
+    fn at_mut(a: &mut [Block], i: usize) -> &mut f64 {
         &mut a[i / W][i % W]
+    }
+
+    /// Back to no photons, keeping the allocations (a tally is reused chunk after chunk).
+    fn clear(&mut self) {
+        self.photons = 0;
+        for (a, x) in [(&mut self.cur, 0.0), (&mut self.sum, 0.0), (&mut self.sum2, 0.0)]
+            .into_iter()
+            .chain([(&mut self.min, f64::INFINITY), (&mut self.max, f64::NEG_INFINITY)])
+        {
+            a.fill(Block([x; W]));
+        }
     }
 
     /// Photons scored.
@@ -195,7 +228,7 @@ fn score(first: bool, x: &[f64; W], sum: &mut [f64; W], sum2: &mut [f64; W], min
 impl Totals {
     /// Lane `lane`'s current scores.
     #[inline(always)]
-    fn cur_mut(&mut self, lane: usize) -> &mut [[f64; W]] {
+    fn cur_mut(&mut self, lane: usize) -> &mut [Block] {
         &mut self.cur[lane * self.blocks..(lane + 1) * self.blocks]
     }
 }
@@ -249,7 +282,7 @@ impl Tally for Totals {
                 x[Total::Absorbed as usize] = physical + x[Total::Roulette as usize];
             }
             score(first, &x, &mut self.sum[b], &mut self.sum2[b], &mut self.min[b], &mut self.max[b]);
-            *c = [0.0; W];
+            c.0 = [0.0; W];
         }
     }
     fn channels(&self, out: &mut Vec<Channel>) {
@@ -265,11 +298,11 @@ impl Tally for Totals {
                 }
             }
         }
-        *self = Totals::new(self.layers);
+        self.clear();
         ok.then_some(2)
     }
     fn load_from(&mut self, state: &[ChannelState], photons: u64) -> usize {
-        *self = Totals::new(self.layers);
+        self.clear();
         self.photons = photons;
         for (k, lo) in [0, NQ].into_iter().enumerate() {
             for j in 0..state[k].s1.len() {
