@@ -410,7 +410,9 @@ struct Scratch {
     /// by [`advance`] and [`interfaces`] from the masks they hold, so the pass reads one array
     /// as wide as it was written).
     att: B,
-    interact: B,
+    /// Lanes that interacted with a non-zero deposit in `dep` (for `Tally::absorb_lanes`; a
+    /// mask like `att`, turned into lane bits the same way).
+    deposit: B,
     /// 1 − cos θ per lane when the stack has phase-function mixtures (sampled lane by lane).
     one_minus_cos: F32,
     /// A fresh optical depth and the direction after a scattering, per lane ([`sample`]).
@@ -539,8 +541,7 @@ fn run_lanes<T: Tally>(
         let mut deposits = 0u32;
         if T::POSITIONS {
             for i in 0..L {
-                // (bit i of the mask; `interact` is all ones or zero)
-                deposits |= ((sc.interact[i] & (sc.dep[i] != 0.0) as u64) as u32) << i;
+                deposits |= ((sc.deposit[i] >> 63) as u32) << i;
             }
         }
         if T::POSITIONS && deposits != 0 {

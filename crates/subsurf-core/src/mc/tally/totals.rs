@@ -61,25 +61,53 @@ pub const TOTAL_NAMES: [&str; NQ] = [
     "roulette",
 ];
 
-/// Totals with per-photon second moments and extremes. Scores are kept in one array: the
-/// [`Total`]s, then one absorbed fraction per layer.
+/// Slots per block of [`Totals`]' arrays (one AVX-512 register of f64).
+const W: usize = 8;
+
+/// [`W`] slots on a cache line of their own (64-byte aligned and sized): the totals write
+/// their blocks at every photon, and a block that shared a line with another thread's
+/// allocation (tallies move between workers) would be falsely shared.
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Block([f64; W]);
+
+impl std::ops::Deref for Block {
+    type Target = [f64; W];
+    #[inline(always)]
+    fn deref(&self) -> &[f64; W] {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Block {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut [f64; W] {
+        &mut self.0
+    }
+}
+
+/// Totals with per-photon second moments and extremes. Scores are kept in slots: the
+/// [`Total`]s, then one absorbed fraction per layer, in blocks of [`W`] (the last one padded
+/// with slots that stay 0), so that a photon's scores are added up with a few whole-block
+/// vector operations.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Totals {
     photons: u64,
     layers: usize,
-    /// Each lane's current photon's scores: the [`Total`]s, and (lane-major,
-    /// `cur_layer[lane · layers + layer]`) the physical absorption per layer. Zero between
-    /// photons: `end_photon` clears them as it reads them.
-    cur: [[f64; NQ]; LANES],
-    cur_layer: Vec<f64>,
-    /// Over photons, slots of the [`Total`]s then of the layers: Σx, Σx², and the bounds of x
-    /// (a chunk keeps only whether x was the same for every photon — cheaper than min/max per
-    /// photon — as bounds (x, x), or (−∞, ∞) when it varied; merged states then hold the true
-    /// "all equal" answer, which is all [`Totals::get`] needs).
-    sum: Vec<f64>,
-    sum2: Vec<f64>,
-    min: Vec<f64>,
-    max: Vec<f64>,
+    /// Blocks per set of slots: ⌈(NQ + layers)/W⌉.
+    blocks: usize,
+    /// Each lane's current photon's scores, lane-major (`cur[lane · blocks + block]`). Zero
+    /// between photons: `end_photon` clears them as it reads them ([`Total::Absorbed`] is
+    /// set there, never added to).
+    cur: Vec<Block>,
+    /// Over photons, per slot: Σx, Σx², and the bounds of x (a chunk keeps only whether x was
+    /// the same for every photon — cheaper than min/max per photon — as bounds (x, x), or
+    /// (−∞, ∞) when it varied; merged states then hold the true "all equal" answer, which is
+    /// all [`Totals::get`] needs).
+    sum: Vec<Block>,
+    sum2: Vec<Block>,
+    min: Vec<Block>,
+    max: Vec<Block>,
 }
 
 /// Sample mean and standard error of the mean from Σx = `s1` and Σx² = `s2` over `n` samples
@@ -101,16 +129,38 @@ pub fn mean_stderr(s1: f64, s2: f64, n: u64) -> (f64, f64) {
 impl Totals {
     /// Empty totals for a stack of `layers` layers.
     pub fn new(layers: usize) -> Self {
-        let n = NQ + layers;
+        let blocks = (NQ + layers).div_ceil(W);
         Totals {
             photons: 0,
             layers,
-            cur: [[0.0; NQ]; LANES],
-            cur_layer: vec![0.0; layers * LANES],
-            sum: vec![0.0; n],
-            sum2: vec![0.0; n],
-            min: vec![f64::INFINITY; n],
-            max: vec![f64::NEG_INFINITY; n],
+            blocks,
+            cur: vec![Block([0.0; W]); blocks * LANES],
+            sum: vec![Block([0.0; W]); blocks],
+            sum2: vec![Block([0.0; W]); blocks],
+            min: vec![Block([f64::INFINITY; W]); blocks],
+            max: vec![Block([f64::NEG_INFINITY; W]); blocks],
+        }
+    }
+
+    /// Slot `i` of a blocked array.
+    #[inline]
+    fn at(a: &[Block], i: usize) -> f64 {
+        a[i / W][i % W]
+    }
+
+    #[inline]
+    fn at_mut(a: &mut [Block], i: usize) -> &mut f64 {
+        &mut a[i / W][i % W]
+    }
+
+    /// Back to no photons, keeping the allocations (a tally is reused chunk after chunk).
+    fn clear(&mut self) {
+        self.photons = 0;
+        for (a, x) in [(&mut self.cur, 0.0), (&mut self.sum, 0.0), (&mut self.sum2, 0.0)]
+            .into_iter()
+            .chain([(&mut self.min, f64::INFINITY), (&mut self.max, f64::NEG_INFINITY)])
+        {
+            a.fill(Block([x; W]));
         }
     }
 
@@ -122,10 +172,11 @@ impl Totals {
     /// (estimate, standard error) of slot `i`: the common score and 0 when every photon scored
     /// the same, else [`mean_stderr`].
     fn estimate(&self, i: usize) -> (f64, f64) {
-        if self.photons > 0 && self.min[i] == self.max[i] {
-            return (self.min[i], 0.0);
+        let (min, max) = (Self::at(&self.min, i), Self::at(&self.max, i));
+        if self.photons > 0 && min == max {
+            return (min, 0.0);
         }
-        mean_stderr(self.sum[i], self.sum2[i], self.photons)
+        mean_stderr(Self::at(&self.sum, i), Self::at(&self.sum2, i), self.photons)
     }
 
     /// (estimate, standard error) of a total, as a fraction of the incident power.
@@ -140,12 +191,8 @@ impl Totals {
 
     /// (specular + diffuse + transmittance + absorbed)/N (1 up to rounding in every run).
     pub fn energy_balance(&self) -> f64 {
-        let s = &self.sum;
-        (s[Total::Specular as usize]
-            + s[Total::Diffuse as usize]
-            + s[Total::Transmittance as usize]
-            + s[Total::Absorbed as usize])
-            / self.photons as f64
+        let s = |q: Total| Self::at(&self.sum, q as usize);
+        (s(Total::Specular) + s(Total::Diffuse) + s(Total::Transmittance) + s(Total::Absorbed)) / self.photons as f64
     }
 
     /// The channels of the totals of a stack of `layers` layers.
@@ -157,28 +204,32 @@ impl Totals {
     }
 }
 
-/// Score one photon's values `xs` into the slots `sum`, `sum2`, `min`, `max` (each at least
-/// `xs.len()` long): Σx, Σx², and the "all equal" bounds (x, x) on the chunk's first photon,
-/// (−∞, ∞) once a value differs. Branch-free over the slots (the per-photon cost of the
-/// totals, which short histories pay at every photon).
+/// Score one photon's block of slots `x` into `sum`, `sum2`, `min`, `max`: Σx, Σx², and the
+/// "all equal" bounds (x, x) on the chunk's first photon, (−∞, ∞) once a value differs.
+/// Branch-free over the slots (the per-photon cost of the totals, which short histories pay
+/// at every photon: a few vector operations per block).
 #[inline(always)]
-fn score(first: bool, xs: &[f64], sum: &mut [f64], sum2: &mut [f64], min: &mut [f64], max: &mut [f64]) {
-    let n = xs.len();
-    let (sum, sum2, min, max) = (&mut sum[..n], &mut sum2[..n], &mut min[..n], &mut max[..n]);
-    for i in 0..n {
-        let x = xs[i];
-        sum[i] += x;
-        sum2[i] += x * x;
+fn score(first: bool, x: &[f64; W], sum: &mut [f64; W], sum2: &mut [f64; W], min: &mut [f64; W], max: &mut [f64; W]) {
+    for i in 0..W {
+        sum[i] += x[i];
+        sum2[i] += x[i] * x[i];
     }
     if first {
-        min.copy_from_slice(xs);
-        max.copy_from_slice(xs);
+        (*min, *max) = (*x, *x);
     } else {
-        for i in 0..n {
-            let varied = xs[i] != min[i];
+        for i in 0..W {
+            let varied = x[i] != min[i];
             min[i] = if varied { f64::NEG_INFINITY } else { min[i] };
             max[i] = if varied { f64::INFINITY } else { max[i] };
         }
+    }
+}
+
+impl Totals {
+    /// Lane `lane`'s current scores.
+    #[inline(always)]
+    fn cur_mut(&mut self, lane: usize) -> &mut [Block] {
+        &mut self.cur[lane * self.blocks..(lane + 1) * self.blocks]
     }
 }
 
@@ -188,19 +239,19 @@ impl Tally for Totals {
     fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
     #[inline]
     fn specular(&mut self, lane: usize, w: f64) {
-        self.cur[lane][Total::Specular as usize] += w;
+        self.cur_mut(lane)[0][Total::Specular as usize] += w;
     }
     #[inline]
     fn absorb(&mut self, lane: usize, p: &Packet, dw: f64) {
-        self.cur_layer[lane * self.layers + p.layer] += dw;
+        *Self::at_mut(self.cur_mut(lane), NQ + p.layer) += dw;
     }
     #[inline]
     fn roulette(&mut self, lane: usize, _p: &Packet, dw: f64) {
-        self.cur[lane][Total::Roulette as usize] += dw;
+        self.cur_mut(lane)[0][Total::Roulette as usize] += dw;
     }
     #[inline]
     fn escape(&mut self, lane: usize, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
-        let cur = &mut self.cur[lane];
+        let cur = &mut self.cur_mut(lane)[0];
         match side {
             Side::Top => cur[Total::Diffuse as usize] += w,
             Side::Bottom => {
@@ -217,20 +268,22 @@ impl Tally for Totals {
         self.photons += 1;
         let first = self.photons == 1;
         let nl = self.layers;
-        let lay = &mut self.cur_layer[lane * nl..(lane + 1) * nl];
-        let physical = lay.iter().fold(0.0, |a, &x| a + x);
-        let cur = &mut self.cur[lane];
-        // The scores slot by slot: the history's last scores were single-slot stores (escape,
-        // roulette), and one vector load (or a gather) over them cannot be forwarded from the
-        // store buffer (perf put the stall at up to 10 % of case a's time; A/B medians of 9
-        // pairs 1.02–1.04×); a load through an opaque reference is not combined with others.
-        let mut xs: [f64; NQ] = std::array::from_fn(|k| *std::hint::black_box(&cur[k]));
-        xs[Total::Absorbed as usize] = physical + xs[Total::Roulette as usize];
-        let (sum, sum2, min, max) = (&mut self.sum, &mut self.sum2, &mut self.min, &mut self.max);
-        score(first, &xs, &mut sum[..NQ], &mut sum2[..NQ], &mut min[..NQ], &mut max[..NQ]);
-        score(first, lay, &mut sum[NQ..], &mut sum2[NQ..], &mut min[NQ..], &mut max[NQ..]);
-        *cur = [0.0; NQ];
-        lay.fill(0.0);
+        let cur = &mut self.cur[lane * self.blocks..(lane + 1) * self.blocks];
+        // The scores are read slot by slot: the history's last scores were single-slot stores
+        // (escape, roulette), and one vector load (or a gather) over them cannot be forwarded
+        // from the store buffer (perf put the stall at up to 10 % of case a's time; A/B
+        // medians of 9 pairs 1.02–1.04×); a load through an opaque reference is not combined
+        // with others.
+        let read = |b: &[f64; W]| -> [f64; W] { std::array::from_fn(|k| *std::hint::black_box(&b[k])) };
+        let physical = (NQ..NQ + nl).fold(0.0, |a, i| a + *std::hint::black_box(&cur[i / W][i % W]));
+        for (b, c) in cur.iter_mut().enumerate() {
+            let mut x = read(c);
+            if b == 0 {
+                x[Total::Absorbed as usize] = physical + x[Total::Roulette as usize];
+            }
+            score(first, &x, &mut self.sum[b], &mut self.sum2[b], &mut self.min[b], &mut self.max[b]);
+            c.0 = [0.0; W];
+        }
     }
     fn channels(&self, out: &mut Vec<Channel>) {
         out.extend(Totals::layout(self.layers));
@@ -240,22 +293,24 @@ impl Tally for Totals {
         for (k, (lo, hi)) in [(0, NQ), (NQ, NQ + self.layers)].into_iter().enumerate() {
             for i in lo..hi {
                 if self.photons > 0 {
-                    ok &= state[k].add(i - lo, self.sum[i], self.sum2[i]);
-                    state[k].add_extremes(i - lo, self.min[i], self.max[i]);
+                    ok &= state[k].add(i - lo, Self::at(&self.sum, i), Self::at(&self.sum2, i));
+                    state[k].add_extremes(i - lo, Self::at(&self.min, i), Self::at(&self.max, i));
                 }
             }
         }
-        *self = Totals::new(self.layers);
+        self.clear();
         ok.then_some(2)
     }
     fn load_from(&mut self, state: &[ChannelState], photons: u64) -> usize {
-        *self = Totals::new(self.layers);
+        self.clear();
         self.photons = photons;
         for (k, lo) in [0, NQ].into_iter().enumerate() {
             for j in 0..state[k].s1.len() {
-                (self.sum[lo + j], self.sum2[lo + j]) = state[k].get(j);
-                self.min[lo + j] = state[k].min[j];
-                self.max[lo + j] = state[k].max[j];
+                let (s1, s2) = state[k].get(j);
+                *Self::at_mut(&mut self.sum, lo + j) = s1;
+                *Self::at_mut(&mut self.sum2, lo + j) = s2;
+                *Self::at_mut(&mut self.min, lo + j) = state[k].min[j];
+                *Self::at_mut(&mut self.max, lo + j) = state[k].max[j];
             }
         }
         2
@@ -315,5 +370,38 @@ mod tests {
         assert_eq!(t.get(Total::Roulette).0, -0.25);
         assert_eq!(t.absorbed_per_layer()[1].0, 0.0);
         assert_eq!(t.energy_balance(), 1.0);
+    }
+
+    /// Layers past the first block of slots (NQ + 5 > W): per-layer sums, the "all equal"
+    /// rule and the exact state round trip hold there too, lane by lane.
+    #[test]
+    fn layers_in_a_second_block() {
+        let mut t = Totals::new(5);
+        let mut p = pkt();
+        for (k, x) in [0.5, 0.25, 0.125].into_iter().enumerate() {
+            let lane = 3 * k % LANES;
+            t.begin_photon(lane, k as u64);
+            p.layer = 3;
+            t.absorb(lane, &p, 0.25); // the same in every photon
+            p.layer = 4;
+            t.absorb(lane, &p, x);
+            t.escape(lane, &p, Side::Top, p.dir, 0.75 - x);
+            t.end_photon(lane);
+        }
+        let layers = t.absorbed_per_layer();
+        assert_eq!(layers[3], (0.25, 0.0));
+        let (m, se) = layers[4];
+        assert_eq!(m, 0.875 / 3.0);
+        assert_eq!((m, se), mean_stderr(0.875, 0.25 + 0.0625 + 0.015625, 3));
+        assert_eq!(layers[0], (0.0, 0.0));
+        assert_eq!(t.get(Total::Absorbed).0, (0.75 + 0.5 + 0.375) / 3.0);
+        assert!((t.energy_balance() - 1.0).abs() < 1e-15);
+        let mut chans = Vec::new();
+        t.channels(&mut chans);
+        let mut st: Vec<ChannelState> = chans.iter().map(ChannelState::new).collect();
+        assert_eq!(t.drain_into(&mut st), Some(2));
+        let mut u = Totals::new(5);
+        u.load_from(&st, 3);
+        assert_eq!(u.absorbed_per_layer(), layers);
     }
 }

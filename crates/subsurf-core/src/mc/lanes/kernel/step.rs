@@ -122,7 +122,6 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pendi
         let f = selq(bounces, fate::BOUNCES, f);
         // Interaction.
         let it = moving & !h;
-        sc.interact[i] = mk(it);
         let w0 = st.w[i];
         let w1 = w0 * st.l.keep_frac[i];
         let dw = w0 - w1;
@@ -143,6 +142,7 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pendi
         sc.rou[i] = sel(low, control, 0.0);
         let dep = sel(it, dw, 0.0);
         sc.dep[i] = dep;
+        sc.deposit[i] = mk(dep != 0.0);
         if pending {
             st.absorbed[i] += dep;
         }
