@@ -185,7 +185,7 @@ impl Axis {
 }
 
 /// Bin index ⌊x / w⌋ clamped to `[0, n − 1]` (the last bin collects overflow, as MCML);
-/// negative and NaN give 0. `n` ≥ 1 and below 2³² (grids are limited to 10⁷ bins).
+/// negative and NaN give 0. `n` ≥ 1 and below 2³¹ (grids are limited to 10⁷ bins).
 #[inline(always)]
 pub fn bin_clamped(x: f64, inv_w: f64, n: usize) -> usize {
     // Clamped in floating point (`max` maps NaN to 0), then a plain truncation: unlike the
@@ -193,8 +193,9 @@ pub fn bin_clamped(x: f64, inv_w: f64, n: usize) -> usize {
     // ((n − 1) as i64: one signed conversion instruction, where usize → f64 takes several
     // without AVX-512; the same value, n < 2³²)
     let v = (x * inv_w).max(0.0).min((n - 1) as i64 as f64);
-    // SAFETY: v is finite and in [0, n − 1] ⊂ [0, 2³²), so the truncation is defined.
-    unsafe { v.to_int_unchecked::<u32>() as usize }
+    // SAFETY: v is finite and in [0, n − 1] ⊂ [0, 2³¹) (n ≤ 10⁷), so the truncation is
+    // defined. (To i32: one instruction per vector, where u32 takes several below AVX-512.)
+    unsafe { v.to_int_unchecked::<i32>() as usize }
 }
 
 /// Bins of the polar angle θ = acos μ ∈ [0, π/2] in `n` equal widths Δθ = π/(2n), found from
