@@ -5,7 +5,10 @@
 //! latencies that, paid one escape at a time inside the lane kernel's loop, stalls it. Buffered,
 //! the radii and angle guesses of [`ESCAPES`] escapes are computed in one vectorised pass and the
 //! scores are then added in the order the escapes arrived, so every bin's f64 sum sees the same
-//! additions in the same order as unbuffered binning (the same bits).
+//! additions in the same order as unbuffered binning (the same bits). Measured with MCML's
+//! tally set: 1.06–1.08× faster runs in case a, 1.06× in c, 1.13× in d (medians of 5–13 A/B
+//! pairs); scoring each accumulator in a pass of its own over the buffer instead cost 1 % more
+//! instructions and was not faster.
 
 use crate::mc::packet::{Packet, Side};
 
@@ -57,7 +60,7 @@ impl Default for Escapes {
 }
 
 impl Escapes {
-    /// Buffer an escape (see [`super::super::Tally::escape`]); returns whether the buffer is
+    /// Buffer an escape (see [`super::Tally::escape`]); returns whether the buffer is
     /// now full.
     #[inline(always)]
     pub fn push(&mut self, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) -> bool {

@@ -18,6 +18,11 @@
 //! weights above 10⁻⁴ of the entering weight); smaller parts are rounded to the nearest
 //! multiple of 2^−FRAC (ties to even), still deterministically. Conversion back to f64 rounds
 //! to nearest (ties to even), so the result is the correctly rounded exact sum.
+//!
+//! Cost: a run drains every bin a chunk touched (case a of `make bench` with MCML's tally set:
+//! 2900 bins per 4096-photon chunk, 1.4 (S₁, Q) pairs per photon). With [`Fixed::add_f64`]'s
+//! 128-bit fast path the drain takes 37 instead of 62 instructions per value (callgrind), and
+//! the run was 1.11× faster (median of 9 A/B pairs; same bits).
 
 /// Integer bits (including the sign bit) of every [`Fixed`].
 pub const INT_BITS: u32 = 80;
@@ -91,10 +96,12 @@ impl<const L: usize> Fixed<L> {
     /// Add `x` exactly (rounded to the grid 2^−FRAC, ties to even, when |x| < 2^(53 − FRAC)).
     /// Returns `false` (and adds nothing) when `x` is not finite or |x| ≥ 2^(INT_BITS − 2).
     ///
-    /// Fast path (every chunk sum of a run in practice): a normal `x` whose 53-bit significand,
-    /// shifted to its grid position, lies within two adjacent limbs below the top one is added
-    /// as one 128-bit integer (an add-with-carry pair, no carry loop unless the carry leaves
-    /// those two limbs); everything else takes [`Fixed::add_f64_general`]. Same integers.
+    /// Fast path (every chunk sum of a run in practice): a normal `x` whose significand's
+    /// lowest bit lands at grid position 0 ≤ shift < 64 (L − 1) (2^(52 − FRAC) ≤ |x| < 2⁶⁸:
+    /// S₁ from 4.7e−38, S₂ from 2.5e−57) spans two adjacent limbs and is added to them as one
+    /// 128-bit integer (an add-with-carry pair; a carry loop only if the carry leaves those
+    /// limbs); everything else takes `add_f64_general`. Same integers (tested against
+    /// it over random values and carry-prone accumulators).
     #[inline(always)]
     pub fn add_f64(&mut self, x: f64) -> bool {
         let bits = x.to_bits();

@@ -620,7 +620,7 @@ impl Tally for TallySet {
     #[inline]
     fn roulette(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
 
-    /// Buffered (see [`super::escapes`]); binned by [`TallySet::flush_escapes`].
+    /// Buffered (in `tally/escapes.rs`), binned 64 at a time by `flush_escapes`.
     #[inline]
     fn escape(&mut self, _lane: usize, p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
         if self.any_escape && self.esc.push(p, side, dir_out, w) {
