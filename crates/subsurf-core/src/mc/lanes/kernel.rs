@@ -567,14 +567,25 @@ fn run_lanes<T: Tally>(
                 st.l_layer[i] = j;
                 continue;
             }
-            let mut p = packet(&st, i);
+            // (the packet is built in each arm: one built before the match had to be kept whole
+            // in memory for `bounce_out`, and the escape, whose tally may read only a field or
+            // two, paid for all of it)
             match f {
-                fate::ESCAPE_TOP => tally.escape(i, &p, Side::Top, [sc.ox[i], sc.oy[i], sc.oz[i]], p.w),
-                fate::ESCAPE_BOTTOM => tally.escape(i, &p, Side::Bottom, [sc.ox[i], sc.oy[i], sc.oz[i]], p.w),
-                fate::CLEAR_DOWN => tally.escape(i, &p, Side::Bottom, p.dir, p.w),
-                fate::TRAPPED => tally.roulette(i, &p, p.w),
-                // still inside after its bounces: keeps moving
-                fate::BOUNCES if bounce_out(lk, &mut st, i, &mut p, tally) => continue,
+                fate::ESCAPE_TOP | fate::ESCAPE_BOTTOM => {
+                    let side = if f == fate::ESCAPE_TOP { Side::Top } else { Side::Bottom };
+                    tally.escape(i, &packet(&st, i), side, [sc.ox[i], sc.oy[i], sc.oz[i]], st.w[i]);
+                }
+                fate::CLEAR_DOWN => {
+                    let p = packet(&st, i);
+                    tally.escape(i, &p, Side::Bottom, p.dir, p.w);
+                }
+                fate::TRAPPED => tally.roulette(i, &packet(&st, i), st.w[i]),
+                fate::BOUNCES => {
+                    let mut p = packet(&st, i);
+                    if bounce_out(lk, &mut st, i, &mut p, tally) {
+                        continue; // still inside after its bounces: keeps moving
+                    }
+                }
                 _ => {}
             }
             tally.end_photon(i);

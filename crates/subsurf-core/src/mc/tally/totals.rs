@@ -20,6 +20,7 @@
 //! brought, so `absorbed` is never negative either.
 
 use super::{Channel, ChannelState, Tally};
+use crate::mc::lanes::math::sel;
 use crate::mc::lanes::LANES;
 use crate::mc::packet::{Packet, Side};
 
@@ -219,8 +220,8 @@ fn score(first: bool, x: &[f64; W], sum: &mut [f64; W], sum2: &mut [f64; W], min
     } else {
         for i in 0..W {
             let varied = x[i] != min[i];
-            min[i] = if varied { f64::NEG_INFINITY } else { min[i] };
-            max[i] = if varied { f64::INFINITY } else { max[i] };
+            min[i] = sel(varied, f64::NEG_INFINITY, min[i]);
+            max[i] = sel(varied, f64::INFINITY, max[i]);
         }
     }
 }
@@ -271,11 +272,13 @@ impl Tally for Totals {
         let cur = &mut self.cur[lane * self.blocks..(lane + 1) * self.blocks];
         // The scores are read slot by slot: the history's last scores were single-slot stores
         // (escape, roulette), and one vector load (or a gather) over them cannot be forwarded
-        // from the store buffer (perf put the stall at up to 10 % of case a's time; A/B
-        // medians of 9 pairs 1.02–1.04×); a load through an opaque reference is not combined
-        // with others.
-        let read = |b: &[f64; W]| -> [f64; W] { std::array::from_fn(|k| *std::hint::black_box(&b[k])) };
-        let physical = (NQ..NQ + nl).fold(0.0, |a, i| a + *std::hint::black_box(&cur[i / W][i % W]));
+        // from the store buffer (perf put the stall at up to 10 % of case a's time). Volatile
+        // loads are neither combined nor, as `black_box` was, routed through the stack (whose
+        // one slot serialised them: case a totals 1.16×, median of 11 A/B pairs).
+        // SAFETY: `x` is a reference to an initialised f64.
+        let slot = |x: &f64| unsafe { std::ptr::read_volatile(x) };
+        let read = |b: &Block| -> [f64; W] { std::array::from_fn(|k| slot(&b[k])) };
+        let physical = (NQ..NQ + nl).fold(0.0, |a, i| a + slot(&cur[i / W][i % W]));
         for (b, c) in cur.iter_mut().enumerate() {
             let mut x = read(c);
             if b == 0 {
