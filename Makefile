@@ -31,6 +31,7 @@ test-python: build
 lint: venv
 	cargo fmt --all --check
 	cargo clippy --workspace --all-targets -q -- -D warnings
+	RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps -q
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 

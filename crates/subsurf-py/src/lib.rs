@@ -1,7 +1,7 @@
 //! `subsurf._core`: the thin PyO3 layer over `subsurf-core`.
 //!
 //! One file per core module; each has a `register` function adding its functions and classes
-//! to the single extension module. Errors are mapped to Python in one place: [`errors`].
+//! to the single extension module. Errors are mapped to Python in one place: the `errors` module.
 
 use pyo3::prelude::*;
 

@@ -1,6 +1,6 @@
 //! The better dipole of E. d'Eon, "A Better Dipole", Weta Digital technical report (2012),
 //! eqs. for R(r) = C_φ φ(r) + C_E E(r) with Grosjean's diffusion coefficient, as a
-//! [`RadialProfile`]. The formulas live in [`crate::diffusion::better_dipole`].
+//! [`RadialProfile`](super::RadialProfile). The formulas live in [`crate::diffusion::better_dipole`].
 
 use super::{ClosedForm, Medium, Tabulated};
 use crate::diffusion::BetterDipole;

@@ -118,7 +118,7 @@ impl RadialCdf {
         (cdf, total)
     }
 
-    /// From knots `r` (r[0] = 0, increasing), cumulative values `c` (non-decreasing, c[0] = 0,
+    /// From knots `r` (r\[0\] = 0, increasing), cumulative values `c` (non-decreasing, c\[0\] = 0,
     /// any positive last value: normalised here) and the density at the last knot `end_slope`
     /// (same units as c per mm). Interior slopes are PCHIP's weighted harmonic means of the
     /// secants; the slope at r = 0 is the first secant (a constant density in the first bin).

@@ -1,6 +1,6 @@
 //! The classical dipole of Jensen, Marschner, Levoy & Hanrahan, "A Practical Model for Subsurface
 //! Light Transport", SIGGRAPH 2001, §2.4 (eqs. 4–5 of the paper's diffusion term; Farrell,
-//! Patterson & Wilson 1992), as a [`RadialProfile`]. The formulas live in
+//! Patterson & Wilson 1992), as a [`RadialProfile`](super::RadialProfile). The formulas live in
 //! [`crate::diffusion::dipole`]; this file only gives them the profile interface.
 
 use super::{ClosedForm, Medium, Tabulated};

@@ -1,5 +1,5 @@
 //! The Monte Carlo profile: R_d(r) of any [`Stack`] (layered, finite, mismatched indices) from
-//! the engine ([`crate::mc::run`]) under a normally incident pencil beam.
+//! the engine ([`crate::mc::run()`]) under a normally incident pencil beam.
 //!
 //! - [`RadialTally`] scores the weight escaping through the top on a log-spaced radial grid
 //!   (bin 0 = [0, r_min), then `per_decade` bins per decade to r_max, then one overflow bin),
@@ -211,7 +211,7 @@ impl Tally for RadialTally {
 /// What a Monte Carlo profile is built from (and what a profile table stores per albedo).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RadialData {
-    /// Edges [0, r_min, …, r_max], mm; bin i = [edges[i], edges[i+1]), the last bin [r_max, ∞).
+    /// Edges [0, r_min, …, r_max], mm; bin i = \[edges\[i\], edges\[i+1\]), the last bin \[r_max, ∞).
     pub edges: Vec<f64>,
     /// Mean escaping weight per photon in each bin (edges.len() bins).
     pub weight: Vec<f64>,

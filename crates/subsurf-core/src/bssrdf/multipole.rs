@@ -14,7 +14,7 @@
 //! products of their 2-D Fourier (Hankel) transforms, R₁₂ = R₁ + T₁R₂T₁⁻/(1 − R₁⁻R₂),
 //! T₁₂ = T₁T₂/(1 − R₁⁻R₂) (superscript − : light arriving from below). The transform of each
 //! multipole term is analytic, ∫ F(z, r) J₀(kr) 2πr dr = 2π sgn(z) e^{−|z|√(σtr² + k²)}, so the
-//! slab transforms are exact; the combined R(r) = R₁(r) + (1/2π)∫ [R̂₁₂ − R̂₁](k) J₀(kr) k dk is
+//! slab transforms are exact; the combined R(r) = R₁(r) + (1/2π)∫ \[R̂₁₂ − R̂₁\](k) J₀(kr) k dk is
 //! the top slab's exact profile plus a numerically inverted correction (Simpson on a uniform k
 //! grid fine enough for the largest tabulated r), tabulated on a log grid of r (16 per decade) and
 //! interpolated by a C¹ cubic in ln r. Its total is R̂₁₂(0) in closed form.

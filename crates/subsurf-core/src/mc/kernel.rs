@@ -74,7 +74,7 @@ use crate::rng::PhotonRng;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Interface hits in a row inside clear layers that are traced one by one before the rest of
-/// the bounces in the current clear layer are sampled at once ([`clear_bounces`]).
+/// the bounces in the current clear layer are sampled at once (`clear_bounces`).
 pub const CLEAR_HITS_STEPWISE: u32 = 8;
 
 /// Interface hits in a row without an interaction after which a packet counts as trapped by

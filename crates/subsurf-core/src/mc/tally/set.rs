@@ -19,7 +19,7 @@
 //!   F = A/μa, manual §5.3): A/μa in bins inside one layer; in a bin straddling an interface
 //!   each deposit is divided by μa of the layer it happens in, so that bin is right too (kept
 //!   as dw · μa,min/μa so that the exact sums stay in range, divided by μa,min at the end);
-//!   Φ(z) [1] (planar integral per unit incident power), Φ(r,z) [mm⁻²]; NaN for bins touching
+//!   Φ(z) \[1\] (planar integral per unit incident power), Φ(r,z) [mm⁻²]; NaN for bins touching
 //!   a layer with μa = 0 (fluence is not observable there through absorption).
 //! - Time t = (optical path Σ nᵢ ℓᵢ)/c, c = 0.299792458 mm/ps; R(t) = Σw/(N dt) [ps⁻¹],
 //!   R(r,t) [mm⁻² ps⁻¹].

@@ -88,7 +88,7 @@ impl std::ops::DerefMut for Block {
 }
 
 /// Totals with per-photon second moments and extremes. Scores are kept in slots: the
-/// [`Total`]s, then one absorbed fraction per layer, in blocks of [`W`] (the last one padded
+/// [`Total`]s, then one absorbed fraction per layer, in blocks of 8 (the last one padded
 /// with slots that stay 0), so that a photon's scores are added up with a few whole-block
 /// vector operations.
 #[derive(Clone, Debug, PartialEq)]
