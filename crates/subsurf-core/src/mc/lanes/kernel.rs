@@ -52,8 +52,7 @@ fn on(m: u64) -> bool {
 }
 
 /// The lanes whose mask in `m` is set, as bits (bit i: lane i): a vector shift and an OR
-/// reduction, a dozen instructions per step (cheaper than testing the union first, which the
-/// attention pass did: in short histories some lane needs attention at nearly every step).
+/// reduction.
 #[inline(always)]
 fn lane_bits(m: &B) -> u32 {
     let mut bits = 0u32;
@@ -541,7 +540,10 @@ fn run_lanes<T: Tally>(
         }
         // Phase 4: absorption deposits (tallies with positions), then, only for the lanes that
         // need it: layer changes, ends of histories, refills.
-        let mut attention = lane_bits(&sc.att);
+        // (the union of the `att` masks first, read as wide as they were written: in long
+        // histories most steps need no attention, and then the lane bits are not gathered)
+        let any = sc.att.iter().fold(0, |a, &m| a | m);
+        let mut attention = if any != 0 { lane_bits(&sc.att) } else { 0 };
         let deposits = if T::POSITIONS { lane_bits(&sc.deposit) } else { 0 };
         if T::POSITIONS && deposits != 0 {
             let d = Deposits { x: &st.x, y: &st.y, z: &st.z, layer: &st.layer, dep: &sc.dep, mask: deposits };
