@@ -149,9 +149,16 @@ impl Totals {
         a[i / W][i % W]
     }
 
+    /// Slot `i` of a blocked array, to write.
     #[inline]
     fn at_mut(a: &mut [Block], i: usize) -> &mut f64 {
         &mut a[i / W][i % W]
+    }
+
+    /// Lane `lane`'s current scores.
+    #[inline(always)]
+    fn cur_mut(&mut self, lane: usize) -> &mut [Block] {
+        &mut self.cur[lane * self.blocks..(lane + 1) * self.blocks]
     }
 
     /// Back to no photons, keeping the allocations (a tally is reused chunk after chunk).
@@ -223,14 +230,6 @@ fn score(first: bool, x: &[f64; W], sum: &mut [f64; W], sum2: &mut [f64; W], min
             min[i] = sel(varied, f64::NEG_INFINITY, min[i]);
             max[i] = sel(varied, f64::INFINITY, max[i]);
         }
-    }
-}
-
-impl Totals {
-    /// Lane `lane`'s current scores.
-    #[inline(always)]
-    fn cur_mut(&mut self, lane: usize) -> &mut [Block] {
-        &mut self.cur[lane * self.blocks..(lane + 1) * self.blocks]
     }
 }
 
