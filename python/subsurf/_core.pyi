@@ -285,7 +285,10 @@ class RenderJob:
         seed: int,
         threads: int | None = None,
         hierarchical: tuple[float, float, int, int] | None = None,
-    ) -> None: ...
+        progress: Callable[[str, int, int], object] | None = None,
+    ) -> None:
+        """Prepare the scene with the GIL released; Ctrl-C raises KeyboardInterrupt. progress(stage,
+        done, total): stage "profiles" (monte_carlo photons; none for random_walk) or "irradiance"."""
     def render_pass(self, n: int) -> int:
         """Render n more samples per pixel; returns the total so far."""
     def image(self) -> np.ndarray:

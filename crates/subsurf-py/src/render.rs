@@ -2,21 +2,21 @@
 //! with the GIL released so Python can draw progress and catch Ctrl-C between passes),
 //! built-in shapes, mesh checks and the random-walk simulation.
 //!
-//! Scenes arrive as plain dicts built by python/subsurf/render/scene.py (see `scene_from_py`).
+//! Scenes arrive as plain dicts built by python/subsurf/render/scene.py (see `scene_spec`).
 
 use crate::errors::{to_py, IntoPyResult};
 use crate::medium::{stack_from_py, LayerTuple};
-use crate::wait::interruptible;
+use crate::wait::{interrupted, interruptible, interruptible_ctl};
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, ToPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use subsurf_core::bssrdf::monte_carlo::McSettings;
-use subsurf_core::render::material::channel_profiles;
 use subsurf_core::render::walk_sim::{simulate, BeamSource, VoxelGrid, WalkConfig};
 use subsurf_core::render::{
-    shapes, Camera, HierarchicalParams, Light, Material, Mesh, Method, Object, Renderer, Scene, Translucent,
+    shapes, Camera, Control, HierarchicalParams, Light, Material, Mesh, Method, Object, Renderer, Scene,
+    TranslucentSpec,
 };
 use subsurf_core::Error;
 
@@ -60,16 +60,20 @@ fn mesh_from_py(d: &Bound<'_, PyDict>, name: &str) -> PyResult<Mesh> {
     Mesh::new(name, positions, triangles, tint).py()
 }
 
-fn material_from_py(d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<Material> {
+/// A material as given: Lambertian ones are ready; translucent ones compute their profiles
+/// later, off the GIL and cancellably ([`SceneSpec::build`]).
+enum MaterialSpec {
+    Ready(Material),
+    Translucent(Box<TranslucentSpec>),
+}
+
+fn material_from_py(d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<MaterialSpec> {
     let name: String = get_any(d, "name", "material")?;
     let ctx = format!("materials.{name}");
     let kind: String = get_any(d, "kind", &ctx)?;
     match kind.as_str() {
-        "lambertian" => Material::lambertian(&ctx, v3(d, "albedo", &ctx)?).py(),
+        "lambertian" => Ok(MaterialSpec::Ready(Material::lambertian(&ctx, v3(d, "albedo", &ctx)?).py()?)),
         "translucent" => {
-            let (sa, ss) = (v3(d, "sigma_a", &ctx)?, v3(d, "sigma_s", &ctx)?);
-            let (g, eta): (f64, f64) = (get_any(d, "g", &ctx)?, get_any(d, "eta", &ctx)?);
-            let model: String = get_any(d, "model", &ctx)?;
             let stacks: Vec<(Vec<LayerTuple>, f64, f64)> = get_any(d, "stacks", &ctx)?;
             if stacks.len() != 3 {
                 return Err(to_py(Error::Invalid(format!("{ctx}.stacks: one stack per RGB channel (3) needed"))));
@@ -81,19 +85,24 @@ fn material_from_py(d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<M
                         .map_err(|e| to_py(Error::Invalid(format!("{ctx}.stacks[{k}]: {e}"))))?,
                 );
             }
-            let stacks: [_; 3] = st.try_into().map_err(|_| to_py(Error::Invalid("stacks".into())))?;
             let mc = McSettings {
                 photons: get_any(d, "mc_photons", &ctx)?,
                 seed: get_any(d, "mc_seed", &ctx)?,
                 threads,
                 ..McSettings::default()
             };
-            let colour: Option<[f64; 3]> = get_any(d, "colour", &ctx)?;
-            let (profiles, ss_default) = channel_profiles(&model, &stacks, &mc, colour.as_ref())
-                .map_err(|e| to_py(Error::Invalid(format!("{ctx}: {e}"))))?;
-            let single: Option<bool> = get_any(d, "single_scattering", &ctx)?;
-            let t = Translucent::new(&ctx, sa, ss, g, eta, profiles, single.unwrap_or(ss_default)).py()?;
-            Ok(Material::Translucent(Box::new(t)))
+            Ok(MaterialSpec::Translucent(Box::new(TranslucentSpec {
+                sigma_a: v3(d, "sigma_a", &ctx)?,
+                sigma_s: v3(d, "sigma_s", &ctx)?,
+                g: get_any(d, "g", &ctx)?,
+                eta: get_any(d, "eta", &ctx)?,
+                model: get_any(d, "model", &ctx)?,
+                stacks: st.try_into().map_err(|_| to_py(Error::Invalid("stacks".into())))?,
+                mc,
+                colour: get_any(d, "colour", &ctx)?,
+                single_scattering: get_any(d, "single_scattering", &ctx)?,
+                field: ctx,
+            })))
         }
         other => {
             Err(to_py(Error::Invalid(format!("{ctx}.kind = {other:?}: must be \"translucent\" or \"lambertian\""))))
@@ -116,8 +125,45 @@ fn light_from_py(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Light> {
     .py()
 }
 
-/// Build a core scene from the dict python/subsurf/render/scene.py makes.
-fn scene_from_py(py: Python<'_>, d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<Scene> {
+/// A scene as given (read from the dict python/subsurf/render/scene.py makes, with the GIL),
+/// before its materials' profiles are computed.
+struct SceneSpec {
+    objects: Vec<Object>,
+    materials: Vec<MaterialSpec>,
+    lights: Vec<Light>,
+    env: [f64; 3],
+    camera: Option<Camera>,
+}
+
+impl SceneSpec {
+    /// Photons the materials' Monte Carlo profiles trace, if `profiles` are built.
+    fn photons(&self, profiles: bool) -> u64 {
+        let specs = self.materials.iter().filter_map(|m| match m {
+            MaterialSpec::Translucent(t) if profiles => Some(t.photons()),
+            _ => None,
+        });
+        specs.fold(0, u64::saturating_add)
+    }
+
+    /// The core scene; with `profiles` false (random walks) no profile is computed. `None` when
+    /// `ctl.cancel` stopped a Monte Carlo profile (which counts photons in `ctl.done`).
+    fn build(self, profiles: bool, ctl: &Control) -> subsurf_core::Result<Option<Scene>> {
+        let mut materials = Vec::with_capacity(self.materials.len());
+        for m in self.materials {
+            materials.push(match m {
+                MaterialSpec::Ready(m) => m,
+                MaterialSpec::Translucent(t) => match t.build(profiles, &ctl.cancel, &ctl.done)? {
+                    Some(t) => Material::Translucent(Box::new(t)),
+                    None => return Ok(None),
+                },
+            });
+        }
+        Scene::new(self.objects, materials, self.lights, self.env, self.camera).map(Some)
+    }
+}
+
+/// Read a scene from the dict python/subsurf/render/scene.py makes.
+fn scene_spec(d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<SceneSpec> {
     let mut materials = vec![];
     for m in get_any::<Bound<PyList>>(d, "materials", "scene")?.iter() {
         let md = m.cast::<PyDict>()?;
@@ -152,7 +198,21 @@ fn scene_from_py(py: Python<'_>, d: &Bound<'_, PyDict>, threads: Option<usize>) 
         }
         _ => None,
     };
-    py.detach(|| Scene::new(objects, materials, lights, env, camera)).py()
+    Ok(SceneSpec { objects, materials, lights, env, camera })
+}
+
+/// A core scene without profiles (for the random walk and the BVH benchmark: nothing long).
+fn walk_scene(py: Python<'_>, d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<Scene> {
+    let spec = scene_spec(d, threads)?;
+    let scene = py.detach(|| spec.build(false, &Control::default())).py()?;
+    Ok(scene.expect("never cancelled"))
+}
+
+/// `progress` bound to a stage name: `functools.partial(progress, stage)`.
+fn staged(py: Python<'_>, progress: Option<&Py<PyAny>>, stage: &str) -> PyResult<Option<Py<PyAny>>> {
+    let Some(p) = progress else { return Ok(None) };
+    let partial = py.import("functools")?.getattr("partial")?;
+    Ok(Some(partial.call1((p, stage))?.unbind()))
 }
 
 /// A scene prepared for one method; `render_pass` adds samples to its accumulator.
@@ -167,9 +227,13 @@ struct RenderJob {
 #[pymethods]
 impl RenderJob {
     /// Prepare `scene` (a dict) for `method`; `hierarchical` = (spacing, epsilon, env_samples,
-    /// light_samples) or None for the defaults.
+    /// light_samples) or None for the defaults. The set-up runs with the GIL released and stops
+    /// on Ctrl-C (KeyboardInterrupt) or SIGTERM: `monte_carlo` profiles (not built for
+    /// `random_walk`, which uses none) call `progress("profiles", photons done, total)`, the
+    /// hierarchical irradiance samples `progress("irradiance", samples done, total)`; stages
+    /// with nothing to do are not reported.
     #[new]
-    #[pyo3(signature = (scene, method, seed, threads=None, hierarchical=None))]
+    #[pyo3(signature = (scene, method, seed, threads=None, hierarchical=None, progress=None))]
     fn new(
         py: Python<'_>,
         scene: &Bound<'_, PyDict>,
@@ -177,16 +241,29 @@ impl RenderJob {
         seed: u64,
         threads: Option<usize>,
         hierarchical: Option<(f64, f64, u32, u32)>,
+        progress: Option<Py<PyAny>>,
     ) -> PyResult<Self> {
         let m = Method::from_name(method).py()?;
         let mut hp = HierarchicalParams::default();
         if let Some((a, b, c, e)) = hierarchical {
             (hp.spacing, hp.epsilon, hp.env_samples, hp.light_samples) = (a, b, c, e);
         }
-        let sc = Arc::new(scene_from_py(py, scene, threads)?);
+        let spec = scene_spec(scene, threads)?;
+        let (profiles, photons) = (m.uses_profiles(), spec.photons(m.uses_profiles()));
+        let cb = staged(py, progress.as_ref().filter(|_| photons > 0), "profiles")?;
+        let (sc, stop) = interruptible_ctl(py, cb.as_ref(), photons, move |ctl| spec.build(profiles, ctl))?;
+        let Some(sc) = sc.py()?.filter(|_| stop.is_none()) else {
+            return Err(stop.unwrap_or_else(|| interrupted("the render set-up")));
+        };
+        let sc = Arc::new(sc);
         let (w, h) = sc.camera.as_ref().map(|c| (c.width, c.height)).unwrap_or((0, 0));
-        let r =
-            py.detach(|| subsurf_core::render::with_threads(threads, || Renderer::new(sc, m, seed, &hp))).py()?.py()?;
+        let cb = staged(py, progress.as_ref().filter(|_| m == Method::Hierarchical), "irradiance")?;
+        let (r, stop) = interruptible_ctl(py, cb.as_ref(), 0, move |ctl| {
+            subsurf_core::render::with_threads(threads, || Renderer::prepare(sc, m, seed, &hp, ctl))
+        })?;
+        let Some(r) = r.py()?.py()?.filter(|_| stop.is_none()) else {
+            return Err(stop.unwrap_or_else(|| interrupted("the render set-up")));
+        };
         Ok(RenderJob { renderer: Arc::new(r), accum: vec![0.0; w * h * 3], spp: 0, threads })
     }
 
@@ -299,7 +376,7 @@ fn render_walk_simulate<'py>(
     voxels: Option<([f64; 3], [f64; 3], [usize; 3])>,
     threads: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let sc = scene_from_py(py, scene, threads)?;
+    let sc = walk_scene(py, scene, threads)?;
     let src = match source.0.as_str() {
         "pencil" => BeamSource::Pencil { origin: source.1, direction: source.2 },
         "collimated" => BeamSource::Collimated { direction: source.2 },
@@ -316,7 +393,7 @@ fn render_walk_simulate<'py>(
         subsurf_core::render::with_threads(threads, || simulate(&shared, &cfg, cancel, done))
     })?;
     if stop.is_some() {
-        return Err(crate::wait::interrupted("the random-walk simulation"));
+        return Err(interrupted("the random-walk simulation"));
     }
     let t = t.py()?.py()?;
     let n = t.photons as f64;
@@ -345,7 +422,7 @@ fn render_walk_simulate<'py>(
 /// (inside rays/s, camera rays/s) of the BVH over `scene`'s meshes, one thread, `n` rays each.
 #[pyfunction]
 fn render_bvh_benchmark(py: Python<'_>, scene: &Bound<'_, PyDict>, n: usize) -> PyResult<(f64, f64)> {
-    let sc = scene_from_py(py, scene, None)?;
+    let sc = walk_scene(py, scene, None)?;
     Ok(py.detach(|| subsurf_core::render::accel::rays_per_second(&sc.accel, n, 1)))
 }
 

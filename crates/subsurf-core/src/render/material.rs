@@ -16,7 +16,11 @@ use crate::bssrdf::RadialProfile;
 use crate::error::{check_g, check_index, check_nonneg, Error, Result};
 use crate::medium::{Layer, Stack};
 use crate::optics::{diffuse_fresnel_reflectance, Phase};
+use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::Arc;
+
+/// One radial profile per RGB channel.
+pub type Profiles = [Arc<dyn RadialProfile>; 3];
 
 /// A translucent material: the medium (per channel σa, σs; one phase function; index η
 /// relative to the outside) and its radial profiles.
@@ -30,8 +34,9 @@ pub struct Translucent {
     pub g: f64,
     /// Refractive index of the medium (the outside is vacuum, index 1).
     pub eta: f64,
-    /// R_d(r) per channel (any model behind [`RadialProfile`]).
-    pub profiles: [Arc<dyn RadialProfile>; 3],
+    /// R_d(r) per channel (any model behind [`RadialProfile`]); `None` for a material built for
+    /// the `random_walk` method, which uses none ([`TranslucentSpec::build`]).
+    pub profiles: Option<Profiles>,
     /// Whether the BSSRDF methods add the single-scattering term S⁽¹⁾ (off for profiles that
     /// already contain every scattering order, e.g. Monte Carlo ones).
     pub single_scattering: bool,
@@ -53,13 +58,13 @@ impl Translucent {
         sigma_s: Rgb,
         g: f64,
         eta: f64,
-        profiles: [Arc<dyn RadialProfile>; 3],
+        profiles: Option<Profiles>,
         single_scattering: bool,
     ) -> Result<Translucent> {
         for k in 0..3 {
             check_nonneg(&format!("{field}.sigma_a[{k}]"), sigma_a[k])?;
             check_nonneg(&format!("{field}.sigma_s[{k}]"), sigma_s[k])?;
-            let t = profiles[k].total();
+            let t = profiles.as_ref().map_or(0.0, |p| p[k].total());
             if !(t.is_finite() && (0.0..=1.0 + 1e-9).contains(&t)) {
                 return Err(Error::param(format!("{field}.profile[{k}].total"), t, "in [0, 1]"));
             }
@@ -82,6 +87,71 @@ impl Translucent {
             sigma_t: std::array::from_fn(|k| sigma_a[k] + sigma_s[k]),
             stacks,
         })
+    }
+
+    /// The profile of channel `k`. Panics for a material built without profiles: the BSSRDF
+    /// methods are only prepared for scenes that have them (checked by `Renderer::new`).
+    #[inline]
+    pub fn profile(&self, k: usize) -> &dyn RadialProfile {
+        self.profiles.as_ref().expect("a BSSRDF method's materials have profiles (checked in Renderer::new)")[k]
+            .as_ref()
+    }
+}
+
+/// A translucent material as the user gives it, before its profiles are computed: what the
+/// binding and scene files hand to the core; [`build`](Self::build) makes the [`Translucent`].
+#[derive(Clone, Debug)]
+pub struct TranslucentSpec {
+    /// Name used in errors (`materials.marble`).
+    pub field: String,
+    /// σa per channel, mm⁻¹.
+    pub sigma_a: Rgb,
+    /// σs per channel, mm⁻¹.
+    pub sigma_s: Rgb,
+    /// HG mean cosine.
+    pub g: f64,
+    /// Refractive index of the medium (outside: 1).
+    pub eta: f64,
+    /// The profile model, a [`crate::bssrdf::Model`] name.
+    pub model: String,
+    /// One stack per channel: the medium the profile models see.
+    pub stacks: [Stack; 3],
+    /// Settings of a `monte_carlo` profile.
+    pub mc: crate::bssrdf::monte_carlo::McSettings,
+    /// The surface colour the material was made from, if any (see [`channel_profiles`]).
+    pub colour: Option<Rgb>,
+    /// Whether the BSSRDF methods add S⁽¹⁾ (`None`: the model's default, see [`channel_profiles`]).
+    pub single_scattering: Option<bool>,
+}
+
+impl TranslucentSpec {
+    /// Photons its profiles trace: 3 × `mc.photons` for `monte_carlo`, else 0 (the progress
+    /// total of [`build`](Self::build)).
+    pub fn photons(&self) -> u64 {
+        match crate::bssrdf::Model::from_name(&self.model) {
+            Ok(crate::bssrdf::Model::MonteCarlo) => self.mc.photons.saturating_mul(3),
+            _ => 0,
+        }
+    }
+
+    /// The material. With `profiles` false (the `random_walk` method uses none) no profile is
+    /// computed, so a costly `monte_carlo` run is skipped. A Monte Carlo profile polls `cancel`
+    /// and counts its photons in `progress`; `None` when `cancel` stopped it.
+    pub fn build(&self, profiles: bool, cancel: &AtomicBool, progress: &AtomicU64) -> Result<Option<Translucent>> {
+        let within = |e: Error| Error::Invalid(format!("{}: {e}", self.field));
+        let (profs, ss_default) = if profiles {
+            match channel_profiles(&self.model, &self.stacks, &self.mc, self.colour.as_ref(), cancel, progress)
+                .map_err(within)?
+            {
+                Some((p, ss)) => (Some(p), ss),
+                None => return Ok(None),
+            }
+        } else {
+            crate::bssrdf::Model::from_name(&self.model).map_err(within)?;
+            (None, false)
+        };
+        let ss = self.single_scattering.unwrap_or(ss_default);
+        Translucent::new(&self.field, self.sigma_a, self.sigma_s, self.g, self.eta, profs, ss).map(Some)
     }
 }
 
@@ -205,7 +275,8 @@ impl RadialProfile for RdTable {
 }
 
 /// The profiles of `model` (a [`crate::bssrdf::Model`] name) for one stack per channel, as
-/// the renderer uses them, and whether the BSSRDF methods must add S⁽¹⁾:
+/// the renderer uses them, and whether the BSSRDF methods must add S⁽¹⁾ (`None` when `cancel`
+/// stopped a Monte Carlo profile, which counts its photons in `progress`):
 /// - R_d is looked up in an [`RdTable`] (which also applies the scale below);
 /// - profiles are per unit power *entering* the medium (the renderer applies F_t at entry):
 ///   `monte_carlo` profiles, simulated for a pencil beam of unit *incident* power, are divided
@@ -222,7 +293,9 @@ pub fn channel_profiles(
     stacks: &[Stack; 3],
     mc: &crate::bssrdf::monte_carlo::McSettings,
     colour: Option<&Rgb>,
-) -> Result<([Arc<dyn RadialProfile>; 3], bool)> {
+    cancel: &AtomicBool,
+    progress: &AtomicU64,
+) -> Result<Option<(Profiles, bool)>> {
     use crate::bssrdf::{normalized_diffusion, Medium, Model};
     let m = Model::from_name(model)?;
     let profs: Vec<Box<dyn RadialProfile>> = match (m, colour) {
@@ -237,7 +310,10 @@ pub fn channel_profiles(
                 ))
             })
             .collect::<Result<_>>()?,
-        _ => crate::bssrdf::channel_profiles(m, stacks, mc)?,
+        _ => match crate::bssrdf::channel_profiles_with(m, stacks, mc, cancel, progress)? {
+            Some(p) => p,
+            None => return Ok(None),
+        },
     };
     let mut out: Vec<Arc<dyn RadialProfile>> = Vec::with_capacity(3);
     for (p, s) in profs.into_iter().zip(stacks) {
@@ -250,7 +326,7 @@ pub fn channel_profiles(
     }
     let ss = matches!(m, Model::Dipole | Model::BetterDipole | Model::Multipole);
     let arr: [Arc<dyn RadialProfile>; 3] = [out[0].clone(), out[1].clone(), out[2].clone()];
-    Ok((arr, ss))
+    Ok(Some((arr, ss)))
 }
 
 #[cfg(test)]

@@ -114,6 +114,21 @@ impl Scene {
         Ok(())
     }
 
+    /// `Ok` if every translucent material has its radial profiles (`method` reads them).
+    pub fn require_profiles(&self, method: &str) -> Result<()> {
+        for o in &self.objects {
+            if let Material::Translucent(t) = &self.materials[o.material] {
+                if t.profiles.is_none() {
+                    return Err(Error::Invalid(format!(
+                        "{}: its material was prepared without profiles (for random_walk); method {method} needs them",
+                        o.name
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Material of object `i`.
     #[inline]
     pub fn material(&self, object: usize) -> &Material {
