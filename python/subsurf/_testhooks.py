@@ -5,6 +5,8 @@ after sleeps and timers. ``SUBSURF_TEST_HOOK`` holds comma-separated ``name[=val
 
 * ``interrupt_after=N`` — the command line's progress callback raises ``KeyboardInterrupt`` (what
   Ctrl-C does) at its first call with at least N photons done;
+* ``terminate_after=N`` — the same callback sends the process SIGTERM (what ``kill`` does) at
+  its first call with at least N done;
 * ``pause_in_write=DIR`` — an atomic write (:mod:`subsurf.atomic`), with half of its bytes in the
   temporary file, creates ``DIR/paused`` and waits up to 60 s for ``DIR/resume`` to appear;
 * ``sigint_at_start`` — the ``subsurf`` command sends itself SIGINT before it loads numpy and the
@@ -16,6 +18,7 @@ This module imports nothing but the standard library, so the command can read it
 from __future__ import annotations
 
 import os
+import signal
 import time
 
 ENV = "SUBSURF_TEST_HOOK"
@@ -31,17 +34,21 @@ def get(name: str) -> str | None:
 
 
 def wrap_progress(progress):
-    """``progress`` (a callable or None), raising KeyboardInterrupt as ``interrupt_after`` asks."""
-    after = get("interrupt_after")
-    if after is None:
+    """``progress`` (a callable or None), raising KeyboardInterrupt as ``interrupt_after`` asks or
+    sending SIGTERM as ``terminate_after`` does."""
+    after, term = get("interrupt_after"), get("terminate_after")
+    if after is None and term is None:
         return progress
-    n = int(after)
+    n = int(after if after is not None else term)
 
     def hooked(done: int, total: int) -> None:
         if progress is not None:
             progress(done, total)
         if done >= n:
-            raise KeyboardInterrupt
+            if after is None:
+                os.kill(os.getpid(), signal.SIGTERM)
+            else:
+                raise KeyboardInterrupt
 
     return hooked
 
