@@ -243,7 +243,7 @@ pub fn profile(model: Model, stack: &Stack, mc: &monte_carlo::McSettings) -> Res
     Ok(profile_with(model, stack, mc, &never, &AtomicU64::new(0))?.expect("never cancelled"))
 }
 
-/// [`profile`], cancellable: a Monte Carlo profile polls `cancel` (as [`crate::mc::run`] does)
+/// [`profile`], cancellable: a Monte Carlo profile polls `cancel` (as [`crate::mc::run()`] does)
 /// and counts its traced photons in `progress`; `None` when `cancel` stopped it.
 pub fn profile_with(
     model: Model,
