@@ -127,9 +127,9 @@ power = 100.0
 
 def test_cli_ctrl_c_and_sigterm_stop_a_monte_carlo_profile_set_up(tmp_path, cli):
     scene = _mc_scene_file(tmp_path)
-    r = cli("render", scene, "-o", tmp_path / "a.png", hook="interrupt_after=1")
+    r = cli("render", scene, "-o", tmp_path / "a.png", hook="setup_interrupt_after=1")
     assert r.returncode == 130 and "nothing written" in r.stderr, r.stderr
-    r = cli("render", scene, "-o", tmp_path / "a.png", hook="terminate_after=1")
+    r = cli("render", scene, "-o", tmp_path / "a.png", hook="setup_terminate_after=1")
     assert r.returncode == 143 and r.stderr == "subsurf: terminated\n", r.stderr
     assert sorted(os.listdir(tmp_path)) == ["mc.toml"]
     # random_walk uses no profile: 3e10 photons are not traced, the image is written
@@ -140,3 +140,10 @@ def test_cli_ctrl_c_and_sigterm_stop_a_monte_carlo_profile_set_up(tmp_path, cli)
 def test_profile_command_monte_carlo_stops_on_ctrl_c(cli):
     r = cli("profile", "skin1", "--model", "monte_carlo", "--photons", "10000000000", hook="interrupt_after=1")
     assert r.returncode == 130 and r.stderr.count("\n") == 1 and "interrupt" in r.stderr, r.stderr
+
+
+def test_cli_ctrl_c_in_the_passes_writes_a_partial_image(tmp_path, cli):
+    # interrupt_after counts samples per pixel: the set-up runs to its end, the first pass is kept
+    r = cli("render", EXAMPLE, "-o", tmp_path / "p.png", "--spp", "4", hook="interrupt_after=1")
+    assert r.returncode == 130 and "partial: 1 of 4 spp" in r.stdout, (r.stdout, r.stderr)
+    assert os.path.getsize(tmp_path / "p.png") > 1000

@@ -7,6 +7,8 @@ after sleeps and timers. ``SUBSURF_TEST_HOOK`` holds comma-separated ``name[=val
   Ctrl-C does) at its first call with at least N photons done;
 * ``terminate_after=N`` — the same callback sends the process SIGTERM (what ``kill`` does) at
   its first call with at least N done;
+* ``setup_interrupt_after=N``, ``setup_terminate_after=N`` — the same for the progress of
+  ``render``'s set-up (Monte Carlo profile photons, irradiance samples), before any pass;
 * ``pause_in_write=DIR`` — an atomic write (:mod:`subsurf.atomic`), with half of its bytes in the
   temporary file, creates ``DIR/paused`` and waits up to 60 s for ``DIR/resume`` to appear;
 * ``sigint_at_start`` — the ``subsurf`` command sends itself SIGINT before it loads numpy and the
@@ -33,10 +35,10 @@ def get(name: str) -> str | None:
     return None
 
 
-def wrap_progress(progress):
+def wrap_progress(progress, prefix: str = ""):
     """``progress`` (a callable or None), raising KeyboardInterrupt as ``interrupt_after`` asks or
-    sending SIGTERM as ``terminate_after`` does."""
-    after, term = get("interrupt_after"), get("terminate_after")
+    sending SIGTERM as ``terminate_after`` does (hooks named ``prefix`` + those names)."""
+    after, term = get(prefix + "interrupt_after"), get(prefix + "terminate_after")
     if after is None and term is None:
         return progress
     n = int(after if after is not None else term)

@@ -65,25 +65,26 @@ SETUP_STAGES = {"profiles": ("Monte Carlo profiles", "photons"), "irradiance": (
 def render_with_bars(scene, method, spp, seed, threads=None, quiet=False, label="render"):
     """:func:`subsurf.render.render` under progress bars on stderr — one per set-up stage that
     lasts over a second, then the passes (spp) — with the test hooks of :mod:`subsurf._testhooks`
-    (``interrupt_after`` stops the set-up or the passes as Ctrl-C does). Returns the image."""
+    (``interrupt_after`` stops the passes as Ctrl-C does, ``setup_interrupt_after`` the set-up).
+    Returns the image."""
     from .. import _testhooks
     from ..progress import ProgressBar
     from . import render
 
     bars = []
 
-    def bar(text, unit):
+    def bar(text, unit, hooks=""):
         while bars:
             bars.pop().close()
         b = ProgressBar(label=f"{label} {text}", quiet=quiet, unit=unit)
         bars.append(b)
-        return _testhooks.wrap_progress(b)
+        return _testhooks.wrap_progress(b, hooks)
 
     stages = {}
 
     def setup(stage, done, total):
         if stage not in stages:
-            stages[stage] = bar(*SETUP_STAGES.get(stage, (stage, "items")))
+            stages[stage] = bar(*SETUP_STAGES.get(stage, (stage, "items")), hooks="setup_")
         stages[stage](done, total)
 
     try:
