@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: all venv build lint test test-rust test-python demo bench clean
+.PHONY: all venv build lint test test-rust test-python demo bench clean docs docs-check
 
 all: build
 
@@ -13,6 +13,7 @@ $(VENV)/.ready: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q "maturin>=1.5,<2" "numpy>=1.22" "matplotlib>=3.5" "h5py>=3.6" "pytest>=7" "scipy>=1.8" "hypothesis>=6.100" "ruff==0.17.6" "trimesh>=4" "openexr>=3.3" "dask[distributed]>=2023.1"
+	$(PY) -m pip install -q "sphinx>=7.2" "myst-parser>=3" "sphinx-gallery>=0.17" "furo>=2024.1"  # the docs extra
 	touch $@
 
 venv: $(VENV)/.ready
@@ -35,7 +36,7 @@ lint: venv
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 
-test: lint test-rust test-python
+test: lint test-rust test-python docs-check
 
 demo: build
 	$(VENV)/bin/subsurf demo
@@ -46,5 +47,16 @@ bench: build
 	$(PY) benches/bench_profiles.py
 	$(PY) benches/bench_cluster.py
 
+# The documentation site (docs/building.md): docs/_build/html/index.html. -W: a warning is an error.
+SPHINX := $(PY) -m sphinx -W --keep-going -q -b html
+docs: build
+	$(SPHINX) -d docs/_build/doctrees docs docs/_build/html
+	@echo "site: docs/_build/html/index.html"
+
+# What `make test` runs: every guide and API page (and the check that each public name has an
+# entry) with one gallery script executed, built apart from the full site.
+docs-check: build
+	SUBSURF_DOCS_GALLERY=plot_brdf_lobes $(SPHINX) -d docs/_build/check-doctrees docs docs/_build/check
+
 clean:
-	rm -rf target $(VENV)
+	rm -rf target $(VENV) docs/_build docs/api docs/gallery docs/gallery-check
