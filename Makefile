@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: all venv build lint test test-rust test-python demo bench clean docs docs-check
+.PHONY: all venv build lint test test-rust test-python demo bench clean docs docs-check dist dist-check
 
 all: build
 
@@ -58,5 +58,25 @@ docs: build
 docs-check: build
 	SUBSURF_DOCS_GALLERY=plot_brdf_lobes $(SPHINX) -d docs/_build/check-doctrees docs docs/_build/check
 
+# An abi3 manylinux wheel and an sdist in dist/ (docs/building.md). ZIG=1 (default): linked by zig
+# (the ziglang package) for manylinux2014 (glibc >= 2.17); its own target dir, so the first build
+# compiles everything (~8 min on the shared 2 cores), later ones seconds. ZIG=0: linked natively,
+# reusing `make build`'s target/release (seconds), tagged with the glibc the binary needs
+# (manylinux_2_34 here). dist-check installs the wheel into a fresh venv outside the tree and runs
+# `subsurf demo --quick` there (tests/check_dist.py; about 1.5 min, not part of `make test`).
+ZIG ?= 1
+dist: venv
+	rm -rf dist
+ifeq ($(ZIG),1)
+	$(PY) -m pip install -q "ziglang>=0.13"
+	$(VENV)/bin/maturin build --release --zig --compatibility manylinux2014 -o dist
+else
+	$(VENV)/bin/maturin build --release -o dist
+endif
+	$(VENV)/bin/maturin sdist -o dist
+
+dist-check: dist
+	$(PY) tests/check_dist.py dist
+
 clean:
-	rm -rf target $(VENV) docs/_build docs/api docs/gallery docs/gallery-check
+	rm -rf target $(VENV) dist docs/_build docs/api docs/gallery docs/gallery-check
