@@ -45,6 +45,7 @@ exclude_patterns = [
 # the API pages (written by _ext/subsurf_docs.py) name each one explicitly.
 autodoc_member_order = "bysource"
 autodoc_typehints = "description"
+autodoc_typehints_description_target = "documented"
 autodoc_default_options = {"members": True, "undoc-members": True}
 napoleon_google_docstring = False
 napoleon_numpy_docstring = True
