@@ -53,10 +53,10 @@ docs: build
 	$(SPHINX) -d docs/_build/doctrees docs docs/_build/html
 	@echo "site: docs/_build/html/index.html"
 
-# What `make test` runs: every guide and API page (and the check that each public name has an
-# entry) with one gallery script executed, built apart from the full site.
+# What `make test` runs: every guide and API page read afresh (-E), the check that each public name
+# has an entry, and one gallery script run, built apart from the full site.
 docs-check: build
-	SUBSURF_DOCS_GALLERY=plot_brdf_lobes $(SPHINX) -d docs/_build/check-doctrees docs docs/_build/check
+	SUBSURF_DOCS_GALLERY=plot_brdf_lobes $(SPHINX) -E -d docs/_build/check-doctrees docs docs/_build/check
 
 # An abi3 manylinux wheel and an sdist in dist/ (docs/building.md). ZIG=1 (default): linked by zig
 # (the ziglang package) for manylinux2014 (glibc >= 2.17); its own target dir, so the first build

@@ -3,7 +3,8 @@
 Needs the compiled extension: run ``make build`` first (``make docs`` does). Environment:
 ``SUBSURF_DOCS_GALLERY`` — a regular expression of the gallery scripts to run, for the quick
 check of ``make docs-check`` (then the gallery is built into ``gallery-check/``, leaving the full
-gallery's images alone); unset: every script runs (sphinx-gallery skips unchanged ones).
+gallery's images alone, and the chosen scripts run every time); unset: every script runs
+(sphinx-gallery skips those unchanged since the last build).
 """
 
 import os
@@ -67,6 +68,7 @@ sphinx_gallery_conf = {
     "show_memory": False,
     "plot_gallery": "True",
     "abort_on_example_error": True,
+    "run_stale_examples": bool(_quick),  # the check runs its script every time, changed or not
 }
 
 html_theme = "furo"

@@ -53,3 +53,10 @@ def test_free_text_returns_and_unknown_sections():
 
 def test_absolute_value_bars_are_escaped_outside_literals():
     assert sd.escape_bars("HG g (|g| < 1), ``a|b``") == "HG g (\\|g\\| < 1), ``a|b``"
+
+
+def test_the_api_reference_must_cover_root_names_modules_and_module_constants():
+    names = sd.public_names()
+    assert {"subsurf.Layer", "subsurf.simulate", "subsurf.ParameterError", "subsurf.render"} <= names
+    assert {"subsurf.sweeps.FORMAT", "subsurf.render.Translucent", "subsurf.render.export.to_mitsuba"} <= names
+    assert "subsurf.io.load" not in names  # documented as subsurf.load
