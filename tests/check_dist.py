@@ -3,8 +3,9 @@ demo's quick mode there (``make dist-check``; not collected by pytest: it builds
 
 Usage: ``python tests/check_dist.py DIST_DIR``. Checks the wheel's tags (cp39-abi3, manylinux) and
 that the sdist is there, then ``python -m venv`` in a temporary directory, ``pip install`` of the
-wheel alone (its dependencies come from the registry or the local pip cache), and from a working
-directory outside the tree: ``import subsurf`` must load the installed copy, and
+wheel alone, without extras (its dependencies come from the registry or the local pip cache), and
+from a working directory outside the tree: ``import subsurf`` must load the installed copy,
+``subsurf render`` of each ``examples/render/*.toml`` (1 spp) must write its PNG, and
 ``subsurf demo --quick`` must exit 0 and write its PNGs. Prints the times of each step.
 """
 
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import glob
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -45,7 +47,7 @@ def main(dist: str) -> int:
     with tempfile.TemporaryDirectory(prefix="subsurf-dist-") as tmp:
         env_dir, work = os.path.join(tmp, "venv"), os.path.join(tmp, "work")
         os.mkdir(work)
-        py = os.path.join(env_dir, "bin", "python")
+        py, subsurf = os.path.join(env_dir, "bin", "python"), os.path.join(env_dir, "bin", "subsurf")
         env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "PYTHONPATH", "PYTHONHOME")}
         env["PATH"] = os.path.join(env_dir, "bin") + os.pathsep + env.get("PATH", "")
         env["MPLBACKEND"] = "Agg"
@@ -59,9 +61,19 @@ def main(dist: str) -> int:
         )
         if str(ROOT) in where.stdout:
             raise SystemExit(f"check_dist: subsurf was imported from the source tree: {where.stdout.strip()}")
-        demo = step(
-            "subsurf demo --quick", [os.path.join(env_dir, "bin", "subsurf"), "demo", "--quick"], cwd=work, env=env
-        )
+        scenes = Path(work, "render")  # the README's render flow, without the render extra
+        shutil.copytree(ROOT / "examples" / "render", scenes)
+        for scene in sorted(scenes.glob("*.toml")):
+            out = f"{scene.stem}.png"
+            step(
+                f"subsurf render {scene.name}",
+                [subsurf, "render", scene.name, "-o", out, "--spp", "1"],
+                cwd=scenes,
+                env=env,
+            )
+            if not (scenes / out).is_file():
+                raise SystemExit(f"check_dist: subsurf render {scene.name} wrote no {out}")
+        demo = step("subsurf demo --quick", [subsurf, "demo", "--quick"], cwd=work, env=env)
         sys.stdout.write(demo.stdout[-1500:])
         pngs = sorted(Path(work, "out").glob("*.png"))
         if not pngs:
