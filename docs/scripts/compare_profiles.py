@@ -91,6 +91,8 @@ def main(argv=None):
         fig.tight_layout()
         fig.savefig(os.path.join(here, fname), dpi=80)
     lines = [
+        "# Profile tables: every model against Monte Carlo",
+        "",
         f"Monte Carlo: {args.photons} photons per case, seed {args.seed}+; {elapsed:.0f} s.",
         "",
         "| g | η | albedo | MC total/(1−R_sp) | " + " | ".join(f"{m} total, shape" for m in MODELS) + " |",
