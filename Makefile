@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: all venv build lint test test-rust test-python demo bench clean docs docs-check dist dist-check
+.PHONY: all venv build lint test test-rust test-python demo figures bench clean docs docs-check dist dist-check
 
 all: build
 
@@ -40,6 +40,11 @@ test: lint test-rust test-python docs-check
 
 demo: build
 	$(VENV)/bin/subsurf demo
+
+# Regenerate README/docs figures and the validation table (slow; not part of `make test`, which runs
+# docs/scripts/figures.py --quick through tests/test_docs_scripts.py).
+figures: build
+	$(PY) docs/scripts/figures.py
 
 bench: build
 	$(PY) benches/bench.py

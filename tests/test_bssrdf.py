@@ -91,19 +91,31 @@ def test_table_roundtrip_and_corruption(table, tmp_path):
 
 
 def test_inverse_and_bad_input(table):
-    layers = bssrdf.material_from_appearance([0.5, 0.4], [1.0, 2.0], eta=1.33, g=0.0, model="monte_carlo", table=table)
+    inv = bssrdf.material_from_reflectance
+    layers = inv([0.5, 0.4], [1.0, 2.0], eta=1.33, g=0.0, model="monte_carlo", table=table)
     assert [round(1 / l.sigma_t, 12) for l in layers] == [1.0, 2.0]
     for lay, c in zip(layers, [0.5, 0.4]):
         assert table.rho_eff(lay.albedo) == pytest.approx(c, abs=1e-9)
-    layers = bssrdf.material_from_appearance([0.3], [1.0], eta=1.3, model="dipole")
-    # The colour is per unit incident power: the dipole's total times the transmitted (1 − R_sp).
+    # Per unit incident power (default) the dipole's total times the transmitted 1 − R_sp; per
+    # entering power the total itself.
     r_sp = float(subsurf.optics.fresnel_reflectance(1.0, 1.0, 1.3))
-    total = subsurf.diffusion.total_diffuse_reflectance(layers[0].albedo, 1.3)
-    assert (1 - r_sp) * total == pytest.approx(0.3, abs=1e-9)
-    with pytest.raises(ParameterError, match=r"albedo\[0\] = 1.5"):
-        bssrdf.material_from_appearance([1.5], [1.0], model="dipole")
-    with pytest.raises(ParameterError, match=r"albedo\[0\] = 0.99 is out of range"):
-        bssrdf.material_from_appearance([0.99], [1.0], eta=1.33, model="monte_carlo", table=table)
+    for power, k in [("incident", 1 - r_sp), ("entering", 1.0)]:
+        layers = inv([0.3], [1.0], eta=1.3, model="dipole", power=power)
+        assert k * subsurf.diffusion.total_diffuse_reflectance(layers[0].albedo, 1.3) == pytest.approx(0.3, abs=1e-9)
+    assert bssrdf.POWERS == ("incident", "entering")
+    assert bssrdf.MFP_KINDS == ("extinction", "transport", "diffuse", "burley_d")
+    with pytest.raises(ParameterError, match=r"reflectance\[0\] = 1.5"):
+        inv([1.5], [1.0], model="dipole")
+    with pytest.raises(ParameterError, match=r"reflectance\[0\] = 0.99 is out of range"):
+        inv([0.99], [1.0], eta=1.33, model="monte_carlo", table=table)
+    with pytest.raises(ParameterError, match=r"mfp\[0\] = 0"):
+        inv([0.5], [0.0])
+    with pytest.raises(ParameterError, match="mfp_kind.*burley_d"):
+        inv([0.5], [1.0], mfp_kind="free")
+    with pytest.raises(ParameterError, match="power.*entering"):
+        inv([0.5], [1.0], power="emitted")
+    with pytest.raises(ParameterError, match="no absorption"):
+        inv([1.0], [1.0], power="entering", mfp_kind="diffuse")
     with pytest.raises(ParameterError, match="model"):
         bssrdf.Profile.from_model("tripole", 0.1, 1.0)
     prof = bssrdf.Profile.from_model("dipole", 0.02, 1.0, 0.0, 1.4)

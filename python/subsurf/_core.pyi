@@ -25,7 +25,6 @@ def diffusion_params(model_name: str, sigma_a: _F, sigma_s_prime: _F, eta: _F) -
 def diffusion_rd(model_name: str, r: _F, sigma_a: _F, sigma_s_prime: _F, eta: _F) -> _F: ...
 def diffusion_total_rd(model_name: str, alpha_prime: _F, eta: _F) -> _F: ...
 def diffusion_alpha_prime_from_rd(model_name: str, rd: _F, eta: _F) -> _F: ...
-def diffusion_properties_from_color(model_name: str, mfp_kind: str, rd: _F, mfp: _F, eta: _F) -> tuple[_F, _F]: ...
 def diffusion_sd(model_name: str, xi: _F, wi: _F, xo: _F, wo: _F, sigma_a: _F, sigma_s_prime: _F, eta: _F) -> _F: ...
 def diffusion_brdf(model_name: str, wi: _F, wo: _F, sigma_a: _F, sigma_s_prime: _F, eta: _F) -> _F: ...
 def diffusion_ft(eta: _F, cos_theta: _F) -> _F: ...
@@ -234,8 +233,18 @@ def bssrdf_slab_point(
 ) -> tuple[float, float, float, float]:
     """(rd, rd_stderr, tt, tt_stderr); interruptible (KeyboardInterrupt)"""
 
-def bssrdf_material_from_appearance(
-    albedo: list[float], mfp: list[float], eta: float, g: float, model_name: str, table: ProfileTable | None = None
+BSSRDF_POWERS: list[str]
+BSSRDF_MFP_KINDS: list[str]
+
+def bssrdf_material_from_reflectance(
+    reflectance: list[float],
+    mfp: list[float],
+    eta: float,
+    g: float,
+    model_name: str,
+    power: str,
+    mfp_kind: str,
+    table: ProfileTable | None = None,
 ) -> list[tuple[float, float, float, float]]:
     """(n, mua, mus, g) per channel"""
 

@@ -16,7 +16,7 @@ normally incident pencil beam of unit power, for one colour channel. Models, sel
 Every method takes and returns numpy arrays or floats. A material given per channel (RGB or a
 spectrum) is a list of stacks: :func:`profiles`. :class:`ProfileTable` tabulates Monte Carlo
 profiles in optical units (albedo × r/ℓ) for a g and η, saved to HDF5. Inverse problems:
-:func:`material_from_appearance`, :func:`fit_profile`, :func:`fit_profile_layer`,
+:func:`material_from_reflectance`, :func:`fit_profile`, :func:`fit_profile_layer`,
 :func:`fit_slab_totals` (:class:`SlabTable`). Bad input raises :class:`subsurf.ParameterError`.
 """
 
@@ -34,11 +34,15 @@ from . import _core
 from .medium import Layer, Stack
 
 MODELS = tuple(_core.bssrdf_models())
+POWERS = tuple(_core.BSSRDF_POWERS)
+MFP_KINDS = tuple(_core.BSSRDF_MFP_KINDS)
 TABLE_FORMAT = "subsurf-profile-table"
 TABLE_FORMAT_VERSION = 1
 
 __all__ = [
+    "MFP_KINDS",
     "MODELS",
+    "POWERS",
     "Fit",
     "Profile",
     "ProfileTable",
@@ -47,7 +51,7 @@ __all__ = [
     "fit_profile",
     "fit_profile_layer",
     "fit_slab_totals",
-    "material_from_appearance",
+    "material_from_reflectance",
     "profiles",
 ]
 
@@ -413,23 +417,57 @@ class Fit:
         return {n: (float(p), float(s)) for n, p, s in zip(self.names, self.params, self.stderr)}
 
 
-def material_from_appearance(
-    albedo, mfp, eta=1.0, g=0.0, model="monte_carlo", table=None, *, client=None
+def material_from_reflectance(
+    reflectance,
+    mfp,
+    *,
+    eta=1.3,
+    g=0.0,
+    model="dipole",
+    power="incident",
+    mfp_kind="extinction",
+    table=None,
+    client=None,
 ) -> list[Layer]:
-    """One semi-infinite :class:`subsurf.Layer` per channel whose total diffuse reflectance under
-    a normally incident beam, per unit incident power with the specular reflection excluded (what
-    :func:`subsurf.simulate` reports), is ``albedo[i]`` under ``model``, with mean free path 1/σt
-    ``mfp[i]`` (mm), for HG ``g`` and relative index ``eta``. Closed-form models predict the colour
-    as (1 − R_sp) × their total. ``monte_carlo`` and ``normalized_diffusion`` (whose total is its
-    surface albedo for any medium) invert ρ_eff of a :class:`ProfileTable` (``table``; built for
-    (g, eta) with default settings — on a Dask ``client`` if given — and cached in memory if not
-    given): their materials, simulated, reproduce the colour."""
-    a = np.atleast_1d(_arr("albedo", albedo)).astype(float)
-    m = np.broadcast_to(np.atleast_1d(_arr("mfp", mfp)), a.shape).astype(float)
+    """One semi-infinite :class:`subsurf.Layer` per channel from a reflectance and a mean free
+    path per channel: the package's one colour → material inversion (``subsurf_core::bssrdf::
+    inverse::appearance``; :meth:`subsurf.Material.from_reflectance` and
+    :meth:`subsurf.render.Translucent.from_reflectance` forward to it). Spelling as pbrt's
+    ``SubsurfaceMaterial`` (``reflectance``, ``mfp``).
+
+    Parameters:
+
+    - ``reflectance`` (∈ [0, 1], one per channel): the total diffuse reflectance under a
+      normally incident beam, specular reflection excluded, under ``model``;
+    - ``mfp`` (mm, > 0; one, or one per channel): a mean free path of kind ``mfp_kind``;
+    - ``eta`` (n_medium / n_outside), ``g`` (Henyey–Greenstein, |g| < 1);
+    - ``model`` (:data:`MODELS`) whose total is inverted for the single-scattering albedo:
+      closed forms for ``dipole``, ``better_dipole``, ``multipole``; the integrated total of
+      ``photon_beam_diffusion``; the engine's ρ_eff from a :class:`ProfileTable` for
+      ``monte_carlo`` and for ``normalized_diffusion`` (whose total is its surface albedo for
+      every medium: its material is the engine's);
+    - ``power`` (:data:`POWERS`): ``"incident"`` — per unit power incident on the surface (what
+      :func:`subsurf.simulate` and a render show) — or ``"entering"`` — per unit power entering
+      the medium (the diffusion totals, pbrt's ρ_eff); incident = (1 − R_sp) × entering;
+    - ``mfp_kind`` (:data:`MFP_KINDS`): ``"extinction"`` 1/σt (pbrt's ``mfp``),
+      ``"transport"`` 1/σt', ``"diffuse"`` 1/σtr with the model's diffusion coefficient (Jensen &
+      Buhler 2002, §4: 1/(3σt'); Grosjean's (2σa + σs')/(3σt'²) for ``better_dipole`` and
+      ``photon_beam_diffusion``), or ``"burley_d"`` Christensen & Burley's (2015) d = ℓ_d/s(A),
+      eq. (8), the d of the ``normalized_diffusion`` profile a render builds;
+    - ``table``: the :class:`ProfileTable` for (g, eta) of the two table models (built with
+      default settings — on a Dask ``client`` if given — and cached in memory if not given).
+
+    The result reproduces the reflectance under ``model``; the engine's reflectance of a
+    closed-form model's material differs by that model's error (``docs/profiles.md``)."""
+    r = np.atleast_1d(_arr("reflectance", reflectance)).astype(float).ravel()
+    m = np.atleast_1d(_arr("mfp", mfp)).astype(float).ravel()
+    m = np.repeat(m, r.size) if m.size == 1 else m
     core_table = None
     if _model(model) in ("monte_carlo", "normalized_diffusion"):
         core_table = (table if table is not None else _default_table(float(g), float(eta), client))._t
-    out = _core.bssrdf_material_from_appearance(list(a), list(m), float(eta), float(g), model, core_table)
+    out = _core.bssrdf_material_from_reflectance(
+        list(r), list(m), float(eta), float(g), model, str(power), str(mfp_kind), core_table
+    )
     return [Layer(n, mua, mus, gg) for n, mua, mus, gg in out]
 
 

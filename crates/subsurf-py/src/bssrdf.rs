@@ -314,21 +314,30 @@ fn fit_to_py<'py>(py: Python<'py>, f: Fit) -> PyResult<Bound<'py, PyDict>> {
     Ok(d)
 }
 
-/// One semi-infinite layer per channel: (n, mua, mus, g) tuples.
+/// One semi-infinite layer per channel from a reflectance and a mean free path per channel:
+/// (n, mua, mus, g) tuples ([`inverse::material_from_reflectance`]).
 #[pyfunction]
-#[pyo3(signature = (albedo, mfp, eta, g, model_name, table=None))]
-fn bssrdf_material_from_appearance(
+#[pyo3(signature = (reflectance, mfp, eta, g, model_name, power, mfp_kind, table=None))]
+#[allow(clippy::too_many_arguments)]
+fn bssrdf_material_from_reflectance(
     py: Python<'_>,
-    albedo: Vec<f64>,
+    reflectance: Vec<f64>,
     mfp: Vec<f64>,
     eta: f64,
     g: f64,
     model_name: &str,
+    power: &str,
+    mfp_kind: &str,
     table: Option<&PyProfileTable>,
 ) -> PyResult<Vec<(f64, f64, f64, f64)>> {
     let m = model(model_name)?;
+    let conv = inverse::Conventions {
+        power: inverse::Power::from_name(power).py()?,
+        mfp_kind: inverse::MeanFreePath::from_name(mfp_kind).py()?,
+    };
     let t = table.map(|t| t.inner.clone());
-    let layers = py.detach(|| inverse::material_from_appearance(&albedo, &mfp, eta, g, m, t.as_deref())).py()?;
+    let layers =
+        py.detach(|| inverse::material_from_reflectance(&reflectance, &mfp, eta, g, m, conv, t.as_deref())).py()?;
     Ok(layers.iter().map(|l| (l.n, l.mua, l.mus, l.g())).collect())
 }
 
@@ -462,7 +471,9 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bssrdf_table_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_table_point, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_slab_point, m)?)?;
-    m.add_function(wrap_pyfunction!(bssrdf_material_from_appearance, m)?)?;
+    m.add_function(wrap_pyfunction!(bssrdf_material_from_reflectance, m)?)?;
+    m.add("BSSRDF_POWERS", inverse::Power::NAMES)?;
+    m.add("BSSRDF_MFP_KINDS", inverse::MeanFreePath::NAMES)?;
     m.add_function(wrap_pyfunction!(bssrdf_fit_profile, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_fit_profile_layer, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_fit_slab_totals, m)?)?;

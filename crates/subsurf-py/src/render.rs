@@ -88,8 +88,8 @@ fn material_from_py(d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<M
                 threads,
                 ..McSettings::default()
             };
-            let colour: Option<[f64; 3]> = get_any(d, "colour", &ctx)?;
-            let (profiles, ss_default) = channel_profiles(&model, &stacks, &mc, colour.as_ref())
+            let reflectance: Option<[f64; 3]> = get_any(d, "reflectance", &ctx)?;
+            let (profiles, ss_default) = channel_profiles(&model, &stacks, &mc, reflectance.as_ref())
                 .map_err(|e| to_py(Error::Invalid(format!("{ctx}: {e}"))))?;
             let single: Option<bool> = get_any(d, "single_scattering", &ctx)?;
             let t = Translucent::new(&ctx, sa, ss, g, eta, profiles, single.unwrap_or(ss_default)).py()?;

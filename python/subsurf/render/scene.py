@@ -43,10 +43,11 @@ class Translucent:
     ``model`` the BSSRDF profile used by the ``hierarchical`` and ``probe`` methods (one of
     :data:`MODELS`; ``random_walk`` ignores it). ``stacks`` (three :class:`subsurf.Stack`) gives a
     layered material to the profile models (``multipole``, ``monte_carlo``); ``mc_photons`` and
-    ``mc_seed`` set the Monte Carlo profile's run; ``colour`` (set by :meth:`from_color`) is the
-    surface colour the material was made from, which ``normalized_diffusion`` takes as its surface
-    albedo. Construct from the library with :meth:`library`, from layers with :meth:`from_stacks`,
-    or from a colour with :meth:`from_color`.
+    ``mc_seed`` set the Monte Carlo profile's run; ``reflectance`` (set by :meth:`from_reflectance`)
+    is the reflectance per unit incident power the material was made from, which
+    ``normalized_diffusion`` takes (÷ (1 − R_sp)) as its surface albedo. Construct from the library
+    with :meth:`library`, from layers with :meth:`from_stacks`, or from a reflectance and a mean
+    free path with :meth:`from_reflectance`.
     """
 
     def __init__(
@@ -61,7 +62,7 @@ class Translucent:
         mc_photons=100_000,
         mc_seed=0,
         single_scattering=None,
-        colour=None,
+        reflectance=None,
     ):
         self.sigma_a = _vec3("sigma_a", sigma_a)
         self.sigma_s = _vec3("sigma_s", sigma_s)
@@ -73,7 +74,7 @@ class Translucent:
         if self.stacks is not None and (len(self.stacks) != 3 or not all(isinstance(s, Stack) for s in self.stacks)):
             raise _err("stacks: give three subsurf.Stack objects, one per RGB channel")
         self.mc_photons, self.mc_seed, self.single_scattering = int(mc_photons), int(mc_seed), single_scattering
-        self.colour = None if colour is None else _vec3("colour", colour)
+        self.reflectance = None if reflectance is None else _vec3("reflectance", reflectance)
 
     @property
     def layered(self) -> bool:
@@ -114,19 +115,50 @@ class Translucent:
         )
 
     @classmethod
-    def from_color(cls, color, mean_free_path, eta=1.3, g=0.0, model="dipole", name=None, table=None, **kw):
-        """From a surface colour (total diffuse reflectance per channel under normal incidence, per
-        unit incident power) and a mean free path 1/σt per channel (mm), inverted under ``model``
-        by :func:`subsurf.bssrdf.material_from_appearance` (``table``: its
-        :class:`~subsurf.bssrdf.ProfileTable` for ``monte_carlo`` and ``normalized_diffusion``)."""
-        from .. import bssrdf
+    def from_reflectance(
+        cls,
+        reflectance,
+        mfp,
+        *,
+        eta=1.3,
+        g=0.0,
+        model="dipole",
+        power="incident",
+        mfp_kind="extinction",
+        name=None,
+        table=None,
+        **kw,
+    ):
+        """From a reflectance (∈ [0, 1]) and a mean free path (mm) per RGB channel, inverted under
+        ``model`` by :func:`subsurf.bssrdf.material_from_reflectance` (same parameters: ``power``
+        incident or entering, ``mfp_kind`` extinction, transport, diffuse or burley_d; ``table``
+        the :class:`~subsurf.bssrdf.ProfileTable` of ``monte_carlo`` and ``normalized_diffusion``).
+        A render of the material under ``model`` shows the reflectance (per incident power)."""
+        from .. import bssrdf, diffusion
 
-        color = _vec3("color", color)
-        mfp = _vec3("mean_free_path", mean_free_path)
-        layers = bssrdf.material_from_appearance(color, mfp, eta=eta, g=g, model=model, table=table)
-        return cls(
-            [l.mua for l in layers], [l.mus for l in layers], g=g, eta=eta, model=model, name=name, colour=color, **kw
+        refl = _vec3("reflectance", reflectance)
+        mfp = _vec3("mfp", mfp)
+        layers = bssrdf.material_from_reflectance(
+            refl, mfp, eta=eta, g=g, model=model, power=power, mfp_kind=mfp_kind, table=table
         )
+        if power == "entering":  # stored per incident power: × F_t at normal incidence = 1 − R_sp
+            refl = [r * float(diffusion.ft(eta, 1.0)) for r in refl]
+        return cls(
+            [l.mua for l in layers],
+            [l.mus for l in layers],
+            g=g,
+            eta=eta,
+            model=model,
+            name=name,
+            reflectance=refl,
+            **kw,
+        )
+
+    @classmethod
+    def from_color(cls, color, mean_free_path, eta=1.3, g=0.0, model="dipole", name=None, table=None, **kw):
+        """Deprecated forwarding alias, kept until the demo that calls it is merged:
+        :meth:`from_reflectance` (per incident power, mean free path 1/σt)."""
+        return cls.from_reflectance(color, mean_free_path, eta=eta, g=g, model=model, name=name, table=table, **kw)
 
     def _to_core(self, name):
         return {
@@ -141,7 +173,7 @@ class Translucent:
             "mc_photons": self.mc_photons,
             "mc_seed": self.mc_seed,
             "single_scattering": self.single_scattering,
-            "colour": self.colour,
+            "reflectance": self.reflectance,
         }
 
     def __repr__(self):
@@ -179,7 +211,9 @@ def material(spec, key="material"):
             if "library" in d:
                 lib = d.pop("library")
                 return Translucent.library(lib, **d)
-            if "color" in d:
+            if "reflectance" in d:
+                return Translucent.from_reflectance(d.pop("reflectance"), d.pop("mfp"), **d)
+            if "color" in d:  # deprecated spelling, kept until the demo that uses it is merged
                 return Translucent.from_color(d.pop("color"), d.pop("mean_free_path"), **d)
             return Translucent(**d)
         except TypeError as e:

@@ -213,19 +213,19 @@ impl RadialProfile for RdTable {
 /// - S⁽¹⁾ is added for the pure diffusion models (dipole, better dipole, multipole) only:
 ///   photon beam diffusion and Monte Carlo include single scattering in R_d, and normalized
 ///   diffusion is a fit to every order (Christensen & Burley 2015);
-/// - a material made from a surface `colour` (per channel, [`crate::bssrdf::inverse`]) gives
-///   normalized diffusion that colour as its surface albedo
-///   ([`crate::bssrdf::normalized_diffusion::from_colour`]); the other models' materials were
-///   inverted under their own totals, which already give the colour.
+/// - a material made from a `reflectance` (per channel and unit incident power,
+///   [`crate::bssrdf::inverse`]) gives normalized diffusion that reflectance as its surface
+///   albedo ([`crate::bssrdf::normalized_diffusion::from_reflectance`]); the other models'
+///   materials were inverted under their own totals, which already give the reflectance.
 pub fn channel_profiles(
     model: &str,
     stacks: &[Stack; 3],
     mc: &crate::bssrdf::monte_carlo::McSettings,
-    colour: Option<&Rgb>,
+    reflectance: Option<&Rgb>,
 ) -> Result<([Arc<dyn RadialProfile>; 3], bool)> {
     use crate::bssrdf::{normalized_diffusion, Medium, Model};
     let m = Model::from_name(model)?;
-    let profs: Vec<Box<dyn RadialProfile>> = match (m, colour) {
+    let profs: Vec<Box<dyn RadialProfile>> = match (m, reflectance) {
         (Model::NormalizedDiffusion, Some(c)) => stacks
             .iter()
             .zip(c)
@@ -233,7 +233,8 @@ pub fn channel_profiles(
             .map(|(k, (s, &a))| -> Result<Box<dyn RadialProfile>> {
                 let med = Medium::from_stack(s, model).map_err(|e| e.within(&format!("channels[{k}].")))?;
                 Ok(Box::new(
-                    normalized_diffusion::from_colour(&med, a).map_err(|e| e.within(&format!("channels[{k}].")))?,
+                    normalized_diffusion::from_reflectance(&med, a)
+                        .map_err(|e| e.within(&format!("channels[{k}].")))?,
                 ))
             })
             .collect::<Result<_>>()?,

@@ -1,8 +1,17 @@
 //! The random walk as a simulation for tissue optics: photon packets from a pencil beam or a
 //! uniform collimated illumination enter the closed meshes of a scene and are traced with
-//! the same boundary physics as `random_walk` ([`cross_boundary`], nested media) and the
-//! Monte Carlo engine's rules (MCML: implicit capture, HG scattering, Russian roulette with
-//! its control term deposited so that the energy balance is exact; see `mc::kernel`).
+//! the same boundary physics as `random_walk` ([`cross_boundary`], nested media: every crossing,
+//! the entry included, is all-or-none Fresnel), implicit capture (weight × σa/σt deposited at
+//! each collision) and HG scattering. Its Russian roulette is its own, not the engine's
+//! (`mc::kernel` step 5): it uses the engine's constants ([`ROULETTE_THRESHOLD`], [`ROULETTE_M`])
+//! on the absolute weight (a packet enters with weight 1, where the engine's threshold is
+//! relative to 1 − R_sp), and it deposits the zero-mean control term (+w for a killed packet,
+//! −(m − 1)w for a survivor) as absorption, in `absorbed` *and* in the voxel grid (which can
+//! therefore hold negative values), where the engine books it apart (`Tally::roulette`) and keeps
+//! its absorption histograms physical. A fresh free path is drawn after every boundary hit (the
+//! engine carries the remaining optical depth; the same law in homogeneous media), and a packet
+//! still alive after `random_walk::MAX_EVENTS` events is deposited where it stands. Energy
+//! balance is exact to rounding in every run.
 //!
 //! Tallies: the specular reflection, the weight leaving through each triangle (exitance per
 //! triangle), the absorbed weight on a voxel grid, and the weight lost (beam missing the
