@@ -160,6 +160,9 @@ def hk_albedo(
 
 # --- bssrdf (crates/subsurf-py/src/bssrdf.rs); python/subsurf/bssrdf.py wraps these -------------
 class Profile:
+    """Queries are checked (core ``bssrdf::Query``): radii r in [0, inf] (mm), fractions u, q in
+    [0, 1); anything else (nan, negative, u >= 1) raises ParameterError naming the argument."""
+
     model: str
     def rd(self, r: _F) -> _F: ...
     def pdf(self, r: _F) -> _F: ...
@@ -169,7 +172,8 @@ class Profile:
     def total(self) -> float: ...
     def has_single(self) -> bool: ...
     def single_total(self) -> float: ...
-    def single_rd(self, r: _F) -> _F: ...
+    def single_rd(self, r: _F) -> _F:
+        """ParameterError for a model without a separate single-scattering part."""
     def mc_data(self) -> dict | None:
         """edges, weight, stderr, single, single_stderr (arrays), total, total_stderr, photons,
         tail_start, tail_sigma"""
