@@ -81,10 +81,10 @@ def test_table_roundtrip_and_corruption(table, tmp_path):
     assert prof.total() == pytest.approx(table.rho_eff(0.99), abs=1e-12)
     with h5py.File(path, "r+") as f:
         f["points/0002/weight"][5] += 1e-3
-    with pytest.raises(ParameterError, match="checksum"):
+    with pytest.raises(ParameterError, match=r"t.h5: /points/0002/weight: fails its checksum"):
         bssrdf.ProfileTable.load(path)
     (tmp_path / "junk.h5").write_bytes(b"not hdf5")
-    with pytest.raises(ParameterError, match="corrupted"):
+    with pytest.raises(ParameterError, match="junk.h5: not an HDF5 profile table file"):
         bssrdf.ProfileTable.load(tmp_path / "junk.h5")
     with pytest.raises(ParameterError, match="empty"):
         bssrdf.ProfileTable.assemble(table.settings, [])
