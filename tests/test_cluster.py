@@ -179,6 +179,67 @@ def test_interrupt_returns_resumable_prefix(client, local, one_worker, monkeypat
     assert_same_bits(subsurf.simulate(STACK, PHOTONS, 7, tallies=TALLIES, resume=state), local)
 
 
+#: A scheduler and one single-threaded worker in one process of their own (killing it loses both).
+ONE_PROCESS_CLUSTER = """
+import threading
+from distributed import LocalCluster
+lc = LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1",
+                  dashboard_address=None, worker_dashboard_address=None)
+print(lc.scheduler_address, flush=True)
+threading.Event().wait()
+"""
+
+
+@pytest.fixture
+def doomed_cluster():
+    """``(client, kill)``: a client of a cluster running in a child process, and ``kill()``, which
+    SIGKILLs that process (scheduler and worker) and returns once the client has seen it go."""
+    proc = subprocess.Popen([sys.executable, "-c", ONE_PROCESS_CLUSTER], stdout=subprocess.PIPE, text=True)
+    try:
+        c = Client(proc.stdout.readline().strip(), set_as_default=False, timeout=10)
+
+        def kill():
+            proc.kill()
+            proc.wait()
+            while c.status == "running":  # the client notices the closed connection (no fixed sleep)
+                time.sleep(0.01)
+
+        yield c, kill
+        c.close(timeout=10)
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+def test_lost_scheduler_keeps_the_finished_photons(doomed_cluster, local, monkeypatch):
+    """Issue 21, finding 3: a scheduler killed mid-run (``kill -9``) used to end in a
+    ``FutureCancelledError`` traceback with nothing kept. The photons merged before the loss are
+    returned as a partial result, with a warning saying why, and resuming it (here, locally) gives
+    the bits of an uninterrupted run. The kill comes from the progress hook after the third
+    finished range: deterministic, no fixed sleeps."""
+    c, kill = doomed_cluster
+    monkeypatch.setattr(cluster, "DEFAULT_TASK_SECONDS", 1e-3)  # one-chunk tasks, run in range order
+    calls = []
+
+    def kill_after_three_ranges(done, total):
+        calls.append(done)
+        if len(calls) == 3:
+            kill()
+
+    with pytest.warns(RuntimeWarning, match=r"the Dask scheduler stopped answering \(.*\): returning the \d+ of"):
+        part = subsurf.simulate(STACK, PHOTONS, 7, tallies=TALLIES, client=c, progress=kill_after_three_ranges)
+    # every photon reported done before the loss is kept (one worker thread: ranges finish in order)
+    assert len(calls) == 3 and part.partial and part.photons == calls[-1] < PHOTONS and part.photons % 4096 == 0
+    assert_same_bits(subsurf.simulate(STACK, PHOTONS, 7, tallies=TALLIES, resume=part), local)
+
+
+def test_scheduler_lost_before_any_range_is_an_error(doomed_cluster):
+    c, kill = doomed_cluster
+    kill()
+    with pytest.raises(cluster.ClusterError, match="scheduler stopped answering .* before any photon range"):
+        subsurf.simulate(STACK, PHOTONS, 7, client=c)
+
+
 def test_ctrl_c_cancels_running_tasks(client):
     """A real SIGINT while every task is still running: KeyboardInterrupt (nothing completed),
     and the cancelled tasks stop on the workers instead of running to their end."""
@@ -304,6 +365,43 @@ def test_cli_scheduler_that_does_not_answer(silent_port, tmp_path):
         lines = p.stderr.strip().splitlines()
         assert len(lines) == 1 and "no Dask scheduler answered" in lines[0], p.stderr
         assert not (tmp_path / "o.h5").exists()
+
+
+@pytest.mark.parametrize("value", ["inf", "1e308", "nan", "0", "3601"])
+def test_connect_timeout_is_bounded(value, tmp_path, closed_port):
+    """Issue 21, finding 4: ``--connect-timeout 1e308`` waited for ever, ``inf`` ended in a KeyError
+    traceback. The wait is bounded: (0, 3600] s."""
+    (tmp_path / "c.toml").write_text(CONFIG)
+    p = run_cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "o.h5", "--scheduler",
+                f"tcp://127.0.0.1:{closed_port}", "--connect-timeout", value)  # fmt: skip
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 2 and len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
+    assert f"--connect-timeout = {float(value)!r} is out of range: seconds in (0, 3600]" in lines[0]
+    with pytest.raises(subsurf.ParameterError, match="timeout = inf is out of range"):
+        cluster.connect(f"tcp://127.0.0.1:{closed_port}", timeout=float("inf"))
+
+
+@pytest.mark.parametrize("sig, status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_waiting_for_a_scheduler_is_interruptible(sig, status, silent_port, tmp_path):
+    """Issue 21, finding 4: SIGTERM was ignored while waiting for a scheduler (for the whole
+    timeout). The test hook says when the command waits; the signal then ends it at once."""
+    (tmp_path / "c.toml").write_text(CONFIG)
+    env = dict(os.environ, SUBSURF_TEST_HOOK=f"connecting={tmp_path}", PYTHONUNBUFFERED="1")
+    args = ["simulate", tmp_path / "c.toml", "-o", tmp_path / "o.h5", "--scheduler", f"tcp://127.0.0.1:{silent_port}"]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "subsurf", *map(str, args), "--connect-timeout", "3600"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+    )  # fmt: skip
+    try:
+        while not (tmp_path / "connecting").exists():
+            assert proc.poll() is None, proc.communicate()
+            time.sleep(0.01)
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)  # far below the 3600 s it would otherwise wait
+    finally:
+        proc.kill()
+    assert proc.returncode == status and "Traceback" not in err, err
+    assert not (tmp_path / "o.h5").exists()
 
 
 def test_bad_scheduler_address():

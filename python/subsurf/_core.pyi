@@ -74,6 +74,18 @@ def mc_run(
     """Trace photons [start (or state["end"]), photons): {"state": state dict,
     "interrupted": bool, "elapsed_s": float}."""
 
+def mc_check_state(
+    layers: _Layers,
+    n_above: float,
+    n_below: float,
+    seed: int,
+    source: _Source,
+    state: dict,
+    tallies: dict | None = None,
+) -> None:
+    """Raise ParameterError unless ``state`` belongs to the run described (same stack, source,
+    seed and tallies); traces and finishes nothing."""
+
 def mc_finish(
     layers: _Layers,
     n_above: float,

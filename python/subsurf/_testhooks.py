@@ -8,7 +8,9 @@ after sleeps and timers. ``SUBSURF_TEST_HOOK`` holds comma-separated ``name[=val
 * ``pause_in_write=DIR`` — an atomic write (:mod:`subsurf.atomic`), with half of its bytes in the
   temporary file, creates ``DIR/paused`` and waits up to 60 s for ``DIR/resume`` to appear;
 * ``sigint_at_start`` — the ``subsurf`` command sends itself SIGINT before it loads numpy and the
-  extension (a Ctrl-C during start-up).
+  extension (a Ctrl-C during start-up);
+* ``connecting=DIR`` — :func:`subsurf.cluster.connect` creates ``DIR/connecting`` once it waits for
+  the scheduler's answer (tests then interrupt it there).
 
 This module imports nothing but the standard library, so the command can read it first.
 """
@@ -44,6 +46,14 @@ def wrap_progress(progress):
             raise KeyboardInterrupt
 
     return hooked
+
+
+def touch(name: str) -> None:
+    """Create ``DIR/name`` if hook ``name=DIR`` is set (tells a test the command reached that point)."""
+    d = get(name)
+    if d:
+        with open(os.path.join(d, name), "w"):
+            pass
 
 
 def pause_in_write() -> None:

@@ -406,8 +406,9 @@ def sweep(point, axes, path=None, *, client=None, progress=None, units=None) -> 
 
 
 def _on_cluster(client, point, grid, todo, record) -> None:
-    """One Dask task per point; results are recorded as they come back."""
-    from .cluster import _distributed, check_client
+    """One Dask task per point; results are recorded as they come back. A scheduler that goes
+    away raises :class:`subsurf.cluster.ClusterError` (the points recorded so far are kept)."""
+    from .cluster import ClusterError, _distributed, check_client, scheduler_lost
 
     distributed = _distributed()
     check_client(client)
@@ -418,8 +419,13 @@ def _on_cluster(client, point, grid, todo, record) -> None:
     try:
         for fut in distributed.as_completed(list(futures), loop=client.loop):
             record(futures.pop(fut), fut.result())
+    except Exception as e:
+        lost = scheduler_lost(e)
+        if lost is None:
+            raise
+        raise ClusterError(f"sweep: {lost}; the points finished before are kept") from None
     finally:
-        if futures:
+        if futures and client.status == "running":  # a lost scheduler has nothing left to cancel
             try:
                 client.cancel(list(futures))
             except Exception:  # noqa: BLE001 - a scheduler gone away cancels everything anyway
