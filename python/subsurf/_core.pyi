@@ -231,6 +231,9 @@ def bssrdf_stack_profile(
     """Monte Carlo: interruptible (KeyboardInterrupt)"""
 
 def bssrdf_normalized_diffusion(albedo: float, mfp: float, variant: str) -> Profile: ...
+def bssrdf_check_medium(sigma_a: float, sigma_s: float, g: float, eta: float) -> None:
+    """ParameterError naming the field unless (σa, σs, g, η) is a medium the profile models take."""
+
 def bssrdf_chandrasekhar_reflectance(a: float) -> float: ...
 def bssrdf_table_defaults(g: float, eta: float, n_albedos: int) -> dict: ...
 def bssrdf_table_point(settings: dict, index: int, progress: Callable[[int, int], object] | None = None) -> dict:

@@ -203,6 +203,12 @@ fn bssrdf_models() -> Vec<&'static str> {
     Model::ALL.iter().map(|m| m.name()).collect()
 }
 
+/// Check a homogeneous medium (σa, σs in mm⁻¹, g, η) as every profile model takes it.
+#[pyfunction]
+fn bssrdf_check_medium(sigma_a: f64, sigma_s: f64, g: f64, eta: f64) -> PyResult<()> {
+    Medium::new(sigma_a, sigma_s, g, eta).py().map(|_| ())
+}
+
 /// 1 − H(1)√(1 − a): exact reflectance of a semi-infinite index-matched isotropic medium.
 #[pyfunction]
 fn bssrdf_chandrasekhar_reflectance(a: f64) -> PyResult<f64> {
@@ -463,6 +469,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bssrdf_stack_profile, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_normalized_diffusion, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_models, m)?)?;
+    m.add_function(wrap_pyfunction!(bssrdf_check_medium, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_chandrasekhar_reflectance, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_table_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_table_point, m)?)?;
