@@ -115,7 +115,7 @@ def test_inverse_and_bad_input(table):
 
 
 def test_profile_queries_refuse_arguments_outside_their_domain():
-    """Issue 21, finding 10: ``rd(nan)`` was 0, ``sample_r(nan)`` 0 (∞ for monte_carlo),
+    """Regression: ``rd(nan)`` was 0, ``sample_r(nan)`` 0 (∞ for monte_carlo),
     ``sample_r(1.5)`` clamped, ``rd(inf)`` NaN for the dipoles, ``pdf(0)`` NaN for monte_carlo.
     One contract for every model (checked in the core: bssrdf::Query), errors naming the argument."""
     stack = subsurf.Stack([subsurf.Layer(1.33, 0.05, 1.2, 0.3)])

@@ -204,7 +204,7 @@ _PROFILE = "r,rd,sigma\n" + "".join(f"{0.5 * i},{{rd}},{{sigma}}\n" for i in ran
     ],
 )
 def test_meaningless_fits_are_refused(tmp_path, error_here, kind, text, fragments):
-    """Issue 21, finding 8: fits the data cannot identify exited 0 with the start value "± 0" or
+    """Regression: fits the data cannot identify exited 0 with the start value "± 0" or
     uncertainties of 1e85; the core refuses them (bssrdf/inverse/lm.rs), and the CSV's own
     problems are named by row."""
     (tmp_path / "m.csv").write_text(text)

@@ -120,7 +120,7 @@ def test_resume_finishes_an_interrupted_run_with_the_bits_of_one_run(tmp_path, c
     assert not resumed.partial and resumed.photons == direct.photons == n
     assert subsurf.io.results_equal(resumed, direct, provenance=False)
     # another configuration's state (another seed) is refused in one line; so is a missing file
-    # (before saying "resuming from": issue 21, finding 9)
+    # (checked before saying "resuming from")
     status, out, err = cli_here(
         "simulate", tmp_path / "c.toml", "-o", tmp_path / "x.h5", "--seed", "7", "--resume", tmp_path / "p.h5"
     )
@@ -286,7 +286,7 @@ SWEEP = FAST.format(photons=200) + '[[sweep]]\nname = "g"\nvalues = [0.0, 0.5]\n
 
 
 def test_sweep_does_not_overwrite_its_configuration(tmp_path, error_here):
-    """Issue 21, finding 2: ``subsurf sweep X.toml -o X.toml --force`` replaced the TOML with HDF5."""
+    """Regression: ``subsurf sweep X.toml -o X.toml --force`` replaced the TOML with HDF5."""
     cfg = tmp_path / "x.toml"
     cfg.write_text(SWEEP)
     for extra in ([], ["--force"]):
@@ -295,7 +295,7 @@ def test_sweep_does_not_overwrite_its_configuration(tmp_path, error_here):
 
 
 def test_a_damaged_sweep_file_is_called_damaged(tmp_path, error_here, cli_here):
-    """Issue 21, finding 9: a damaged sweep file was "something else; use --force" (and, before the
+    """Regression: a damaged sweep file was "something else; use --force" (and, before the
     checksummed container, could crash HDF5). It is named damaged; ``--force`` discards it knowingly."""
     cfg = tmp_path / "s.toml"
     cfg.write_text(SWEEP)

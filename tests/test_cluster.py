@@ -212,7 +212,7 @@ def doomed_cluster():
 
 
 def test_lost_scheduler_keeps_the_finished_photons(doomed_cluster, local, monkeypatch):
-    """Issue 21, finding 3: a scheduler killed mid-run (``kill -9``) used to end in a
+    """Regression: a scheduler killed mid-run (``kill -9``) used to end in a
     ``FutureCancelledError`` traceback with nothing kept. The photons merged before the loss are
     returned as a partial result, with a warning saying why, and resuming it (here, locally) gives
     the bits of an uninterrupted run. The kill comes from the progress hook after the third
@@ -369,7 +369,7 @@ def test_cli_scheduler_that_does_not_answer(silent_port, tmp_path):
 
 @pytest.mark.parametrize("value", ["inf", "1e308", "nan", "0", "3601"])
 def test_connect_timeout_is_bounded(value, tmp_path, closed_port):
-    """Issue 21, finding 4: ``--connect-timeout 1e308`` waited for ever, ``inf`` ended in a KeyError
+    """Regression: ``--connect-timeout 1e308`` waited for ever, ``inf`` ended in a KeyError
     traceback. The wait is bounded: (0, 3600] s."""
     (tmp_path / "c.toml").write_text(CONFIG)
     p = run_cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "o.h5", "--scheduler",
@@ -383,7 +383,7 @@ def test_connect_timeout_is_bounded(value, tmp_path, closed_port):
 
 @pytest.mark.parametrize("sig, status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_waiting_for_a_scheduler_is_interruptible(sig, status, silent_port, tmp_path):
-    """Issue 21, finding 4: SIGTERM was ignored while waiting for a scheduler (for the whole
+    """Regression: SIGTERM was ignored while waiting for a scheduler (for the whole
     timeout). The test hook says when the command waits; the signal then ends it at once."""
     (tmp_path / "c.toml").write_text(CONFIG)
     env = dict(os.environ, SUBSURF_TEST_HOOK=f"connecting={tmp_path}", PYTHONUNBUFFERED="1")

@@ -1,6 +1,6 @@
 """subsurf.container: the one checksummed HDF5 container of results, profile tables and sweeps.
 
-Issue 21, finding 1: a ProfileTable or sweep file with one flipped byte crashed the HDF5 library
+Regression: a ProfileTable or sweep file with one flipped byte crashed the HDF5 library
 (exit 139) because its checksum was checked only after HDF5 had parsed it. Every kind of file now
 verifies its SHA-256 manifest before HDF5 reads a byte; damage is refused in one line. The loads
 of damaged files run in a child process, so that a regression shows as a crash of that process,
@@ -18,7 +18,7 @@ import pytest
 import subsurf
 from subsurf import bssrdf, container, sweeps
 
-#: The offsets of the issue's reproducers, and the same offsets past the 4096-byte user block
+#: The offsets of the reported reproducers, and the same offsets past the 4096-byte user block
 #: (inside the HDF5 structure and data that the manifest covers).
 OFFSETS = [849, 1209, 1393, 1705, 1985, 7161, 7769]
 OFFSETS += [4096 + k for k in OFFSETS]

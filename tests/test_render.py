@@ -99,7 +99,7 @@ def test_exports_parse_back():
 
 
 def test_exports_refuse_what_they_cannot_write():
-    """Issue 21, finding 7: two concatenated pbrt blocks read back as the first name with the last
+    """Regression: two concatenated pbrt blocks read back as the first name with the last
     σ; σa < 0 exported σt = 0; unit_mm ≤ 0 gave negative σt or ZeroDivisionError; a name with a
     quote wrote invalid pbrt syntax."""
     marble, skin = R.Translucent.library("marble"), R.Translucent.library("skin1")

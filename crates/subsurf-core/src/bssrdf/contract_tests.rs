@@ -117,7 +117,7 @@ fn sampling_chi2() {
 }
 
 /// Every model (and a profile-table profile) at the ends of its domain, and the API's checked
-/// queries refusing what is outside it with the argument's name (issue 21, finding 10: `rd(nan)`
+/// queries refusing what is outside it with the argument's name (before: `rd(nan)`
 /// was 0, `sample_r(nan)` 0 or ∞, `sample_r(1.5)` clamped, `rd(∞)` NaN for the dipoles, `pdf(0)`
 /// NaN for Monte Carlo).
 #[test]

@@ -203,7 +203,7 @@ fn slab_table_points_and_assembly() {
 }
 
 /// Fits the data do not identify are refused, not reported with the start value "± 0" or
-/// uncertainties of 1e85 (issue 21, finding 8): no signal, χ² overflowing, data out of range,
+/// uncertainties of 1e85: no signal, χ² overflowing, data out of range,
 /// and the covariance rules of [`lm::Fit::identified`].
 #[test]
 fn unidentifiable_fits_are_refused() {
