@@ -433,7 +433,9 @@ def _data(r, rd, sigma):
 def fit_profile(r, rd, sigma, model="dipole", g=0.0, eta=1.0, initial=(0.01, 1.0), table=None) -> Fit:
     """Fit (σa, σs') in mm⁻¹ of a semi-infinite medium to R_d(r) (mm⁻² at radii r in mm, with
     standard deviations ``sigma``) by Levenberg–Marquardt; the covariance is (JᵀWJ)⁻¹. Model
-    ``monte_carlo`` evaluates the profile from ``table`` (a :class:`ProfileTable` of g, eta)."""
+    ``monte_carlo`` evaluates the profile from ``table`` (a :class:`ProfileTable` of g, eta).
+    Data that do not identify the parameters (no signal, χ² not finite, a relative standard
+    uncertainty above 1) raise :class:`subsurf.ParameterError` (docs/profiles.md), as in every fit here."""
     args = _data(r, rd, sigma)
     t = table._t if table is not None else None
     d = _core.bssrdf_fit_profile(_model(model), *args, float(g), float(eta), tuple(map(float, initial)), t)
