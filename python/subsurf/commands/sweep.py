@@ -22,7 +22,11 @@ def add_parser(sub):
     p.add_argument("-o", "--output", metavar="SWEEP.h5", help="sweep file (default: the TOML's output or SWEEP.h5)")
     p.add_argument("--photons", type=int, help="override the photons of every point")
     p.add_argument("--threads", type=int, help="threads per point when run locally (default: all cores)")
-    p.add_argument("--force", action="store_true", help="replace an output file that holds another sweep")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an output file that holds another sweep or is damaged (its points are lost)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or table")
     add_scheduler_options(p)
     p.set_defaults(func=run)
