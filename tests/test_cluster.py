@@ -191,27 +191,34 @@ threading.Event().wait()
 
 
 @pytest.fixture
-def doomed_cluster():
-    """``(client, kill)``: a client of a cluster running in a child process, and ``kill()``, which
-    SIGKILLs that process (scheduler and worker) and returns once the client has seen it go."""
+def cluster_process():
+    """``(address, process)``: a cluster (scheduler and one worker thread) in a child process."""
     proc = subprocess.Popen([sys.executable, "-c", ONE_PROCESS_CLUSTER], stdout=subprocess.PIPE, text=True)
     try:
-        c = Client(proc.stdout.readline().strip(), set_as_default=False, timeout=10)
-
-        def kill():
-            proc.kill()
-            proc.wait()
-            for _ in range(6000):  # the client notices the closed connection at once (a cap, not a timing)
-                if c.status != "running":
-                    return
-                time.sleep(0.01)
-            pytest.fail("the client never noticed that its scheduler was killed")
-
-        yield c, kill
-        c.close(timeout=10)
+        yield proc.stdout.readline().strip(), proc
     finally:
         proc.kill()
         proc.wait()
+
+
+@pytest.fixture
+def doomed_cluster(cluster_process):
+    """``(client, kill)``: a client of ``cluster_process``, and ``kill()``, which SIGKILLs that
+    process (scheduler and worker) and returns once the client has seen it go."""
+    address, proc = cluster_process
+    c = Client(address, set_as_default=False, timeout=10)
+
+    def kill():
+        proc.kill()
+        proc.wait()
+        for _ in range(6000):  # the client notices the closed connection at once (a cap, not a timing)
+            if c.status != "running":
+                return
+            time.sleep(0.01)
+        pytest.fail("the client never noticed that its scheduler was killed")
+
+    yield c, kill
+    c.close(timeout=10)
 
 
 def test_lost_scheduler_keeps_the_finished_photons(doomed_cluster, local, monkeypatch):
@@ -234,6 +241,27 @@ def test_lost_scheduler_keeps_the_finished_photons(doomed_cluster, local, monkey
     # every photon reported done before the loss is kept (one worker thread: ranges finish in order)
     assert len(calls) == 3 and part.partial and part.photons == calls[-1] < PHOTONS and part.photons % 4096 == 0
     assert_same_bits(subsurf.simulate(STACK, PHOTONS, 7, tallies=TALLIES, resume=part), local)
+
+
+def test_cli_keeps_a_partial_when_the_scheduler_is_lost(cluster_process, tmp_path):
+    """The same from the command line: one warning line, the partial written, exit 130, and
+    ``--resume`` (locally) finishes it to the bits of a local run. Test hooks fix the ranges at
+    4096 photons and kill the scheduler after the second one."""
+    address, proc = cluster_process
+    (tmp_path / "c.toml").write_text(CONFIG.replace("photons = 3000", "photons = 40000"))
+    env = dict(os.environ, SUBSURF_TEST_HOOK=f"task_photons=4096,kill_scheduler_after=2:{proc.pid}")
+    run = [sys.executable, "-m", "subsurf", "simulate", tmp_path / "c.toml", "-q"]
+    p = subprocess.run([*run, "-o", tmp_path / "p.h5", "--scheduler", address],
+                       capture_output=True, text=True, timeout=120, env=env)  # fmt: skip
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 130 and len(lines) == 1, p.stderr
+    assert lines[0].startswith("subsurf: warning: subsurf.simulate: the Dask scheduler stopped answering")
+    part = subsurf.load(tmp_path / "p.h5")
+    assert part.partial and part.photons == 2 * 4096 and "wrote" in p.stdout
+    for args in (["-o", tmp_path / "r.h5", "--resume", tmp_path / "p.h5"], ["-o", tmp_path / "d.h5"]):
+        assert subprocess.run([*run, *args], capture_output=True, timeout=120).returncode == 0
+    resumed, direct = subsurf.load(tmp_path / "r.h5"), subsurf.load(tmp_path / "d.h5")
+    assert not resumed.partial and results_equal(resumed, direct, provenance=False)
 
 
 def test_scheduler_lost_before_any_range_is_an_error(doomed_cluster):

@@ -264,6 +264,7 @@ class _Ranges:
         self.state_bytes = 0
         self.tag = uuid.uuid4().hex[:10]
         self.submitted = 0
+        self.taken = 0
         events = _core.mc_expected_events(*stack._to_core())
         self.rate_guess = RATE_GUESS * self.threads / max(events, 1.0)
 
@@ -318,6 +319,8 @@ class _Ranges:
         self.merge()
         if self.progress is not None:
             self.progress(self.done_photons, self.total)
+        self.taken += 1
+        _testhooks.after_task(self.taken, self.client)  # tests: lose the scheduler here
 
     def merge(self) -> None:
         """Append every finished range that now follows the merged prefix (in range order)."""
@@ -415,6 +418,8 @@ def run_ranges(
     check_client(client)
     if task_seconds is None:
         task_seconds = DEFAULT_TASK_SECONDS
+    if task_photons is None and _testhooks.get("task_photons"):
+        task_photons = int(_testhooks.get("task_photons"))
     if not (task_seconds > 0 and math.isfinite(task_seconds)):
         raise _core.ParameterError(f"task_seconds = {task_seconds!r} is out of range: must be a number > 0")
     if task_photons is not None and (task_photons < 1 or task_photons % CHUNK_PHOTONS):
