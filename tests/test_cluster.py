@@ -264,6 +264,23 @@ def test_cli_keeps_a_partial_when_the_scheduler_is_lost(cluster_process, tmp_pat
     assert not resumed.partial and results_equal(resumed, direct, provenance=False)
 
 
+def test_cli_sweep_keeps_its_points_when_the_scheduler_is_lost(cluster_process, tmp_path):
+    """A sweep on a lost scheduler: one error line (exit 2), the finished point kept in the file,
+    and the same command run locally computes only the rest."""
+    address, proc = cluster_process
+    (tmp_path / "s.toml").write_text(SWEEP_TOML)
+    env = dict(os.environ, SUBSURF_TEST_HOOK=f"kill_scheduler_after=1:{proc.pid}")
+    run = [sys.executable, "-m", "subsurf", "sweep", tmp_path / "s.toml", "-o", tmp_path / "s.h5", "-q"]
+    p = subprocess.run([*run, "--scheduler", address], capture_output=True, text=True, timeout=120, env=env)
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 2 and len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
+    assert "sweep: the Dask scheduler stopped answering" in lines[0] and "kept" in lines[0]
+    assert sweeps.load(tmp_path / "s.h5").points_done == 1
+    p = subprocess.run(run[:-1], capture_output=True, text=True, timeout=120)  # not quiet: says it resumes
+    assert p.returncode == 0 and "1 of 4 points already done" in p.stdout, p.stdout + p.stderr
+    assert sweeps.load(tmp_path / "s.h5").complete
+
+
 def test_scheduler_lost_before_any_range_is_an_error(doomed_cluster):
     c, kill = doomed_cluster
     kill()

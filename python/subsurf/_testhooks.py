@@ -12,8 +12,8 @@ after sleeps and timers. ``SUBSURF_TEST_HOOK`` holds comma-separated ``name[=val
 * ``connecting=DIR`` — :func:`subsurf.cluster.connect` creates ``DIR/connecting`` once it waits for
   the scheduler's answer (tests then interrupt it there);
 * ``task_photons=N`` — a cluster run uses photon ranges of N photons (a multiple of 4096);
-* ``kill_scheduler_after=N:PID`` — after the N-th finished range of a cluster run, SIGKILL process
-  PID (the test's scheduler) and wait until the client has seen the connection close.
+* ``kill_scheduler_after=N:PID`` — after the N-th finished range (or sweep point) of a cluster run,
+  SIGKILL process PID (the test's scheduler) and wait until the client has seen the connection close.
 
 This module imports nothing but the standard library, so the command can read it first.
 """

@@ -59,7 +59,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _core, atomic, container
+from . import _core, _testhooks, atomic, container
 from .container import jsonable as _jsonable
 
 __all__ = ["sweep", "SweepResult", "load", "same_sweep", "result_data", "FORMAT", "FORMAT_VERSION"]
@@ -417,8 +417,9 @@ def _on_cluster(client, point, grid, todo, record) -> None:
         key = f"subsurf-point-{tag}-{'-'.join(map(str, idx))}"
         futures[client.submit(_call_point, point, _coords_at(grid, idx), key=key, pure=False)] = idx
     try:
-        for fut in distributed.as_completed(list(futures), loop=client.loop):
+        for taken, fut in enumerate(distributed.as_completed(list(futures), loop=client.loop), 1):
             record(futures.pop(fut), fut.result())
+            _testhooks.after_task(taken, client)  # tests: lose the scheduler here
     except Exception as e:
         lost = scheduler_lost(e)
         if lost is None:
