@@ -98,6 +98,40 @@ def test_exports_parse_back():
             f(layered)
 
 
+def test_exports_refuse_what_they_cannot_write():
+    """Regression: two concatenated pbrt blocks read back as the first name with the last
+    σ; σa < 0 exported σt = 0; unit_mm ≤ 0 gave negative σt or ZeroDivisionError; a name with a
+    quote wrote invalid pbrt syntax."""
+    marble, skin = R.Translucent.library("marble"), R.Translucent.library("skin1")
+    text = export.to_pbrt(marble, name="a") + export.to_pbrt(skin, name="b")
+    with pytest.raises(subsurf.ParameterError, match=r"holds 2 materials \['a', 'b'\]; choose one with name="):
+        export.from_pbrt(text)
+    b = export.from_pbrt(text, name="b")
+    assert b.name == "b" and np.allclose(b.sigma_a, skin.sigma_a) and np.allclose(b.sigma_s, skin.sigma_s)
+    assert np.allclose(export.from_pbrt(text, name="a").sigma_s, marble.sigma_s)
+    with pytest.raises(subsurf.ParameterError, match="no material named 'c'"):
+        export.from_pbrt(text, name="c")
+    for f in (export.to_mitsuba, export.to_pbrt):
+        with pytest.raises(subsurf.ParameterError, match=r"channel 0: sigma_a = -1.0 is out of range"):
+            f(R.Translucent(-1, 1))
+        with pytest.raises(subsurf.ParameterError, match=r"sigma_a \+ sigma_s = 0.0 is out of range"):
+            f(R.Translucent(0, 0))
+        for unit in (-1000, 0, float("nan"), float("inf")):
+            with pytest.raises(subsurf.ParameterError, match=r"unit_mm = .* is out of range"):
+                f(marble, unit_mm=unit)
+        with pytest.raises(subsurf.ParameterError, match="not finite"):
+            f(marble, unit_mm=1e308)
+    for name in ('a"b', "a\\b", "a\nb"):
+        with pytest.raises(subsurf.ParameterError, match="cannot hold quotes"):
+            export.to_pbrt(marble, name=name)
+    with pytest.raises(subsurf.ParameterError, match="unit_mm = 0 is out of range"):
+        export.from_pbrt(export.to_pbrt(marble), unit_mm=0)
+    with pytest.raises(subsurf.ParameterError, match="lacks a usable parameter"):
+        export.from_pbrt('MakeNamedMaterial "x" "string type" [ "subsurface" ]')
+    with pytest.raises(subsurf.ParameterError, match="not a to_mitsuba dict"):
+        export.from_mitsuba({"bsdf": {}})
+
+
 def test_walk_simulation_matches_the_engine():
     """Pencil beam on a large thick box: total exitance = the MC engine's diffuse reflectance (4σ)."""
     mua, mus, g, n = 0.05, 8.0, 0.7, 1.4

@@ -73,6 +73,18 @@ def mc_run(
     """Trace photons [start (or state["end"]), photons): {"state": state dict,
     "interrupted": bool, "elapsed_s": float}."""
 
+def mc_check_state(
+    layers: _Layers,
+    n_above: float,
+    n_below: float,
+    seed: int,
+    source: _Source,
+    state: dict,
+    tallies: dict | None = None,
+) -> None:
+    """Raise ParameterError unless ``state`` belongs to the run described (same stack, source,
+    seed and tallies); traces and finishes nothing."""
+
 def mc_finish(
     layers: _Layers,
     n_above: float,
@@ -159,6 +171,9 @@ def hk_albedo(
 
 # --- bssrdf (crates/subsurf-py/src/bssrdf.rs); python/subsurf/bssrdf.py wraps these -------------
 class Profile:
+    """Queries are checked (core ``bssrdf::Query``): radii r in [0, inf] (mm), fractions u, q in
+    [0, 1); anything else (nan, negative, u >= 1) raises ParameterError naming the argument."""
+
     model: str
     def rd(self, r: _F) -> _F: ...
     def pdf(self, r: _F) -> _F: ...
@@ -168,7 +183,8 @@ class Profile:
     def total(self) -> float: ...
     def has_single(self) -> bool: ...
     def single_total(self) -> float: ...
-    def single_rd(self, r: _F) -> _F: ...
+    def single_rd(self, r: _F) -> _F:
+        """ParameterError for a model without a separate single-scattering part."""
     def mc_data(self) -> dict | None:
         """edges, weight, stderr, single, single_stderr (arrays), total, total_stderr, photons,
         tail_start, tail_sigma"""
@@ -214,6 +230,9 @@ def bssrdf_stack_profile(
     """Monte Carlo: interruptible (KeyboardInterrupt)"""
 
 def bssrdf_normalized_diffusion(albedo: float, mfp: float, variant: str) -> Profile: ...
+def bssrdf_check_medium(sigma_a: float, sigma_s: float, g: float, eta: float) -> None:
+    """ParameterError naming the field unless (σa, σs, g, η) is a medium the profile models take."""
+
 def bssrdf_chandrasekhar_reflectance(a: float) -> float: ...
 def bssrdf_table_defaults(g: float, eta: float, n_albedos: int) -> dict: ...
 def bssrdf_table_point(settings: dict, index: int, progress: Callable[[int, int], object] | None = None) -> dict:

@@ -13,7 +13,7 @@ use subsurf_core::bssrdf::inverse::{self, Fit, SlabTable};
 use subsurf_core::bssrdf::monte_carlo::{McSettings, MonteCarloProfile, RadialData};
 use subsurf_core::bssrdf::normalized_diffusion::{NormalizedDiffusion, ShapeFit};
 use subsurf_core::bssrdf::table::{build_point, default_albedos, ProfileTable, TableSettings};
-use subsurf_core::bssrdf::{chandrasekhar, medium_profile, profile, Medium, Model, RadialProfile};
+use subsurf_core::bssrdf::{chandrasekhar, medium_profile, profile, Medium, Model, Query, RadialProfile};
 use subsurf_core::Error;
 
 type Arr<'py> = PyReadonlyArray1<'py, f64>;
@@ -45,35 +45,34 @@ impl PyProfile {
     fn new(inner: Arc<dyn RadialProfile>, model: &str) -> Self {
         PyProfile { inner, mc: None, model: model.to_string() }
     }
-    fn map<'py>(
-        &self,
-        py: Python<'py>,
-        x: Arr<'py>,
-        f: impl Fn(&dyn RadialProfile, f64) -> f64 + Sync,
-    ) -> PyResult<Out<'py>> {
+    /// `q` of `p` (this profile, or its single-scattering part) at every element of `x`,
+    /// checked ([`Query`]: an argument out of its range is an error naming it).
+    fn query<'py>(py: Python<'py>, p: &dyn RadialProfile, q: Query, x: Arr<'py>) -> PyResult<Out<'py>> {
         let xs = slice(&x)?;
-        let p = self.inner.clone();
-        let v: Vec<f64> = py.detach(|| xs.iter().map(|&r| f(p.as_ref(), r)).collect());
+        let v = py.detach(|| xs.iter().map(|&r| q.eval(p, r)).collect::<Result<Vec<f64>, Error>>()).py()?;
         Ok(PyArray1::from_vec(py, v))
+    }
+    fn map<'py>(&self, py: Python<'py>, x: Arr<'py>, q: Query) -> PyResult<Out<'py>> {
+        Self::query(py, self.inner.as_ref(), q, x)
     }
 }
 
 #[pymethods]
 impl PyProfile {
     fn rd<'py>(&self, py: Python<'py>, r: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, r, |p, x| p.rd(x))
+        self.map(py, r, Query::Rd)
     }
     fn pdf<'py>(&self, py: Python<'py>, r: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, r, |p, x| p.pdf(x))
+        self.map(py, r, Query::Pdf)
     }
     fn cdf<'py>(&self, py: Python<'py>, r: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, r, |p, x| p.cdf(x))
+        self.map(py, r, Query::Cdf)
     }
     fn sample_r<'py>(&self, py: Python<'py>, u: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, u, |p, x| p.sample_r(x))
+        self.map(py, u, Query::SampleR)
     }
     fn radius_for_fraction<'py>(&self, py: Python<'py>, q: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, q, |p, x| p.radius_for_fraction(x))
+        self.map(py, q, Query::RadiusForFraction)
     }
     fn total(&self) -> f64 {
         self.inner.total()
@@ -85,7 +84,13 @@ impl PyProfile {
         self.inner.single_scattering().map_or(0.0, |s| s.total())
     }
     fn single_rd<'py>(&self, py: Python<'py>, r: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, r, |p, x| p.single_scattering().map_or(0.0, |s| s.rd(x)))
+        match self.inner.single_scattering() {
+            Some(s) => Self::query(py, s, Query::Rd, r),
+            None => Err(crate::errors::to_py(Error::Invalid(format!(
+                "model {:?} has no separate single-scattering part",
+                self.model
+            )))),
+        }
     }
     /// Monte Carlo profiles: the tallied data as a dict (None for other models).
     fn mc_data<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
@@ -196,6 +201,12 @@ fn bssrdf_normalized_diffusion(albedo: f64, mfp: f64, variant: &str) -> PyResult
 #[pyfunction]
 fn bssrdf_models() -> Vec<&'static str> {
     Model::ALL.iter().map(|m| m.name()).collect()
+}
+
+/// Check a homogeneous medium (σa, σs in mm⁻¹, g, η) as every profile model takes it.
+#[pyfunction]
+fn bssrdf_check_medium(sigma_a: f64, sigma_s: f64, g: f64, eta: f64) -> PyResult<()> {
+    Medium::new(sigma_a, sigma_s, g, eta).py().map(|_| ())
 }
 
 /// 1 − H(1)√(1 − a): exact reflectance of a semi-infinite index-matched isotropic medium.
@@ -467,6 +478,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bssrdf_stack_profile, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_normalized_diffusion, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_models, m)?)?;
+    m.add_function(wrap_pyfunction!(bssrdf_check_medium, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_chandrasekhar_reflectance, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_table_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_table_point, m)?)?;

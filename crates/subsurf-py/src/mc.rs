@@ -283,6 +283,24 @@ fn mc_run<'py>(
     Ok(d)
 }
 
+/// Check, without tracing or finishing anything, that `state` belongs to the run described by
+/// the arguments (same stack, source, seed and tallies): what `mc_run` checks before it resumes.
+#[pyfunction]
+#[pyo3(signature = (layers, n_above, n_below, seed, source, state, tallies=None))]
+#[allow(clippy::too_many_arguments)]
+fn mc_check_state(
+    layers: Vec<LayerTuple>,
+    n_above: f64,
+    n_below: f64,
+    seed: Bound<'_, PyAny>,
+    source: (String, f64, f64),
+    state: Bound<'_, PyDict>,
+    tallies: Option<Bound<'_, PyDict>>,
+) -> PyResult<()> {
+    let su = setup(&layers, n_above, n_below, None, &seed, None, &source, tallies.as_ref())?;
+    state_from_py(&state)?.check_compatible(su.fingerprint, &su.layout).py()
+}
+
 /// Totals (with `*_stderr`), `absorbed_per_layer` (+ stderr), `photons`, `events` and
 /// `histograms` (see [`histograms_to_py`]) of a state of the run described by the arguments.
 #[pyfunction]
@@ -368,6 +386,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mc_isa, m)?)?;
     m.add_function(wrap_pyfunction!(mc_run, m)?)?;
     m.add_function(wrap_pyfunction!(mc_finish, m)?)?;
+    m.add_function(wrap_pyfunction!(mc_check_state, m)?)?;
     m.add_function(wrap_pyfunction!(mc_merge_states, m)?)?;
     m.add_function(wrap_pyfunction!(mc_validate_source, m)?)?;
     m.add_function(wrap_pyfunction!(mc_validate_run, m)?)?;

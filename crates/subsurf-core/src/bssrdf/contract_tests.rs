@@ -1,6 +1,7 @@
 //! The [`RadialProfile`] contract, checked for every model: ∫ pdf = 1 and ∫ R_d 2πr dr = total
 //! to 1e-6 (independent adaptive quadrature), cdf(sample_r(u)) = u, and a χ² test of sample_r
-//! against pdf (Šidák-corrected over the models, overall level 0.01).
+//! against pdf (Šidák-corrected over the models, overall level 0.01); the values at the ends of
+//! the domain (r = 0, r = ∞) and the checked queries ([`Query`]) of the API.
 
 use super::*;
 use crate::stats::{chi2_pooled, chi2_sf, integrate_adaptive, sidak_alpha, SplitMix64};
@@ -112,6 +113,47 @@ fn sampling_chi2() {
         let c = chi2_pooled(&obs, &exp, 5.0).unwrap();
         assert!(c.p_value > alpha, "{name}: χ² = {} dof {} p = {} (α = {alpha})", c.statistic, c.dof, c.p_value);
         assert!(chi2_sf(c.statistic, c.dof as f64).unwrap() == c.p_value);
+    }
+}
+
+/// Every model (and a profile-table profile) at the ends of its domain, and the API's checked
+/// queries refusing what is outside it with the argument's name (before: `rd(nan)`
+/// was 0, `sample_r(nan)` 0 or ∞, `sample_r(1.5)` clamped, `rd(∞)` NaN for the dipoles, `pdf(0)`
+/// NaN for Monte Carlo).
+#[test]
+fn ends_of_the_domain_and_checked_queries() {
+    let mut all = models();
+    let s = table::TableSettings { albedos: vec![0.9, 0.99], photons: 2000, ..table::TableSettings::new(0.0, 1.3) };
+    let (never, progress) = (std::sync::atomic::AtomicBool::new(false), std::sync::atomic::AtomicU64::new(0));
+    let table = table::ProfileTable::build(s, &never, &progress).unwrap();
+    all.push(("table", Box::new(table.profile(0.02, 1.0).unwrap()), 1.0));
+    for (name, p, _) in all {
+        assert_eq!(p.rd(f64::INFINITY), 0.0, "{name}: rd(inf)");
+        assert_eq!(p.pdf(f64::INFINITY), 0.0, "{name}: pdf(inf)");
+        assert_eq!(p.cdf(f64::INFINITY), 1.0, "{name}: cdf(inf)");
+        assert_eq!(p.cdf(0.0), 0.0, "{name}: cdf(0)");
+        let (rd0, pdf0) = (p.rd(0.0), p.pdf(0.0));
+        assert!(rd0 >= 0.0, "{name}: rd(0) = {rd0}");
+        assert!(pdf0.is_finite() && pdf0 >= 0.0, "{name}: pdf(0) = {pdf0}");
+        for u in [0.0, 0.5, 1.0 - f64::EPSILON] {
+            let r = Query::SampleR.eval(p.as_ref(), u).unwrap();
+            assert!(r.is_finite() && r >= 0.0, "{name}: sample_r({u}) = {r}");
+        }
+        for (q, x, arg) in [
+            (Query::Rd, f64::NAN, "r = nan"),
+            (Query::Pdf, -1.0, "r = -1.0"),
+            (Query::Cdf, f64::NEG_INFINITY, "r = -inf"),
+            (Query::SampleR, f64::NAN, "u = nan"),
+            (Query::SampleR, 1.5, "u = 1.5"),
+            (Query::SampleR, 1.0, "u = 1.0"),
+            (Query::SampleR, -0.1, "u = -0.1"),
+            (Query::RadiusForFraction, 1.0, "q = 1.0"),
+        ] {
+            let e = q.eval(p.as_ref(), x).unwrap_err().to_string();
+            assert!(e.starts_with(arg) && e.contains(if arg.starts_with('r') { "[0, inf]" } else { "[0, 1)" }), "{e}");
+        }
+        assert_eq!(Query::Rd.eval(p.as_ref(), 1.0).unwrap(), p.rd(1.0));
+        assert_eq!(Query::Rd.eval(p.as_ref(), f64::INFINITY).unwrap(), 0.0);
     }
 }
 

@@ -34,12 +34,15 @@ use cdf::RadialCdf;
 
 /// A radial diffuse-reflectance profile and the sampling routines a renderer needs.
 ///
-/// Contract (tested for every model):
-/// - [`rd`](Self::rd) ≥ 0, finite for r > 0;
+/// Contract (tested for every model in `contract_tests.rs`), for radii r ∈ [0, ∞] and fractions
+/// u ∈ [0, 1) — the domain [`Query`] checks for the API:
+/// - [`rd`](Self::rd) ≥ 0, finite for 0 < r < ∞ (+∞ allowed at r = 0, where some profiles are
+///   singular), and 0 at r = ∞;
 /// - [`total`](Self::total) = ∫₀^∞ R_d(r) 2πr dr (the total diffuse reflectance, in [0, 1]);
-/// - [`pdf`](Self::pdf) = 2πr R_d(r) / total, which integrates to 1 over r ∈ [0, ∞);
-/// - [`cdf`](Self::cdf) is its integral from 0, and [`sample_r`](Self::sample_r) its inverse:
-///   `cdf(sample_r(u)) = u` for u ∈ [0, 1);
+/// - [`pdf`](Self::pdf) = 2πr R_d(r) / total, finite everywhere (its limit at r = 0), 0 at r = ∞,
+///   and it integrates to 1 over r ∈ [0, ∞);
+/// - [`cdf`](Self::cdf) is its integral from 0 (0 at r = 0, 1 at r = ∞), and
+///   [`sample_r`](Self::sample_r) its inverse: `cdf(sample_r(u)) = u`, finite, for u ∈ [0, 1);
 /// - a profile with `total() == 0` has `pdf ≡ 0` and is never sampled.
 pub trait RadialProfile: Send + Sync {
     /// R_d(r), mm⁻², at radius `r` ≥ 0 (mm).
@@ -53,7 +56,7 @@ pub trait RadialProfile: Send + Sync {
     /// 2πr R_d(r) / total, mm⁻¹: the density of [`sample_r`](Self::sample_r).
     fn pdf(&self, r: f64) -> f64 {
         let t = self.total();
-        if t > 0.0 {
+        if t > 0.0 && r < f64::INFINITY {
             2.0 * std::f64::consts::PI * r * self.rd(r) / t
         } else {
             0.0
@@ -69,6 +72,47 @@ pub trait RadialProfile: Send + Sync {
     /// `None` for pure diffusion models.
     fn single_scattering(&self) -> Option<&dyn RadialProfile> {
         None
+    }
+}
+
+/// One query of a profile as the API takes it (`subsurf.bssrdf.Profile`'s methods): the argument
+/// is checked against the domain of the [`RadialProfile`] contract — radii in [0, ∞], fractions in
+/// [0, 1) — and refused with an error naming it, instead of a silent 0, NaN or clamped value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Query {
+    /// [`RadialProfile::rd`] at radius `r`.
+    Rd,
+    /// [`RadialProfile::pdf`] at radius `r`.
+    Pdf,
+    /// [`RadialProfile::cdf`] at radius `r`.
+    Cdf,
+    /// [`RadialProfile::sample_r`] of the fraction `u`.
+    SampleR,
+    /// [`RadialProfile::radius_for_fraction`] of the fraction `q`.
+    RadiusForFraction,
+}
+
+impl Query {
+    /// The query's value at `x` for `p`, or an error naming the argument and its range.
+    pub fn eval(self, p: &dyn RadialProfile, x: f64) -> Result<f64> {
+        let (name, radius) = match self {
+            Query::Rd | Query::Pdf | Query::Cdf => ("r", true),
+            Query::SampleR => ("u", false),
+            Query::RadiusForFraction => ("q", false),
+        };
+        if radius && !(x >= 0.0) {
+            return Err(Error::param(name, x, "a radius in [0, inf] (mm)"));
+        }
+        if !radius && !(0.0..1.0).contains(&x) {
+            return Err(Error::param(name, x, "a fraction in [0, 1)"));
+        }
+        Ok(match self {
+            Query::Rd => p.rd(x),
+            Query::Pdf => p.pdf(x),
+            Query::Cdf => p.cdf(x),
+            Query::SampleR => p.sample_r(x),
+            Query::RadiusForFraction => p.radius_for_fraction(x),
+        })
     }
 }
 
@@ -104,7 +148,7 @@ impl<M: ClosedForm> Tabulated<M> {
 
 impl<M: ClosedForm> RadialProfile for Tabulated<M> {
     fn rd(&self, r: f64) -> f64 {
-        if r >= 0.0 {
+        if (0.0..f64::INFINITY).contains(&r) {
             self.model.rd(r)
         } else {
             0.0

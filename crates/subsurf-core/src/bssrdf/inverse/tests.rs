@@ -291,3 +291,46 @@ fn slab_table_points_and_assembly() {
     bad[2][0] = f64::NAN;
     assert!(err(SlabTable::from_totals(0.0, 1.4, 1.0, 1.0, albedos, taus, &bad)).contains("point 2"));
 }
+
+/// Fits the data do not identify are refused, not reported with the start value "± 0" or
+/// uncertainties of 1e85: no signal, χ² overflowing, data out of range,
+/// and the covariance rules of [`lm::Fit::identified`].
+#[test]
+fn unidentifiable_fits_are_refused() {
+    let r: Vec<f64> = (1..=10).map(|i| 0.3 * i as f64).collect();
+    let fit = |rd: &[f64], s: &[f64]| {
+        fit::fit_profile(Model::Dipole, &r, rd, s, 0.0, 1.3, [0.05, 1.0], None).unwrap_err().to_string()
+    };
+    let e = fit(&[0.0; 10], &[1e-3; 10]);
+    assert!(e.contains("no signal") && e.contains("rd"), "{e}");
+    let e = fit(&[1e-300; 10], &[1e-302; 10]);
+    assert!(e.starts_with("fit: χ² = inf at the initial parameters"), "{e}");
+    let e = fit(&[1.0, f64::NAN, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0], &[0.1; 10]);
+    assert!(e.starts_with("rd[1] = nan"), "{e}");
+    // A signal barely out of the noise at two radii determines neither parameter.
+    let prof = medium_profile(Model::Dipole, &Medium::new(0.05, 1.0, 0.0, 1.3).unwrap()).unwrap();
+    let y = [prof.rd(1.0), prof.rd(1.1)];
+    let e = fit::fit_profile(Model::Dipole, &[1.0, 1.1], &y, &[y[0] / 1.5, y[1] / 1.5], 0.0, 1.3, [0.05, 1.0], None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("fit: the data do not determine sigma_"), "{e}");
+    let slab = |rd: f64, tt: f64| {
+        fit::fit_slab_totals(rd, tt, [0.01, 0.01], 1.0, 0.0, 1.4, 1.0, 1.0, Model::Multipole, None, [0.1, 1.0])
+            .unwrap_err()
+            .to_string()
+    };
+    assert!(slab(0.0, 0.0).contains("no signal"), "{}", slab(0.0, 0.0));
+    assert!(slab(-0.1, 0.3).starts_with("rd = -0.1"), "{}", slab(-0.1, 0.3));
+    assert!(slab(0.7, 0.6).starts_with("rd + tt = 1.2"), "{}", slab(0.7, 0.6));
+    // The rules themselves: a zero, a non-finite and a too large variance are refused.
+    let base = lm::Fit { params: vec![1.0, 2.0], cov: vec![0.01, 0.0, 0.0, 0.04], chi2: 3.0, dof: 8, iterations: 5 };
+    assert!(base.clone().identified(&["a", "b"]).is_ok());
+    for (k, v) in [(0, 0.0), (3, f64::INFINITY), (3, 4.0 * 1.0001), (0, f64::NAN)] {
+        let mut f = base.clone();
+        f.cov[k] = v;
+        let e = f.identified(&["a", "b"]).unwrap_err().to_string();
+        assert!(e.starts_with(&format!("fit: the data do not determine {}", if k == 0 { "a" } else { "b" })), "{e}");
+    }
+    let e = lm::Fit { chi2: f64::INFINITY, ..base }.identified(&["a", "b"]).unwrap_err().to_string();
+    assert!(e.contains("χ² is not finite"), "{e}");
+}
