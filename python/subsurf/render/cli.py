@@ -7,15 +7,18 @@ import os
 
 
 def add_parser(sub, exit_interrupted=130):
+    from .. import _core
+    from ..commands import U64_MAX, integer
+
     r = sub.add_parser("render", help="render a scene (TOML) to an OpenEXR + PNG image")
     r.add_argument("scene", metavar="SCENE.toml")
     r.add_argument(
         "-o", "--output", metavar="IMAGE.exr", help="image file (.exr, .png or .npy; default from the scene)"
     )
-    r.add_argument("--method", choices=["hierarchical", "probe", "random_walk"], help="override the scene's method")
-    r.add_argument("--spp", type=int, help="samples per pixel")
-    r.add_argument("--seed", type=int)
-    r.add_argument("--threads", type=int)
+    r.add_argument("--method", choices=list(_core.RENDER_METHODS), help="override the scene's method")
+    r.add_argument("--spp", type=integer("--spp", 1, 2**32 - 1), help="samples per pixel")
+    r.add_argument("--seed", type=integer("--seed", 0, U64_MAX))
+    r.add_argument("--threads", type=integer("--threads", 1, _core.MC_MAX_THREADS))
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=lambda a: cmd_render(a, exit_interrupted))
     return r
