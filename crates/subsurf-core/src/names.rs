@@ -1,4 +1,4 @@
-//! [`named_enum!`]: an enum of named choices (profile models, render methods, light types) and
+//! [`crate::named_enum!`]: an enum of named choices (profile models, render methods, light types) and
 //! its list, names and parser, generated from one list so that they cannot drift apart. The
 //! Python package reads the lists through `_core` (argparse choices, TOML keys, checks).
 

@@ -44,7 +44,7 @@ pub fn normalize(a: V3) -> V3 {
 /// first, so 1e300 or 1e-300 components neither overflow nor vanish); `None` otherwise.
 pub fn unit(a: V3) -> Option<V3> {
     let m = a.iter().fold(0.0f64, |m, c| m.max(c.abs()));
-    (m > 0.0 && m.is_finite()).then(|| normalize(scale(a, 1.0 / m)))
+    (m > 0.0 && a.iter().all(|c| c.is_finite())).then(|| normalize(scale(a, 1.0 / m)))
 }
 #[inline(always)]
 pub fn neg(a: V3) -> V3 {

@@ -255,6 +255,43 @@ fn bad_scenes_are_refused() {
     let _: V3 = [0.0; 3];
 }
 
+/// Hostile input refused by the core, never a panic, an abort or a dropped light: huge images
+/// (memory checked first), far cameras, overflowing light power, spp and thread counts, a walk
+/// starting inside an object; a light inside a closed object is reported.
+#[test]
+fn extreme_inputs_are_refused_or_reported() {
+    let cam = Camera::new([0.0, -30.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 30.0, 32768, 32768).unwrap();
+    let e = cam.check_memory(Some(1 << 30)).unwrap_err().to_string();
+    assert!(e.contains("32768 × 32768") && e.contains("103.079 GB"), "{e}");
+    assert!(cam.check_memory(Some(u64::MAX)).is_ok());
+    let e = Camera::new([0.0, -1e200, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 30.0, 4, 4).unwrap_err().to_string();
+    assert!(e.starts_with("camera.position = -1e+200 is out of range"), "{e}");
+    let e = Light::point("lights[0]", [0.0; 3], [1e308; 3]).unwrap_err().to_string();
+    assert!(e.starts_with("lights[0].power[0] = 1e+308 is out of range"), "{e}");
+    let Light::Directional { to_light, .. } = Light::directional("l", [1e300; 3], [1.0; 3]).unwrap() else {
+        unreachable!()
+    };
+    assert!(to_light.iter().all(|&c| (c - 1.0 / 3f64.sqrt()).abs() < 1e-15), "{to_light:?}");
+    assert!(Light::directional("l", [f64::NAN, 0.0, 1.0], [1.0; 3]).is_err());
+    assert!(super::driver::check_spp(0).is_err() && super::driver::check_spp(1 << 32).is_err());
+    assert_eq!(super::driver::check_spp(7).unwrap(), 7);
+    let e = with_threads(Some(20_000), || ()).unwrap_err().to_string();
+    assert!(e.starts_with("threads = 20000 is out of range: must be an integer in [1, 1024]"), "{e}");
+    let m = test_material([0.5; 3], 1.0, [0.1; 3], [1.0; 3], 0.0, 1.3, false);
+    let inside = Light::point("lights[0]", [0.0; 3], [1.0; 3]).unwrap();
+    let s = scene(vec![icosphere([0.0; 3], 2.0, 2).unwrap()], m, vec![inside], [0.0; 3], None);
+    assert_eq!(s.warnings(), ["lights[0] is inside the closed object objects[0]: it lights nothing outside it"]);
+    let cfg = WalkConfig {
+        source: BeamSource::Pencil { origin: [0.0; 3], direction: [0.0, 0.0, -1.0] },
+        photons: 10,
+        seed: 0,
+        channel: 0,
+        voxels: None,
+    };
+    let e = simulate(&s, &cfg, &AtomicBool::new(false), &AtomicU64::new(0)).err().unwrap().to_string();
+    assert!(e.contains("source.origin: the pencil beam starts inside objects[0]"), "{e}");
+}
+
 /// Sum over all pixels of sample s, for s in 0..n: (mean, standard error) per channel.
 fn image_sum_stats(r: &Renderer, n: u32) -> ([f64; 3], [f64; 3]) {
     let cam = r.scene.camera.as_ref().unwrap();
