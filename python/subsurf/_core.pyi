@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -47,6 +48,9 @@ MC_MAX_ORDER: int
 MC_MAX_PENCIL_THETA: float
 MC_MAX_EVENTS_PER_PHOTON: float
 MC_STATE_SCHEME: str
+#: The fields of subsurf.Tallies (core TallyConfig::fields): (name, kind, default); kinds "count",
+#: "length", "pair", "order", "bool".
+MC_TALLY_FIELDS: list[tuple[str, str, Any]]
 
 def mc_isa() -> str:
     """Instruction set of the Monte Carlo lane kernel on this machine: avx512, avx2, neon or scalar."""
@@ -214,6 +218,13 @@ class SlabTable:
     def totals(self, albedo: float, tau: float) -> tuple[float, float]: ...
 
 def bssrdf_models() -> list[str]: ...
+
+#: The profile models (core bssrdf::Model), in order.
+BSSRDF_MODELS: list[str]
+#: The Monte Carlo profile's defaults (core McSettings::default()): photons, seed, per_decade,
+#: max_rel_err, r_min, r_max.
+BSSRDF_MC_DEFAULTS: dict[str, Any]
+
 def bssrdf_medium_profile(model_name: str, sigma_a: float, sigma_s: float, g: float, eta: float) -> Profile: ...
 def bssrdf_stack_profile(
     model_name: str,
@@ -303,6 +314,16 @@ def bssrdf_fit_slab_totals(
 
 # --- render (crates/subsurf-py/src/render.rs); scene dicts come from subsurf.render.Scene._to_core
 
+#: The render methods (core render::Method), in order.
+RENDER_METHODS: list[str]
+#: Light types → their parameters in the constructor's order (core render::LightKind).
+RENDER_LIGHTS: dict[str, list[str]]
+#: The hierarchical method's settings and defaults (core HierarchicalParams).
+RENDER_HIERARCHICAL_DEFAULTS: dict[str, Any]
+
+def render_check_settings(spp: int, seed: int) -> tuple[int, int]:
+    """(spp, seed) validated: spp in [1, 2^32 - 1], seed in [0, 2^64)."""
+
 class RenderJob:
     """A scene prepared for one method; render_pass adds samples (GIL released)."""
 
@@ -312,8 +333,11 @@ class RenderJob:
         method: str,
         seed: int,
         threads: int | None = None,
-        hierarchical: tuple[float, float, int, int] | None = None,
+        hierarchical: dict[str, Any] | None = None,
     ) -> None: ...
+    @property
+    def warnings(self) -> list[str]:
+        """Warnings about the scene (lights that cannot light anything), one line each."""
     def render_pass(self, n: int) -> int:
         """Render n more samples per pixel; returns the total so far."""
     def image(self) -> np.ndarray:
@@ -329,13 +353,13 @@ def render_shape(
     b: Sequence[float] | None = None,
     c: float = 0.0,
     d: float = 0.0,
-    level: int = 4,
+    level: int | None = None,
     nu: int = 64,
     nv: int = 32,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(positions (N, 3), triangles (M, 3)) of a built-in shape."""
 
-def render_mesh_info(mesh: dict, name: str) -> tuple[bool, int, float, float]:
+def render_mesh_info(mesh: dict) -> tuple[bool, int, float, float]:
     """(closed, open_edges, area, volume) of a validated mesh."""
 
 def render_walk_simulate(
@@ -343,7 +367,7 @@ def render_walk_simulate(
     source: tuple[str, Sequence[float], Sequence[float]],
     photons: int,
     seed: int,
-    channel: int = 0,
+    channel: int | None = None,
     voxels: tuple[Sequence[float], Sequence[float], Sequence[int]] | None = None,
     threads: int | None = None,
 ) -> dict: ...

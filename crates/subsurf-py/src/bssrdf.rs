@@ -25,7 +25,7 @@ fn slice<'a>(a: &'a Arr<'_>) -> PyResult<&'a [f64]> {
 }
 
 fn model(name: &str) -> PyResult<Model> {
-    Model::from_name(name).py()
+    Model::from_name("model", name).py()
 }
 
 fn stack(s: &StackTuple) -> PyResult<subsurf_core::medium::Stack> {
@@ -207,6 +207,19 @@ fn bssrdf_models() -> Vec<&'static str> {
 #[pyfunction]
 fn bssrdf_check_medium(sigma_a: f64, sigma_s: f64, g: f64, eta: f64) -> PyResult<()> {
     Medium::new(sigma_a, sigma_s, g, eta).py().map(|_| ())
+}
+
+/// The Monte Carlo profile's defaults (`McSettings::default()`) a user can give.
+fn mc_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let McSettings { photons, seed, threads: _, r_min, r_max, per_decade, max_rel_err } = McSettings::default();
+    let d = PyDict::new(py);
+    d.set_item("photons", photons)?;
+    d.set_item("seed", seed)?;
+    d.set_item("per_decade", per_decade)?;
+    d.set_item("max_rel_err", max_rel_err)?;
+    d.set_item("r_min", r_min)?;
+    d.set_item("r_max", r_max)?;
+    Ok(d)
 }
 
 /// 1 − H(1)√(1 − a): exact reflectance of a semi-infinite index-matched isotropic medium.
@@ -479,6 +492,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bssrdf_normalized_diffusion, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_models, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_check_medium, m)?)?;
+    m.add("BSSRDF_MODELS", Model::NAMES.to_vec())?;
+    m.add("BSSRDF_MC_DEFAULTS", mc_defaults(m.py())?)?;
     m.add_function(wrap_pyfunction!(bssrdf_chandrasekhar_reflectance, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_table_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_table_point, m)?)?;

@@ -30,7 +30,8 @@ fn integral(f: &dyn Fn(f64) -> f64, s: f64) -> f64 {
     sum
 }
 
-fn models() -> Vec<(&'static str, Box<dyn RadialProfile>, f64)> {
+/// The contract cases of one model (exhaustive: a new model must say how it is tested).
+fn cases(model: Model) -> Vec<(String, Box<dyn RadialProfile>, f64)> {
     let m = Medium::new(0.05, 1.2, 0.3, 1.33).unwrap();
     let layered = Stack::new(
         vec![Layer::new(1.4, 0.2, 8.0, 0.8, 0.6).unwrap(), Layer::new(1.4, 0.02, 10.0, 0.8, f64::INFINITY).unwrap()],
@@ -38,21 +39,31 @@ fn models() -> Vec<(&'static str, Box<dyn RadialProfile>, f64)> {
         1.0,
     )
     .unwrap();
-    let mc = McSettingsForTests::settings();
-    vec![
-        ("dipole", medium_profile(Model::Dipole, &m).unwrap(), 1.0),
-        ("better_dipole", medium_profile(Model::BetterDipole, &m).unwrap(), 1.0),
-        (
-            "multipole slab",
-            multipole::profile(&Stack::new(vec![Layer::new(1.33, 0.05, 1.2, 0.3, 3.0).unwrap()], 1.0, 1.0).unwrap())
+    let name = |what: &str| format!("{}{what}", model.name());
+    match model {
+        Model::Dipole | Model::BetterDipole | Model::PhotonBeamDiffusion | Model::NormalizedDiffusion => {
+            vec![(name(""), medium_profile(model, &m).unwrap(), 1.0)]
+        }
+        Model::Multipole => vec![
+            (
+                name(" slab"),
+                multipole::profile(
+                    &Stack::new(vec![Layer::new(1.33, 0.05, 1.2, 0.3, 3.0).unwrap()], 1.0, 1.0).unwrap(),
+                )
                 .unwrap(),
-            1.0,
-        ),
-        ("multipole layered", multipole::profile(&layered).unwrap(), 0.5),
-        ("photon_beam_diffusion", medium_profile(Model::PhotonBeamDiffusion, &m).unwrap(), 1.0),
-        ("normalized_diffusion", medium_profile(Model::NormalizedDiffusion, &m).unwrap(), 1.0),
-        ("monte_carlo", profile(Model::MonteCarlo, &layered, &mc).unwrap(), 0.1),
-    ]
+                1.0,
+            ),
+            (name(" layered"), multipole::profile(&layered).unwrap(), 0.5),
+        ],
+        Model::MonteCarlo => {
+            vec![(name(""), profile(model, &layered, &McSettingsForTests::settings()).unwrap(), 0.1)]
+        }
+    }
+}
+
+/// Every model's cases, in [`Model::ALL`] order.
+fn models() -> Vec<(String, Box<dyn RadialProfile>, f64)> {
+    Model::ALL.iter().copied().flat_map(cases).collect()
 }
 
 struct McSettingsForTests;
@@ -126,7 +137,7 @@ fn ends_of_the_domain_and_checked_queries() {
     let s = table::TableSettings { albedos: vec![0.9, 0.99], photons: 2000, ..table::TableSettings::new(0.0, 1.3) };
     let (never, progress) = (std::sync::atomic::AtomicBool::new(false), std::sync::atomic::AtomicU64::new(0));
     let table = table::ProfileTable::build(s, &never, &progress).unwrap();
-    all.push(("table", Box::new(table.profile(0.02, 1.0).unwrap()), 1.0));
+    all.push(("table".to_string(), Box::new(table.profile(0.02, 1.0).unwrap()), 1.0));
     for (name, p, _) in all {
         assert_eq!(p.rd(f64::INFINITY), 0.0, "{name}: rd(inf)");
         assert_eq!(p.pdf(f64::INFINITY), 0.0, "{name}: pdf(inf)");
@@ -159,10 +170,10 @@ fn ends_of_the_domain_and_checked_queries() {
 
 #[test]
 fn names_and_bad_input() {
-    for m in Model::ALL {
-        assert_eq!(Model::from_name(m.name()).unwrap(), m);
+    for &m in Model::ALL {
+        assert_eq!(Model::from_name("model", m.name()).unwrap(), m);
     }
-    assert!(Model::from_name("quadrupole").unwrap_err().to_string().contains("monte_carlo"));
+    assert!(Model::from_name("model", "quadrupole").unwrap_err().to_string().contains("monte_carlo"));
     let e = Medium::new(-1.0, 1.0, 0.0, 1.3).unwrap_err().to_string();
     assert!(e.starts_with("sigma_a"), "{e}");
     let layered = Stack::new(vec![Layer::new(1.4, 0.1, 1.0, 0.0, 1.0).unwrap()], 1.0, 1.0).unwrap();

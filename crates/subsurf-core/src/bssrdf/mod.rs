@@ -231,52 +231,48 @@ impl Medium {
     }
 }
 
-/// The profile models, selectable by name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Model {
-    /// Jensen et al. 2001.
-    Dipole,
-    /// d'Eon 2012.
-    BetterDipole,
-    /// Donner & Jensen 2005.
-    Multipole,
-    /// Habel, Christensen & Jarosz 2013.
-    PhotonBeamDiffusion,
-    /// Christensen & Burley 2015.
-    NormalizedDiffusion,
-    /// The Monte Carlo engine.
-    MonteCarlo,
+crate::named_enum! {
+    /// The profile models, selectable by name (in the order the CLI and the docs list them).
+    pub enum Model ("a profile model") {
+        /// Jensen et al. 2001.
+        Dipole = "dipole",
+        /// d'Eon 2012.
+        BetterDipole = "better_dipole",
+        /// Donner & Jensen 2005.
+        Multipole = "multipole",
+        /// Habel, Christensen & Jarosz 2013.
+        PhotonBeamDiffusion = "photon_beam_diffusion",
+        /// Christensen & Burley 2015.
+        NormalizedDiffusion = "normalized_diffusion",
+        /// The Monte Carlo engine.
+        MonteCarlo = "monte_carlo",
+    }
 }
 
 impl Model {
-    /// Every model, in the order the CLI and the docs list them.
-    pub const ALL: [Model; 6] = [
-        Model::Dipole,
-        Model::BetterDipole,
-        Model::Multipole,
-        Model::PhotonBeamDiffusion,
-        Model::NormalizedDiffusion,
-        Model::MonteCarlo,
-    ];
-
-    /// The model's name.
-    pub fn name(self) -> &'static str {
+    /// Whether the renderer's BSSRDF methods add the single-scattering term S⁽¹⁾ to this
+    /// model's R_d: yes for the pure diffusion models (dipole, better dipole, multipole); photon
+    /// beam diffusion and Monte Carlo include single scattering in R_d, and normalized
+    /// diffusion is a fit to every order (Christensen & Burley 2015).
+    pub fn adds_single_scattering(self) -> bool {
         match self {
-            Model::Dipole => "dipole",
-            Model::BetterDipole => "better_dipole",
-            Model::Multipole => "multipole",
-            Model::PhotonBeamDiffusion => "photon_beam_diffusion",
-            Model::NormalizedDiffusion => "normalized_diffusion",
-            Model::MonteCarlo => "monte_carlo",
+            Model::Dipole | Model::BetterDipole | Model::Multipole => true,
+            Model::PhotonBeamDiffusion | Model::NormalizedDiffusion | Model::MonteCarlo => false,
         }
     }
 
-    /// The model called `name`; anything else is an error listing the names.
-    pub fn from_name(name: &str) -> Result<Model> {
-        Model::ALL.iter().copied().find(|m| m.name() == name).ok_or_else(|| {
-            let names: Vec<&str> = Model::ALL.iter().map(|m| m.name()).collect();
-            Error::Invalid(format!("model = {name:?} is not a profile model: must be one of {names:?}"))
-        })
+    /// Whether the model's R_d is per unit power *incident* on the surface (Monte Carlo profiles,
+    /// simulated for a pencil beam) rather than per unit power *entering* the medium (the
+    /// diffusion models' sources sit below the interface).
+    pub fn per_incident_power(self) -> bool {
+        match self {
+            Model::MonteCarlo => true,
+            Model::Dipole
+            | Model::BetterDipole
+            | Model::Multipole
+            | Model::PhotonBeamDiffusion
+            | Model::NormalizedDiffusion => false,
+        }
     }
 }
 
@@ -285,7 +281,9 @@ pub fn profile(model: Model, stack: &Stack, mc: &monte_carlo::McSettings) -> Res
     Ok(match model {
         Model::MonteCarlo => Box::new(monte_carlo::MonteCarloProfile::simulate(stack, mc)?),
         Model::Multipole => multipole::profile(stack)?,
-        _ => medium_profile(model, &Medium::from_stack(stack, model.name())?)?,
+        Model::Dipole | Model::BetterDipole | Model::PhotonBeamDiffusion | Model::NormalizedDiffusion => {
+            medium_profile(model, &Medium::from_stack(stack, model.name())?)?
+        }
     })
 }
 

@@ -30,8 +30,9 @@ pub struct Translucent {
     pub g: f64,
     /// Refractive index of the medium (the outside is vacuum, index 1).
     pub eta: f64,
-    /// R_d(r) per channel (any model behind [`RadialProfile`]).
-    pub profiles: [Arc<dyn RadialProfile>; 3],
+    /// R_d(r) per channel (any model behind [`RadialProfile`]); `None` for a material built
+    /// for a method that uses no profile ([`super::Method::uses_profiles`]).
+    pub bssrdf: Option<[Arc<dyn RadialProfile>; 3]>,
     /// Whether the BSSRDF methods add the single-scattering term S⁽¹⁾ (off for profiles that
     /// already contain every scattering order, e.g. Monte Carlo ones).
     pub single_scattering: bool,
@@ -53,13 +54,14 @@ impl Translucent {
         sigma_s: Rgb,
         g: f64,
         eta: f64,
-        profiles: [Arc<dyn RadialProfile>; 3],
+        profiles: Option<[Arc<dyn RadialProfile>; 3]>,
         single_scattering: bool,
     ) -> Result<Translucent> {
         for k in 0..3 {
             check_nonneg(&format!("{field}.sigma_a[{k}]"), sigma_a[k])?;
             check_nonneg(&format!("{field}.sigma_s[{k}]"), sigma_s[k])?;
-            let t = profiles[k].total();
+            let Some(p) = &profiles else { continue };
+            let t = p[k].total();
             if !(t.is_finite() && (0.0..=1.0 + 1e-9).contains(&t)) {
                 return Err(Error::param(format!("{field}.profile[{k}].total"), t, "in [0, 1]"));
             }
@@ -75,13 +77,21 @@ impl Translucent {
             sigma_s,
             g,
             eta,
-            profiles,
+            bssrdf: profiles,
             single_scattering,
             c_norm: 1.0 - diffuse_fresnel_reflectance(eta, false)?,
             phase: Phase::hg(g)?,
             sigma_t: std::array::from_fn(|k| sigma_a[k] + sigma_s[k]),
             stacks,
         })
+    }
+}
+
+impl Translucent {
+    /// The profiles per channel; only for materials built with them (the renderer checks
+    /// [`super::Method::uses_profiles`] methods get them).
+    pub fn profiles(&self) -> &[Arc<dyn RadialProfile>; 3] {
+        self.bssrdf.as_ref().expect("a BSSRDF method's materials have profiles (checked by Renderer::new)")
     }
 }
 
@@ -210,9 +220,7 @@ impl RadialProfile for RdTable {
 /// - profiles are per unit power *entering* the medium (the renderer applies F_t at entry):
 ///   `monte_carlo` profiles, simulated for a pencil beam of unit *incident* power, are divided
 ///   by the normal-incidence transmittance 1 − R_sp of the top interface;
-/// - S⁽¹⁾ is added for the pure diffusion models (dipole, better dipole, multipole) only:
-///   photon beam diffusion and Monte Carlo include single scattering in R_d, and normalized
-///   diffusion is a fit to every order (Christensen & Burley 2015);
+/// - S⁽¹⁾ is added where [`crate::bssrdf::Model::adds_single_scattering`] says so;
 /// - a material made from a `reflectance` (per channel and unit incident power,
 ///   [`crate::bssrdf::inverse`]) gives normalized diffusion that reflectance as its surface
 ///   albedo ([`crate::bssrdf::normalized_diffusion::from_reflectance`]); the other models'
@@ -224,7 +232,7 @@ pub fn channel_profiles(
     reflectance: Option<&Rgb>,
 ) -> Result<([Arc<dyn RadialProfile>; 3], bool)> {
     use crate::bssrdf::{normalized_diffusion, Medium, Model};
-    let m = Model::from_name(model)?;
+    let m = Model::from_name("model", model)?;
     let profs: Vec<Box<dyn RadialProfile>> = match (m, reflectance) {
         (Model::NormalizedDiffusion, Some(c)) => stacks
             .iter()
@@ -242,14 +250,14 @@ pub fn channel_profiles(
     };
     let mut out: Vec<Arc<dyn RadialProfile>> = Vec::with_capacity(3);
     for (p, s) in profs.into_iter().zip(stacks) {
-        let k = if m == Model::MonteCarlo {
+        let k = if m.per_incident_power() {
             1.0 / (1.0 - crate::optics::fr_dielectric(1.0, s.n_above, s.layers[0].n))
         } else {
             1.0
         };
         out.push(Arc::new(RdTable::new(p, k)));
     }
-    let ss = matches!(m, Model::Dipole | Model::BetterDipole | Model::Multipole);
+    let ss = m.adds_single_scattering();
     let arr: [Arc<dyn RadialProfile>; 3] = [out[0].clone(), out[1].clone(), out[2].clone()];
     Ok((arr, ss))
 }

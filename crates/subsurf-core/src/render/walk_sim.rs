@@ -21,7 +21,8 @@
 //! bit-identical for any thread count.
 
 use super::material::Material;
-use super::math::{dot, length, madd, normalize, Frame, V3};
+use super::math::{dot, madd, unit, Frame, V3};
+use super::mesh::MAX_COORDINATE;
 use super::random_walk::{cross_boundary, Crossing, Media};
 use super::scene::Scene;
 use crate::error::{Error, Result};
@@ -143,8 +144,18 @@ pub fn simulate(scene: &Scene, cfg: &WalkConfig, cancel: &AtomicBool, progress: 
     let dir = match cfg.source {
         BeamSource::Pencil { direction, .. } | BeamSource::Collimated { direction } => direction,
     };
-    if !(length(dir) > 0.0) {
-        return Err(Error::Invalid("source.direction: must be a non-zero vector".into()));
+    if unit(dir).is_none() {
+        return Err(Error::Invalid("source.direction: must be a finite non-zero vector".into()));
+    }
+    if let BeamSource::Pencil { origin, .. } = cfg.source {
+        if let Some(&c) = origin.iter().find(|c| !(c.abs() <= MAX_COORDINATE)) {
+            return Err(Error::param("source.origin", c, "coordinates in [-1e15, 1e15] (mm)"));
+        }
+        if let Some(name) = scene.enclosing_object(origin) {
+            return Err(Error::Invalid(format!(
+                "source.origin: the pencil beam starts inside {name}; it must start outside every object"
+            )));
+        }
     }
     let ntri = scene.accel.tris.len();
     let nvox = cfg.voxels.map_or(0, |g| g.len());
@@ -172,9 +183,9 @@ pub fn simulate(scene: &Scene, cfg: &WalkConfig, cancel: &AtomicBool, progress: 
 
 fn launch(scene: &Scene, src: BeamSource, rng: &mut PhotonRng) -> (V3, V3) {
     match src {
-        BeamSource::Pencil { origin, direction } => (origin, normalize(direction)),
+        BeamSource::Pencil { origin, direction } => (origin, unit(direction).expect("checked in simulate")),
         BeamSource::Collimated { direction } => {
-            let d = normalize(direction);
+            let d = unit(direction).expect("checked in simulate");
             let ext = scene.accel.extent;
             let c = scene.accel.center();
             let f = Frame::new(d);

@@ -51,7 +51,11 @@ fn profile_values(
                 table.ok_or_else(|| Error::Invalid("model \"monte_carlo\" needs a ProfileTable for the fit".into()))?;
             Box::new(t.profile(p[0], sigma_s)?)
         }
-        m => medium_profile(m, &Medium::new(p[0], sigma_s, g, eta)?)?,
+        Model::Dipole
+        | Model::BetterDipole
+        | Model::Multipole
+        | Model::PhotonBeamDiffusion
+        | Model::NormalizedDiffusion => medium_profile(model, &Medium::new(p[0], sigma_s, g, eta)?)?,
     };
     Ok(r.iter().map(|&x| prof.rd(x)).collect())
 }

@@ -140,7 +140,10 @@ fn reflectance_round_trips_every_model_and_convention() {
             }
         }
     }
-    eprintln!("worst relative round-trip error per model {:?}: {worst:?}", Model::ALL.map(Model::name));
+    eprintln!(
+        "worst relative round-trip error per model {:?}: {worst:?}",
+        Model::ALL.iter().map(|m| m.name()).collect::<Vec<_>>()
+    );
 }
 
 /// Refusals: out of range per the chosen power, no table, a diffuse length without absorption.
