@@ -1,12 +1,14 @@
 """The docstring normaliser of the documentation build (docs/_ext/subsurf_docs.py); `make docs-check`
 runs the whole build."""
 
-import sys
+import importlib.util
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "docs" / "_ext"))
-
-import subsurf_docs as sd  # noqa: E402
+_SPEC = importlib.util.spec_from_file_location(
+    "subsurf_docs", Path(__file__).resolve().parent.parent / "docs" / "_ext" / "subsurf_docs.py"
+)
+sd = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(sd)
 
 
 def test_parameters_become_numpydoc_fields_and_the_prose_after_them_stays_prose():

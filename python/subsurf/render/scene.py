@@ -319,6 +319,8 @@ class Object:
                 raise _err(f"{name or path}: cannot read mesh file {path!r}: it is not a valid mesh file") from None
             except Exception as e:  # trimesh raises many kinds on malformed files
                 raise _err(f"{name or path}: cannot read mesh file {path!r}: {e}") from None
+            if isinstance(tm, trimesh.Trimesh) and len(tm.faces) == 0:
+                raise _err(f"{name or path}: cannot read mesh file {path!r}: it is not a valid mesh file (no faces found)")
         else:
             tm = source
         if not isinstance(tm, trimesh.Trimesh):
