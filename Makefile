@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: all venv build lint test test-rust test-python demo bench clean
+.PHONY: all venv build lint test test-rust test-python demo figures bench clean docs docs-check dist dist-check
 
 all: build
 
@@ -13,6 +13,7 @@ $(VENV)/.ready: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q "maturin>=1.5,<2" "numpy>=1.22" "matplotlib>=3.5" "h5py>=3.6" "pytest>=7" "scipy>=1.8" "hypothesis>=6.100" "ruff==0.17.6" "trimesh>=4" "openexr>=3.3" "dask[distributed]>=2023.1"
+	$(PY) -m pip install -q "sphinx>=7.2" "myst-parser>=3" "sphinx-gallery>=0.17" "furo>=2024.1"  # the docs extra
 	touch $@
 
 venv: $(VENV)/.ready
@@ -35,10 +36,15 @@ lint: venv
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 
-test: lint test-rust test-python
+test: lint test-rust test-python docs-check
 
 demo: build
 	$(VENV)/bin/subsurf demo
+
+# Regenerate README/docs figures and the validation table (slow; not part of `make test`, which runs
+# docs/scripts/figures.py --quick through tests/test_docs_scripts.py).
+figures: build
+	$(PY) docs/scripts/figures.py
 
 bench: build
 	$(PY) benches/bench.py
@@ -46,5 +52,36 @@ bench: build
 	$(PY) benches/bench_profiles.py
 	$(PY) benches/bench_cluster.py
 
+# The documentation site (docs/building.md): docs/_build/html/index.html. -W: a warning is an error.
+SPHINX := $(PY) -m sphinx -W --keep-going -q -b html
+docs: build
+	$(SPHINX) -d docs/_build/doctrees docs docs/_build/html
+	@echo "site: docs/_build/html/index.html"
+
+# What `make test` runs: every guide and API page read afresh (-E), the check that each public name
+# has an entry, and one gallery script run, built apart from the full site.
+docs-check: build
+	SUBSURF_DOCS_GALLERY=plot_brdf_lobes $(SPHINX) -E -d docs/_build/check-doctrees docs docs/_build/check
+
+# An abi3 manylinux wheel and an sdist in dist/ (docs/building.md). ZIG=1 (default): linked by zig
+# (the ziglang package) for manylinux2014 (glibc >= 2.17); its own target dir, so the first build
+# compiles everything (~8 min on the shared 2 cores), later ones seconds. ZIG=0: linked natively,
+# reusing `make build`'s target/release (seconds), tagged with the glibc the binary needs
+# (manylinux_2_34 here). dist-check installs the wheel into a fresh venv outside the tree and runs
+# `subsurf demo --quick` there (tests/check_dist.py; about 1.5 min, not part of `make test`).
+ZIG ?= 1
+dist: venv
+	rm -rf dist
+ifeq ($(ZIG),1)
+	$(PY) -m pip install -q "ziglang>=0.13"
+	$(VENV)/bin/maturin build --release --zig --compatibility manylinux2014 -o dist
+else
+	$(VENV)/bin/maturin build --release -o dist
+endif
+	$(VENV)/bin/maturin sdist -o dist
+
+dist-check: dist
+	$(PY) tests/check_dist.py dist
+
 clean:
-	rm -rf target $(VENV)
+	rm -rf target $(VENV) dist docs/_build docs/api docs/gallery docs/gallery-check

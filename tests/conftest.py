@@ -6,6 +6,8 @@
 * ``make_result`` — hand-built, self-consistent :class:`subsurf.Result` objects (``synthetic.py``).
 * ``sample_mci`` — the text of a two-run MCML input file.
 * ``as_format_1`` — turn a saved results file into one of format version 1 (no checksums).
+* ``profile_table`` — a small :class:`subsurf.bssrdf.ProfileTable` (g = 0, η = 1.3, 4 albedos of
+  2000 photons), built once per session.
 * ``worker`` — a separate process running property-test cases (``fuzz_worker.py``), restarted
   after a case that crashes it or outlives its time limit.
 * ``cli`` — run the ``subsurf`` command (``python -m subsurf``) in a subprocess; ``one_line_error``
@@ -112,6 +114,14 @@ def _as_format_1(path) -> None:
         for name in src:
             src.copy(src[name], dst, name=name)
         dst.attrs["format_version"] = 1
+
+
+@pytest.fixture(scope="session")
+def profile_table():
+    """A small ProfileTable (g = 0, eta = 1.3, 4 albedos, 2000 photons each): cheap, for file and API tests."""
+    from subsurf import bssrdf
+
+    return bssrdf.ProfileTable.build(0.0, 1.3, n_albedos=4, photons=2000)
 
 
 @pytest.fixture(scope="session")

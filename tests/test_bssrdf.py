@@ -81,29 +81,41 @@ def test_table_roundtrip_and_corruption(table, tmp_path):
     assert prof.total() == pytest.approx(table.rho_eff(0.99), abs=1e-12)
     with h5py.File(path, "r+") as f:
         f["points/0002/weight"][5] += 1e-3
-    with pytest.raises(ParameterError, match="checksum"):
+    with pytest.raises(ParameterError, match=r"t.h5: /points/0002/weight: fails its checksum"):
         bssrdf.ProfileTable.load(path)
     (tmp_path / "junk.h5").write_bytes(b"not hdf5")
-    with pytest.raises(ParameterError, match="corrupted"):
+    with pytest.raises(ParameterError, match="junk.h5: not an HDF5 profile table file"):
         bssrdf.ProfileTable.load(tmp_path / "junk.h5")
     with pytest.raises(ParameterError, match="empty"):
         bssrdf.ProfileTable.assemble(table.settings, [])
 
 
 def test_inverse_and_bad_input(table):
-    layers = bssrdf.material_from_appearance([0.5, 0.4], [1.0, 2.0], eta=1.33, g=0.0, model="monte_carlo", table=table)
+    inv = bssrdf.material_from_reflectance
+    layers = inv([0.5, 0.4], [1.0, 2.0], eta=1.33, g=0.0, model="monte_carlo", table=table)
     assert [round(1 / l.sigma_t, 12) for l in layers] == [1.0, 2.0]
     for lay, c in zip(layers, [0.5, 0.4]):
         assert table.rho_eff(lay.albedo) == pytest.approx(c, abs=1e-9)
-    layers = bssrdf.material_from_appearance([0.3], [1.0], eta=1.3, model="dipole")
-    # The colour is per unit incident power: the dipole's total times the transmitted (1 − R_sp).
+    # Per unit incident power (default) the dipole's total times the transmitted 1 − R_sp; per
+    # entering power the total itself.
     r_sp = float(subsurf.optics.fresnel_reflectance(1.0, 1.0, 1.3))
-    total = subsurf.diffusion.total_diffuse_reflectance(layers[0].albedo, 1.3)
-    assert (1 - r_sp) * total == pytest.approx(0.3, abs=1e-9)
-    with pytest.raises(ParameterError, match=r"albedo\[0\] = 1.5"):
-        bssrdf.material_from_appearance([1.5], [1.0], model="dipole")
-    with pytest.raises(ParameterError, match=r"albedo\[0\] = 0.99 is out of range"):
-        bssrdf.material_from_appearance([0.99], [1.0], eta=1.33, model="monte_carlo", table=table)
+    for power, k in [("incident", 1 - r_sp), ("entering", 1.0)]:
+        layers = inv([0.3], [1.0], eta=1.3, model="dipole", power=power)
+        assert k * subsurf.diffusion.total_diffuse_reflectance(layers[0].albedo, 1.3) == pytest.approx(0.3, abs=1e-9)
+    assert bssrdf.POWERS == ("incident", "entering")
+    assert bssrdf.MFP_KINDS == ("extinction", "transport", "diffuse", "burley_d")
+    with pytest.raises(ParameterError, match=r"reflectance\[0\] = 1.5"):
+        inv([1.5], [1.0], model="dipole")
+    with pytest.raises(ParameterError, match=r"reflectance\[0\] = 0.99 is out of range"):
+        inv([0.99], [1.0], eta=1.33, model="monte_carlo", table=table)
+    with pytest.raises(ParameterError, match=r"mfp\[0\] = 0"):
+        inv([0.5], [0.0])
+    with pytest.raises(ParameterError, match="mfp_kind.*burley_d"):
+        inv([0.5], [1.0], mfp_kind="free")
+    with pytest.raises(ParameterError, match="power.*entering"):
+        inv([0.5], [1.0], power="emitted")
+    with pytest.raises(ParameterError, match="no absorption"):
+        inv([1.0], [1.0], power="entering", mfp_kind="diffuse")
     with pytest.raises(ParameterError, match="model"):
         bssrdf.Profile.from_model("tripole", 0.1, 1.0)
     prof = bssrdf.Profile.from_model("dipole", 0.02, 1.0, 0.0, 1.4)
@@ -112,3 +124,26 @@ def test_inverse_and_bad_input(table):
     assert fit.params == pytest.approx([0.02, 1.0], rel=1e-5) and fit.cov.shape == (2, 2) and fit.dof == 13
     with pytest.raises(ParameterError, match=r"sigma\[0\]"):
         bssrdf.fit_profile(r, prof.rd(r), 0.0 * r, model="dipole")
+
+
+def test_profile_queries_refuse_arguments_outside_their_domain():
+    """Regression: ``rd(nan)`` was 0, ``sample_r(nan)`` 0 (∞ for monte_carlo),
+    ``sample_r(1.5)`` clamped, ``rd(inf)`` NaN for the dipoles, ``pdf(0)`` NaN for monte_carlo.
+    One contract for every model (checked in the core: bssrdf::Query), errors naming the argument."""
+    stack = subsurf.Stack([subsurf.Layer(1.33, 0.05, 1.2, 0.3)])
+    for m in bssrdf.MODELS:
+        kw = {"photons": 5000} if m == "monte_carlo" else {}
+        p = bssrdf.Profile.from_stack(stack, model=m, **kw)
+        assert p.rd(np.inf) == 0.0 and p.pdf(np.inf) == 0.0 and p.cdf(np.inf) == 1.0, m
+        assert np.isfinite(p.pdf(0.0)) and p.pdf(0.0) >= 0.0, m
+        for call, arg, match in [
+            (p.rd, np.nan, r"^r = nan is out of range: must be a radius in \[0, inf\]"),
+            (p.pdf, -1.0, r"^r = -1.0 "),
+            (p.cdf, [0.5, np.nan], r"^r = nan "),
+            (p.sample_r, np.nan, r"^u = nan is out of range: must be a fraction in \[0, 1\)"),
+            (p.sample_r, 1.5, r"^u = 1.5 "),
+            (p.sample_r, 1.0, r"^u = 1.0 "),
+            (p.radius_for_fraction, -0.5, r"^q = -0.5 "),
+        ]:
+            with pytest.raises(ParameterError, match=match):
+                call(arg)

@@ -102,9 +102,7 @@ def test_simulate_writes_result_and_table(tmp_path, cli):
     # same seed, different thread count: bit-identical numbers
     p = cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "r2.h5", "--seed", "9", "--threads", "2", "-q")
     assert p.returncode == 0 and "diffuse reflectance" not in p.stdout
-    r2 = subsurf.load(tmp_path / "r2.h5")
-    assert r2.diffuse_reflectance == r.diffuse_reflectance
-    np.testing.assert_array_equal(r2.rd_r.values, r.rd_r.values)
+    assert subsurf.io.results_equal(subsurf.load(tmp_path / "r2.h5"), r, provenance=False)
     p = cli("plot", tmp_path / "r.h5")
     assert p.returncode == 0 and _png(tmp_path / "r.png").shape[2] == 4
 
@@ -187,6 +185,38 @@ def test_profile_plot_and_fit(tmp_path, cli, one_line_error):
     assert "mus_prime" in p.stdout
     one_line_error(cli("fit", tmp_path / "s.csv", "--kind", "slab"), "--thickness")
     one_line_error(cli("fit", tmp_path / "none.csv"), "none.csv: no such file")
+
+
+_PROFILE = "r,rd,sigma\n" + "".join(f"{0.5 * i},{{rd}},{{sigma}}\n" for i in range(1, 9))
+
+
+@pytest.mark.parametrize(
+    "kind, text, fragments",
+    [
+        ("profile", _PROFILE.format(rd=1e-300, sigma=1e-302), ["χ² = inf at the initial parameters"]),
+        ("profile", _PROFILE.format(rd=0.0, sigma=1e-3), ["the data hold no signal", "rd"]),
+        ("slab", "rd,tt,sigma_rd,sigma_tt\n0,0,0.01,0.01\n", ["the data hold no signal"]),
+        ("slab", "rd,tt,sigma_rd,sigma_tt\n-0.1,0.3,0.01,0.01\n", ["rd = -0.1 is out of range"]),
+        ("profile", "r,rd,sigma\n0.5,0.01,0.001\n1.0,0.005\n", ["m.csv: data row 2: sigma is missing"]),
+        ("profile", "r,rd,sigma\n0.5,0.01,x\n", ["m.csv: data row 1: sigma = 'x' is not a number"]),
+    ],
+)
+def test_meaningless_fits_are_refused(tmp_path, error_here, kind, text, fragments):
+    """Regression: fits the data cannot identify exited 0 with the start value "± 0" or
+    uncertainties of 1e85; the core refuses them (bssrdf/inverse/lm.rs), and the CSV's own
+    problems are named by row."""
+    (tmp_path / "m.csv").write_text(text)
+    extra = ["--thickness", "1.0"] if kind == "slab" else []
+    error_here("fit", tmp_path / "m.csv", "--kind", kind, *extra, fragments=fragments)
+
+
+def test_fit_reads_a_csv_with_a_byte_order_mark(tmp_path, cli_here):
+    prof = bssrdf.Profile.from_model("dipole", 0.02, 1.0, 0.0, 1.4)
+    r = np.geomspace(0.2, 5, 12)
+    rows = "".join(f"{x},{y},{0.02 * y}\n" for x, y in zip(r, prof.rd(r)))
+    (tmp_path / "m.csv").write_bytes(("\ufeffr,rd,sigma\n" + rows).encode("utf-8"))
+    status, out, err = cli_here("fit", tmp_path / "m.csv", "--eta", "1.4")
+    assert status == 0 and "0.02 ±" in out, err
 
 
 # --- result files that are damaged or incomplete -------------------------------------------------

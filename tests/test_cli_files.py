@@ -13,7 +13,6 @@ import subprocess
 import sys
 import time
 
-import numpy as np
 import pytest
 import subsurf
 from subsurf import mcml
@@ -106,7 +105,7 @@ def test_ctrl_c_never_replaces_a_complete_result(tmp_path, cli):
     assert subsurf.io.results_equal(subsurf.load(tmp_path / "r.partial.h5"), partial)
 
 
-def test_resume_finishes_an_interrupted_run_with_the_bits_of_one_run(tmp_path, cli, error_here):
+def test_resume_finishes_an_interrupted_run_with_the_bits_of_one_run(tmp_path, cli, cli_here, error_here):
     n = 10**6  # long enough (~1 s on one thread) for the hook's Ctrl-C to come before the end
     (tmp_path / "c.toml").write_text(FAST.format(photons=n))
     p = cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "p.h5", "-q", "--threads", "1", hook=AFTER_A_CHUNK)
@@ -119,14 +118,13 @@ def test_resume_finishes_an_interrupted_run_with_the_bits_of_one_run(tmp_path, c
     assert cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "d.h5", "-q", "--threads", "2").returncode == 0
     resumed, direct = subsurf.load(tmp_path / "r.h5"), subsurf.load(tmp_path / "d.h5")
     assert not resumed.partial and resumed.photons == direct.photons == n
-    for name in subsurf.result.TOTALS + ("roulette",):
-        assert getattr(resumed, name) == getattr(direct, name), name
-        assert getattr(resumed, name + "_stderr") == getattr(direct, name + "_stderr"), name
-    for k, h in direct.histograms.items():
-        assert np.array_equal(h.values, resumed.histograms[k].values, equal_nan=True), k
-        assert np.array_equal(h.stderr, resumed.histograms[k].stderr, equal_nan=True), k
+    assert subsurf.io.results_equal(resumed, direct, provenance=False)
     # another configuration's state (another seed) is refused in one line; so is a missing file
-    error_here("simulate", tmp_path / "c.toml", "-o", tmp_path / "x.h5", "--seed", "7", "--resume", tmp_path / "p.h5")
+    # (checked before saying "resuming from")
+    status, out, err = cli_here(
+        "simulate", tmp_path / "c.toml", "-o", tmp_path / "x.h5", "--seed", "7", "--resume", tmp_path / "p.h5"
+    )
+    assert status == 2 and "another configuration" in err and "resuming" not in out, (out, err)
     error_here("simulate", tmp_path / "c.toml", "-o", tmp_path / "x.h5", "--resume", tmp_path / "none.h5")
     assert not (tmp_path / "x.h5").exists()
 
@@ -282,6 +280,38 @@ def test_simulate_does_not_overwrite_its_configuration(tmp_path, error_here):
     cfg.write_text('output = "a.toml"\n' + text)
     error_here("simulate", cfg, "--force", fragments=["a.toml: is also an input"])
     assert cfg.read_text() == 'output = "a.toml"\n' + text
+
+
+SWEEP = FAST.format(photons=200) + '[[sweep]]\nname = "g"\nvalues = [0.0, 0.5]\nset = "layers[0].g"\n'
+
+
+def test_sweep_does_not_overwrite_its_configuration(tmp_path, error_here):
+    """Regression: ``subsurf sweep X.toml -o X.toml --force`` replaced the TOML with HDF5."""
+    cfg = tmp_path / "x.toml"
+    cfg.write_text(SWEEP)
+    for extra in ([], ["--force"]):
+        error_here("sweep", cfg, "-o", cfg, "-q", *extra, fragments=["x.toml: is also an input"])
+    assert cfg.read_text() == SWEEP
+
+
+def test_a_damaged_sweep_file_is_called_damaged(tmp_path, error_here, cli_here):
+    """Regression: a damaged sweep file was "something else; use --force" (and, before the
+    checksummed container, could crash HDF5). It is named damaged; ``--force`` discards it knowingly."""
+    cfg = tmp_path / "s.toml"
+    cfg.write_text(SWEEP)
+    out = tmp_path / "s.h5"
+    assert cli_here("sweep", cfg, "-o", out, "-q")[0] == 0
+    data = bytearray(out.read_bytes())
+    data[4096 + 849] ^= 0x5A
+    out.write_bytes(bytes(data))
+    error_here("sweep", cfg, "-o", out, "-q", fragments=["s.h5: ", "damaged", "--force to discard it"])
+    assert out.read_bytes() == bytes(data)  # kept until the user says otherwise
+    other = tmp_path / "o.toml"
+    other.write_text(SWEEP.replace("[0.0, 0.5]", "[0.0, 0.7]"))
+    assert cli_here("sweep", other, "-o", tmp_path / "o.h5", "-q")[0] == 0
+    error_here("sweep", cfg, "-o", tmp_path / "o.h5", "-q", fragments=["holds another sweep"])
+    status, stdout, _ = cli_here("sweep", cfg, "-o", out, "-q", "--force")
+    assert status == 0 and subsurf.sweeps.load(out).complete, stdout
 
 
 def test_merge_and_plot_do_not_overwrite_an_input(tmp_path, error_here, make_result):

@@ -17,7 +17,7 @@ import pytest
 import subsurf
 from distributed import Client, LocalCluster
 from subsurf import bssrdf, cluster, config, sweeps
-from subsurf.result import TOTALS
+from subsurf.io import results_equal
 
 STACK = subsurf.Stack([subsurf.Layer(1.4, 0.1, 10.0, 0.9, 1.0)], n_above=1.0, n_below=1.33)
 #: Every histogram the engine has.
@@ -79,14 +79,7 @@ def local():
 
 
 def assert_same_bits(a, b):
-    assert a.state == b.state
-    for name in (*TOTALS, "roulette"):
-        assert getattr(a, name) == getattr(b, name) and getattr(a, name + "_stderr") == getattr(b, name + "_stderr")
-    assert np.array_equal(a.absorbed_per_layer, b.absorbed_per_layer)
-    assert sorted(a.histograms) == sorted(b.histograms) and len(a.histograms) >= 15
-    for k, h in a.histograms.items():
-        assert np.array_equal(h.values, b.histograms[k].values, equal_nan=True), k
-        assert np.array_equal(h.stderr, b.histograms[k].stderr, equal_nan=True), k
+    assert len(a.histograms) >= 15 and results_equal(a, b, provenance=False)
 
 
 def _ranges(client, progress=None, task_photons=8192, photons=PHOTONS, prior=None):
@@ -184,6 +177,115 @@ def test_interrupt_returns_resumable_prefix(client, local, one_worker, monkeypat
     assert part.partial and 0 < part.photons < PHOTONS and part.photons % 4096 == 0
     assert_same_bits(subsurf.simulate(STACK, PHOTONS, 7, tallies=TALLIES, client=client, resume=part), local)
     assert_same_bits(subsurf.simulate(STACK, PHOTONS, 7, tallies=TALLIES, resume=state), local)
+
+
+#: A scheduler and one single-threaded worker in one process of their own (killing it loses both).
+ONE_PROCESS_CLUSTER = """
+import threading
+from distributed import LocalCluster
+lc = LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1",
+                  dashboard_address=None, worker_dashboard_address=None)
+print(lc.scheduler_address, flush=True)
+threading.Event().wait()
+"""
+
+
+@pytest.fixture
+def cluster_process():
+    """``(address, process)``: a cluster (scheduler and one worker thread) in a child process."""
+    proc = subprocess.Popen([sys.executable, "-c", ONE_PROCESS_CLUSTER], stdout=subprocess.PIPE, text=True)
+    try:
+        yield proc.stdout.readline().strip(), proc
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+@pytest.fixture
+def doomed_cluster(cluster_process):
+    """``(client, kill)``: a client of ``cluster_process``, and ``kill()``, which SIGKILLs that
+    process (scheduler and worker) and returns once the client has seen it go."""
+    address, proc = cluster_process
+    c = Client(address, set_as_default=False, timeout=10)
+
+    def kill():
+        proc.kill()
+        proc.wait()
+        for _ in range(6000):  # the client notices the closed connection at once (a cap, not a timing)
+            if c.status != "running":
+                return
+            time.sleep(0.01)
+        pytest.fail("the client never noticed that its scheduler was killed")
+
+    yield c, kill
+    c.close(timeout=10)
+
+
+def test_lost_scheduler_keeps_the_finished_photons(doomed_cluster, local, monkeypatch):
+    """Regression: a scheduler killed mid-run (``kill -9``) used to end in a
+    ``FutureCancelledError`` traceback with nothing kept. The photons merged before the loss are
+    returned as a partial result, with a warning saying why, and resuming it (here, locally) gives
+    the bits of an uninterrupted run. The kill comes from the progress hook after the third
+    finished range: deterministic, no fixed sleeps."""
+    c, kill = doomed_cluster
+    monkeypatch.setattr(cluster, "DEFAULT_TASK_SECONDS", 1e-3)  # one-chunk tasks, run in range order
+    calls = []
+
+    def kill_after_three_ranges(done, total):
+        calls.append(done)
+        if len(calls) == 3:
+            kill()
+
+    with pytest.warns(RuntimeWarning, match=r"the Dask scheduler stopped answering \(.*\): returning the \d+ of"):
+        part = subsurf.simulate(STACK, PHOTONS, 7, tallies=TALLIES, client=c, progress=kill_after_three_ranges)
+    # every photon reported done before the loss is kept (one worker thread: ranges finish in order)
+    assert len(calls) == 3 and part.partial and part.photons == calls[-1] < PHOTONS and part.photons % 4096 == 0
+    assert_same_bits(subsurf.simulate(STACK, PHOTONS, 7, tallies=TALLIES, resume=part), local)
+
+
+def test_cli_keeps_a_partial_when_the_scheduler_is_lost(cluster_process, tmp_path):
+    """The same from the command line: one warning line, the partial written, exit 130, and
+    ``--resume`` (locally) finishes it to the bits of a local run. Test hooks fix the ranges at
+    4096 photons and kill the scheduler after the second one."""
+    address, proc = cluster_process
+    (tmp_path / "c.toml").write_text(CONFIG.replace("photons = 3000", "photons = 40000"))
+    env = dict(os.environ, SUBSURF_TEST_HOOK=f"task_photons=4096,kill_scheduler_after=2:{proc.pid}")
+    run = [sys.executable, "-m", "subsurf", "simulate", tmp_path / "c.toml", "-q"]
+    p = subprocess.run([*run, "-o", tmp_path / "p.h5", "--scheduler", address],
+                       capture_output=True, text=True, timeout=120, env=env)  # fmt: skip
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 130 and len(lines) == 1, p.stderr
+    assert lines[0].startswith("subsurf: warning: subsurf.simulate: the Dask scheduler stopped answering")
+    part = subsurf.load(tmp_path / "p.h5")
+    assert part.partial and part.photons == 2 * 4096 and "wrote" in p.stdout
+    for args in (["-o", tmp_path / "r.h5", "--resume", tmp_path / "p.h5"], ["-o", tmp_path / "d.h5"]):
+        assert subprocess.run([*run, *args], capture_output=True, timeout=120).returncode == 0
+    resumed, direct = subsurf.load(tmp_path / "r.h5"), subsurf.load(tmp_path / "d.h5")
+    assert not resumed.partial and results_equal(resumed, direct, provenance=False)
+
+
+def test_cli_sweep_keeps_its_points_when_the_scheduler_is_lost(cluster_process, tmp_path):
+    """A sweep on a lost scheduler: one error line (exit 2), the finished point kept in the file,
+    and the same command run locally computes only the rest."""
+    address, proc = cluster_process
+    (tmp_path / "s.toml").write_text(SWEEP_TOML)
+    env = dict(os.environ, SUBSURF_TEST_HOOK=f"kill_scheduler_after=1:{proc.pid}")
+    run = [sys.executable, "-m", "subsurf", "sweep", tmp_path / "s.toml", "-o", tmp_path / "s.h5", "-q"]
+    p = subprocess.run([*run, "--scheduler", address], capture_output=True, text=True, timeout=120, env=env)
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 2 and len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
+    assert "sweep: the Dask scheduler stopped answering" in lines[0] and "kept" in lines[0]
+    assert sweeps.load(tmp_path / "s.h5").points_done == 1
+    p = subprocess.run(run[:-1], capture_output=True, text=True, timeout=120)  # not quiet: says it resumes
+    assert p.returncode == 0 and "1 of 4 points already done" in p.stdout, p.stdout + p.stderr
+    assert sweeps.load(tmp_path / "s.h5").complete
+
+
+def test_scheduler_lost_before_any_range_is_an_error(doomed_cluster):
+    c, kill = doomed_cluster
+    kill()
+    with pytest.raises(cluster.ClusterError, match="scheduler stopped answering .* before any photon range"):
+        subsurf.simulate(STACK, PHOTONS, 7, client=c)
 
 
 def test_ctrl_c_cancels_running_tasks(client):
@@ -311,6 +413,45 @@ def test_cli_scheduler_that_does_not_answer(silent_port, tmp_path):
         lines = p.stderr.strip().splitlines()
         assert len(lines) == 1 and "no Dask scheduler answered" in lines[0], p.stderr
         assert not (tmp_path / "o.h5").exists()
+
+
+@pytest.mark.parametrize("value", ["inf", "1e308", "nan", "0", "3601"])
+def test_connect_timeout_is_bounded(value, tmp_path, closed_port):
+    """Regression: ``--connect-timeout 1e308`` waited for ever, ``inf`` ended in a KeyError
+    traceback. The wait is bounded: (0, 3600] s."""
+    (tmp_path / "c.toml").write_text(CONFIG)
+    p = run_cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "o.h5", "--scheduler",
+                f"tcp://127.0.0.1:{closed_port}", "--connect-timeout", value)  # fmt: skip
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 2 and len(lines) == 1 and "Traceback" not in p.stderr, p.stderr
+    assert f"--connect-timeout = {float(value)!r} is out of range: seconds in (0, 3600]" in lines[0]
+    with pytest.raises(subsurf.ParameterError, match="timeout = inf is out of range"):
+        cluster.connect(f"tcp://127.0.0.1:{closed_port}", timeout=float("inf"))
+
+
+@pytest.mark.parametrize("sig, status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_waiting_for_a_scheduler_is_interruptible(sig, status, silent_port, tmp_path):
+    """Regression: SIGTERM was ignored while waiting for a scheduler (for the whole
+    timeout). The test hook says when the command waits; the signal then ends it at once."""
+    (tmp_path / "c.toml").write_text(CONFIG)
+    env = dict(os.environ, SUBSURF_TEST_HOOK=f"connecting={tmp_path}", PYTHONUNBUFFERED="1")
+    args = ["simulate", tmp_path / "c.toml", "-o", tmp_path / "o.h5", "--scheduler", f"tcp://127.0.0.1:{silent_port}"]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "subsurf", *map(str, args), "--connect-timeout", "3600"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+    )  # fmt: skip
+    try:
+        for _ in range(6000):  # start-up takes seconds (a cap against a hang, not a timing)
+            if (tmp_path / "connecting").exists():
+                break
+            assert proc.poll() is None, proc.communicate()
+            time.sleep(0.01)
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)  # far below the 3600 s it would otherwise wait
+    finally:
+        proc.kill()
+    assert proc.returncode == status and "Traceback" not in err, err
+    assert not (tmp_path / "o.h5").exists()
 
 
 def test_bad_scheduler_address():

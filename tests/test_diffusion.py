@@ -153,18 +153,6 @@ def test_inversion_round_trip(model):
             d.alpha_prime_from_rd(bad, 1.3, model)
 
 
-@pytest.mark.parametrize("model", MODELS)
-@pytest.mark.parametrize("kind", ["transport", "diffuse"])
-def test_properties_from_color_round_trip(model, kind):
-    color = np.array([0.05, 0.4, 0.83, 0.99])
-    mfp = np.array([0.5, 1.0, 2.0, 8.0])
-    sa, ssp = d.properties_from_color(color, mfp, 1.3, model, kind)
-    assert np.all(sa >= 0) and np.all(ssp > 0)
-    np.testing.assert_allclose(d.total_diffuse_reflectance(ssp / (sa + ssp), 1.3, model), color, rtol=0, atol=1e-12)
-    length = 1 / (sa + ssp) if kind == "transport" else 1 / d.sigma_tr(sa, ssp, model)
-    np.testing.assert_allclose(length, mfp, rtol=1e-12)
-
-
 def test_vectorised_shapes():
     r = np.linspace(0, 5, 7)[:, None]
     out = d.dipole_rd(r, np.array([0.01, 0.02, 0.03]), 1.0, 1.3)
@@ -227,10 +215,4 @@ def test_bad_inputs():
         d.sd(np.zeros(3), [0, 0, 2.0], np.zeros(3), [0, 0, 1.0], 0.1, 1.0, 1.3)
     with pytest.raises(P, match=r"\(\.\.\., 3\)"):
         d.sd(np.zeros(3), [0, 1.0], np.zeros(3), [0, 0, 1.0], 0.1, 1.0, 1.3)
-    with pytest.raises(P, match="mean_free_path"):
-        d.properties_from_color(0.5, 0.0)
-    with pytest.raises(P, match="mfp_kind"):
-        d.properties_from_color(0.5, 1.0, mfp_kind="free")
-    with pytest.raises(P, match="diffuse_color"):
-        d.properties_from_color(1.0, 1.0, mfp_kind="diffuse")
     assert issubclass(P, ValueError)

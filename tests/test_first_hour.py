@@ -1,4 +1,4 @@
-"""A newcomer's first hour (issue 22) and the render set-up's Ctrl-C (issue 21, item 4).
+"""A newcomer's first hour — a plain install, the demo — and the render set-up's Ctrl-C.
 
 * A plain ``pip install .`` has no ``openexr`` (an extra): ``subsurf demo --quick`` and ``subsurf
   render`` still write every output, as PNG, and say in one line — before the work — how to get
@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 
 import numpy as np
+import pytest
 import subsurf._core as core
 import subsurf.render as R
 
@@ -29,6 +30,7 @@ def _plain_install(tmp_path):
     return {"PYTHONPATH": str(shim)}
 
 
+@pytest.mark.slow  # 4-6 s: subprocesses that render
 def test_demo_quick_without_the_optional_packages(tmp_path, cli):
     r = cli("demo", "--quick", "--out-dir", tmp_path / "out", env=_plain_install(tmp_path))
     assert r.returncode == 0, r.stderr
@@ -40,6 +42,7 @@ def test_demo_quick_without_the_optional_packages(tmp_path, cli):
     assert "wrote" in r.stdout and "render.png" in r.stdout
 
 
+@pytest.mark.slow  # 4-6 s: subprocesses that render
 def test_render_example_without_the_optional_packages(tmp_path, cli):
     env = _plain_install(tmp_path)
     r = cli("render", EXAMPLE, "-o", tmp_path / "x.png", "--spp", "1", env=env)
@@ -142,6 +145,7 @@ def test_profile_command_monte_carlo_stops_on_ctrl_c(cli):
     assert r.returncode == 130 and r.stderr.count("\n") == 1 and "interrupt" in r.stderr, r.stderr
 
 
+@pytest.mark.slow  # 4-6 s: subprocesses that render
 def test_cli_ctrl_c_in_the_passes_writes_a_partial_image(tmp_path, cli):
     # interrupt_after counts samples per pixel: the set-up runs to its end, the first pass is kept
     r = cli("render", EXAMPLE, "-o", tmp_path / "p.png", "--spp", "4", hook="interrupt_after=1")

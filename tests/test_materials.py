@@ -75,14 +75,31 @@ def test_unknown_name_lists_valid_ones():
         M.get("jade")
 
 
-def test_from_color_round_trip():
+@pytest.mark.parametrize("model", ["dipole", "better_dipole"])
+@pytest.mark.parametrize("kind", ["extinction", "transport", "diffuse"])
+@pytest.mark.parametrize("power", ["incident", "entering"])
+def test_from_reflectance_round_trip(model, kind, power):
+    """The Material's closed-form total (per entering power; × F_t(0) = 1 − R_sp per incident
+    power) is the reflectance, and its length of the chosen kind the mfp (α' by bisection to
+    1e-15: 1e-12)."""
+    refl, mfp, g, eta = np.array([0.8, 0.5, 0.05]), np.array([1.0, 2.0, 4.0]), 0.5, 1.4
+    m = subsurf.Material.from_reflectance(refl, mfp, eta=eta, g=g, model=model, power=power, mfp_kind=kind)
+    shown = m.total_rd(model) * (float(d.ft(eta, 1.0)) if power == "incident" else 1.0)
+    np.testing.assert_allclose(shown, refl, atol=1e-12, rtol=0)
+    sigma_t = m.sigma_a + m.sigma_s_prime / (1 - g)
+    length = {"extinction": 1 / sigma_t, "transport": m.transport_mfp, "diffuse": 1 / m.sigma_tr(model)}[kind]
+    np.testing.assert_allclose(length, mfp, rtol=1e-12)
+    one = subsurf.Material.from_reflectance(refl, 2.0, eta=eta, g=g, model=model, power=power, mfp_kind=kind)
+    assert one.channels == 3  # one mfp for all channels
+
+
+def test_from_color_forwards_with_its_old_conventions():
+    """The deprecated alias: per entering power, g = 0, transport (default) or diffuse."""
     color = [0.8, 0.5, 0.2]
-    for model in ["dipole", "better_dipole"]:
-        for kind in ["transport", "diffuse"]:
-            m = subsurf.Material.from_color(color, [1.0, 2.0, 4.0], eta=1.4, model=model, mfp_kind=kind)
-            np.testing.assert_allclose(m.total_rd(model), color, atol=1e-12, rtol=0)
-    m = subsurf.Material.from_color(color, 2.0)  # one mfp for all channels
-    np.testing.assert_allclose(m.transport_mfp, 2.0, rtol=1e-12)
+    for kind in ["transport", "diffuse"]:
+        m = subsurf.Material.from_color(color, [1.0, 2.0, 4.0], eta=1.4, model="better_dipole", mfp_kind=kind)
+        np.testing.assert_allclose(m.total_rd("better_dipole"), color, atol=1e-12, rtol=0)
+    np.testing.assert_allclose(subsurf.Material.from_color(color, 2.0).transport_mfp, 2.0, rtol=1e-12)
 
 
 def test_from_layer_and_to_layers_round_trip():
@@ -125,5 +142,5 @@ def test_material_validation():
         subsurf.Material(0.1, 1.0, g=1.0)
     with pytest.raises(P, match="sigma_s_prime"):
         subsurf.Material(0.1, np.nan)
-    with pytest.raises(P, match="diffuse_color"):
-        subsurf.Material.from_color([0.5, 1.2], 1.0)
+    with pytest.raises(P, match=r"reflectance\[1\] = 1.2"):
+        subsurf.Material.from_reflectance([0.5, 1.2], 1.0)

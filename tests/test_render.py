@@ -98,6 +98,40 @@ def test_exports_parse_back():
             f(layered)
 
 
+def test_exports_refuse_what_they_cannot_write():
+    """Regression: two concatenated pbrt blocks read back as the first name with the last
+    σ; σa < 0 exported σt = 0; unit_mm ≤ 0 gave negative σt or ZeroDivisionError; a name with a
+    quote wrote invalid pbrt syntax."""
+    marble, skin = R.Translucent.library("marble"), R.Translucent.library("skin1")
+    text = export.to_pbrt(marble, name="a") + export.to_pbrt(skin, name="b")
+    with pytest.raises(subsurf.ParameterError, match=r"holds 2 materials \['a', 'b'\]; choose one with name="):
+        export.from_pbrt(text)
+    b = export.from_pbrt(text, name="b")
+    assert b.name == "b" and np.allclose(b.sigma_a, skin.sigma_a) and np.allclose(b.sigma_s, skin.sigma_s)
+    assert np.allclose(export.from_pbrt(text, name="a").sigma_s, marble.sigma_s)
+    with pytest.raises(subsurf.ParameterError, match="no material named 'c'"):
+        export.from_pbrt(text, name="c")
+    for f in (export.to_mitsuba, export.to_pbrt):
+        with pytest.raises(subsurf.ParameterError, match=r"channel 0: sigma_a = -1.0 is out of range"):
+            f(R.Translucent(-1, 1))
+        with pytest.raises(subsurf.ParameterError, match=r"sigma_a \+ sigma_s = 0.0 is out of range"):
+            f(R.Translucent(0, 0))
+        for unit in (-1000, 0, float("nan"), float("inf")):
+            with pytest.raises(subsurf.ParameterError, match=r"unit_mm = .* is out of range"):
+                f(marble, unit_mm=unit)
+        with pytest.raises(subsurf.ParameterError, match="not finite"):
+            f(marble, unit_mm=1e308)
+    for name in ('a"b', "a\\b", "a\nb"):
+        with pytest.raises(subsurf.ParameterError, match="cannot hold quotes"):
+            export.to_pbrt(marble, name=name)
+    with pytest.raises(subsurf.ParameterError, match="unit_mm = 0 is out of range"):
+        export.from_pbrt(export.to_pbrt(marble), unit_mm=0)
+    with pytest.raises(subsurf.ParameterError, match="lacks a usable parameter"):
+        export.from_pbrt('MakeNamedMaterial "x" "string type" [ "subsurface" ]')
+    with pytest.raises(subsurf.ParameterError, match="not a to_mitsuba dict"):
+        export.from_mitsuba({"bsdf": {}})
+
+
 def test_walk_simulation_matches_the_engine():
     """Pencil beam on a large thick box: total exitance = the MC engine's diffuse reflectance (4σ)."""
     mua, mus, g, n = 0.05, 8.0, 0.7, 1.4
@@ -200,19 +234,20 @@ def table_g0_n13():
     return subsurf.bssrdf.ProfileTable.build(0.0, 1.3, albedos=[0.7, 0.8, 0.9, 0.95, 0.98, 0.99], photons=20_000)
 
 
+@pytest.mark.parametrize("power", ["incident", "entering"])
 @pytest.mark.parametrize("model", R.MODELS)
-def test_from_color_renders_the_colour(model, table_g0_n13):
-    """A material made from a colour, rendered (hierarchical) as a large flat slab under a normal
-    directional light, shows that colour: exitance = colour × irradiance, i.e. the radiance at
-    normal view is colour · E · F_t(0)/(π c) (1 %, plus 4σ of a Monte Carlo profile's total). Every
-    model's own prediction of the colour is (1 − R_sp) × its total (the closed-form totals are per
-    unit power entering). Normalized diffusion came out 74–88 % dark in docs/render.md's reference
-    comparison before its profile was given the colour as its surface albedo."""
+def test_from_reflectance_renders_the_reflectance(model, power, table_g0_n13):
+    """A material made from a reflectance, rendered (hierarchical) as a large flat slab under a
+    normal directional light, shows it: exitance = reflectance per incident power × irradiance,
+    i.e. the radiance at normal view is R_inc · E · F_t(0)/(π c), R_inc = the reflectance
+    (``power="incident"``) or F_t(0) × it (``"entering"``) (1 %, plus 4σ of a Monte Carlo
+    profile's total). Normalized diffusion came out 74–88 % dark in docs/render.md's reference
+    comparison before its profile was given the reflectance as its surface albedo."""
     color, mfp, eta = [0.55, 0.4, 0.25], [0.2, 0.3, 0.5], 1.3
-    # The colour is the profile's (every scattering order for photon beam diffusion, normalized
+    # The reflectance is the profile's (every scattering order for photon beam diffusion, normalized
     # diffusion and Monte Carlo); the pure diffusion models' S⁽¹⁾ comes on top of it: off here.
-    m = R.Translucent.from_color(
-        color, mfp, eta=eta, model=model, table=table_g0_n13, mc_photons=100_000, single_scattering=False
+    m = R.Translucent.from_reflectance(
+        color, mfp, eta=eta, model=model, power=power, table=table_g0_n13, mc_photons=100_000, single_scattering=False
     )
     sc = R.Scene(
         [R.Object.box(m, lo=(-8, -8, -6), hi=(8, 8, 0))],
@@ -226,11 +261,29 @@ def test_from_color_renders_the_colour(model, table_g0_n13):
     ct = np.sqrt(1 - (1 - mu**2) / eta**2)
     rs, rp = ((mu - eta * ct) / (mu + eta * ct)) ** 2, ((eta * mu - ct) / (eta * mu + ct)) ** 2
     c = 2 * np.mean((1 - 0.5 * (rs + rp)) * mu)
-    tol = 0.01 + (4 * 0.5 / np.sqrt(100_000) / np.array(color) if model == "monte_carlo" else 0)
-    want = np.array(color) * f0 / (np.pi * c)
+    incident = np.array(color) * (f0 if power == "entering" else 1.0)
+    tol = 0.01 + (4 * 0.5 / np.sqrt(100_000) / incident if model == "monte_carlo" else 0)
+    want = incident * f0 / (np.pi * c)
     assert np.all(np.abs(got / want - 1) < tol), (got / want - 1, tol)
     for k in range(3):
         assert abs(1 / (m.sigma_a[k] + m.sigma_s[k]) - mfp[k]) < 1e-9
+
+
+def test_reflectance_material_tables_and_the_forwarding_alias():
+    """TOML material tables take ``reflectance``/``mfp`` (+ ``power``, ``mfp_kind``); the stored
+    reflectance is per incident power; ``from_color`` (deprecated) forwards with incident power, 1/σt."""
+    from subsurf.render.scene import material
+
+    kw = dict(eta=1.4, g=0.5, model="better_dipole")
+    m = material({"reflectance": [0.5, 0.4, 0.3], "mfp": 2.0, "power": "entering", "mfp_kind": "transport", **kw})
+    direct = R.Translucent.from_reflectance([0.5, 0.4, 0.3], 2.0, power="entering", mfp_kind="transport", **kw)
+    assert m.sigma_a == direct.sigma_a and m.sigma_s == direct.sigma_s
+    np.testing.assert_allclose(m.reflectance, np.array([0.5, 0.4, 0.3]) * (1 - ((1.4 - 1) / 2.4) ** 2), rtol=1e-12)
+    old = R.Translucent.from_color([0.5, 0.4, 0.3], 2.0, **kw)
+    new = R.Translucent.from_reflectance([0.5, 0.4, 0.3], 2.0, power="incident", mfp_kind="extinction", **kw)
+    assert (old.sigma_a, old.sigma_s, old.reflectance) == (new.sigma_a, new.sigma_s, new.reflectance)
+    with pytest.raises(subsurf.ParameterError, match="mfp_kind"):
+        material({"reflectance": 0.5, "mfp": 1.0, "mfp_kind": "free"})
 
 
 def test_ctrl_c_writes_the_partial_image(tmp_path):

@@ -7,7 +7,7 @@ describe the power that entered). Total error: model/MC − 1. Profile error: th
 |model/MC − 1| of ring averages over the Monte Carlo log bins (10 per decade) between 0.1 and 10
 transport mean free paths 1/σt', using only bins whose Monte Carlo relative error is < 5 %.
 
-Usage: python docs/scripts/compare_profiles.py [--photons N] [--seed S]
+Usage: python docs/scripts/compare_profiles.py [--photons N] [--seed S] [--out DIR]
 """
 
 from __future__ import annotations
@@ -53,8 +53,9 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--photons", type=int, default=40000)
     ap.add_argument("--seed", type=int, default=8)
+    ap.add_argument("--out", default=os.path.dirname(os.path.dirname(os.path.abspath(__file__))), help="directory")
     args = ap.parse_args(argv)
-    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    here = args.out
     t0 = time.time()
     rows = {}
     for gi, g in enumerate(GS):
@@ -74,12 +75,14 @@ def main(argv=None):
         for gi, g in enumerate(GS):
             for ei, eta in enumerate(ETAS):
                 ax = axes[gi, ei]
+                positive = False
                 for m in MODELS:
                     y = [rows[(g, eta, a)][2][m][k] for a in ALBEDOS]
                     y = [np.nan if v is None else v for v in y]
+                    positive |= any(v > 0 for v in y)
                     ax.plot([1 - a for a in ALBEDOS], y, "o-", label=m, ms=3)
                 ax.set_xscale("log")
-                if k:
+                if k and positive:  # (no profile error is defined when the MC bins are all too noisy)
                     ax.set_yscale("log")
                 ax.axhline(0, color="k", lw=0.5)
                 ax.set_title(f"g = {g}, η = {eta}", fontsize=9)
@@ -91,6 +94,8 @@ def main(argv=None):
         fig.tight_layout()
         fig.savefig(os.path.join(here, fname), dpi=80)
     lines = [
+        "# Profile tables: every model against Monte Carlo",
+        "",
         f"Monte Carlo: {args.photons} photons per case, seed {args.seed}+; {elapsed:.0f} s.",
         "",
         "| g | η | albedo | MC total/(1−R_sp) | " + " | ".join(f"{m} total, shape" for m in MODELS) + " |",

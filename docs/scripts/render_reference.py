@@ -47,7 +47,7 @@ def skin_material(model, mc_photons, scale=1.0):
         for s in skin_stacks(scale)
     ]
     mfp = [(1 - SKIN_G) / (DERMIS[0][k] * (1 - SKIN_G) + DERMIS[1][k]) / scale for k in range(3)]
-    return R.Translucent.from_color(color, mfp, eta=SKIN_N, g=SKIN_G, model=model)
+    return R.Translucent.from_reflectance(color, mfp, eta=SKIN_N, g=SKIN_G, model=model)
 
 
 def skin_walk_objects(scale=1.0):

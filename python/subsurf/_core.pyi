@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -25,7 +26,6 @@ def diffusion_params(model_name: str, sigma_a: _F, sigma_s_prime: _F, eta: _F) -
 def diffusion_rd(model_name: str, r: _F, sigma_a: _F, sigma_s_prime: _F, eta: _F) -> _F: ...
 def diffusion_total_rd(model_name: str, alpha_prime: _F, eta: _F) -> _F: ...
 def diffusion_alpha_prime_from_rd(model_name: str, rd: _F, eta: _F) -> _F: ...
-def diffusion_properties_from_color(model_name: str, mfp_kind: str, rd: _F, mfp: _F, eta: _F) -> tuple[_F, _F]: ...
 def diffusion_sd(model_name: str, xi: _F, wi: _F, xo: _F, wo: _F, sigma_a: _F, sigma_s_prime: _F, eta: _F) -> _F: ...
 def diffusion_brdf(model_name: str, wi: _F, wo: _F, sigma_a: _F, sigma_s_prime: _F, eta: _F) -> _F: ...
 def diffusion_ft(eta: _F, cos_theta: _F) -> _F: ...
@@ -48,6 +48,9 @@ MC_MAX_ORDER: int
 MC_MAX_PENCIL_THETA: float
 MC_MAX_EVENTS_PER_PHOTON: float
 MC_STATE_SCHEME: str
+#: The fields of subsurf.Tallies (core TallyConfig::fields): (name, kind, default); kinds "count",
+#: "length", "pair", "order", "bool".
+MC_TALLY_FIELDS: list[tuple[str, str, Any]]
 
 def mc_isa() -> str:
     """Instruction set of the Monte Carlo lane kernel on this machine: avx512, avx2, neon or scalar."""
@@ -73,6 +76,18 @@ def mc_run(
 ) -> dict:
     """Trace photons [start (or state["end"]), photons): {"state": state dict,
     "interrupted": bool, "elapsed_s": float}."""
+
+def mc_check_state(
+    layers: _Layers,
+    n_above: float,
+    n_below: float,
+    seed: int,
+    source: _Source,
+    state: dict,
+    tallies: dict | None = None,
+) -> None:
+    """Raise ParameterError unless ``state`` belongs to the run described (same stack, source,
+    seed and tallies); traces and finishes nothing."""
 
 def mc_finish(
     layers: _Layers,
@@ -160,6 +175,9 @@ def hk_albedo(
 
 # --- bssrdf (crates/subsurf-py/src/bssrdf.rs); python/subsurf/bssrdf.py wraps these -------------
 class Profile:
+    """Queries are checked (core ``bssrdf::Query``): radii r in [0, inf] (mm), fractions u, q in
+    [0, 1); anything else (nan, negative, u >= 1) raises ParameterError naming the argument."""
+
     model: str
     def rd(self, r: _F) -> _F: ...
     def pdf(self, r: _F) -> _F: ...
@@ -169,7 +187,8 @@ class Profile:
     def total(self) -> float: ...
     def has_single(self) -> bool: ...
     def single_total(self) -> float: ...
-    def single_rd(self, r: _F) -> _F: ...
+    def single_rd(self, r: _F) -> _F:
+        """ParameterError for a model without a separate single-scattering part."""
     def mc_data(self) -> dict | None:
         """edges, weight, stderr, single, single_stderr (arrays), total, total_stderr, photons,
         tail_start, tail_sigma"""
@@ -199,6 +218,13 @@ class SlabTable:
     def totals(self, albedo: float, tau: float) -> tuple[float, float]: ...
 
 def bssrdf_models() -> list[str]: ...
+
+#: The profile models (core bssrdf::Model), in order.
+BSSRDF_MODELS: list[str]
+#: The Monte Carlo profile's defaults (core McSettings::default()): photons, seed, per_decade,
+#: max_rel_err, r_min, r_max.
+BSSRDF_MC_DEFAULTS: dict[str, Any]
+
 def bssrdf_medium_profile(model_name: str, sigma_a: float, sigma_s: float, g: float, eta: float) -> Profile: ...
 def bssrdf_stack_profile(
     model_name: str,
@@ -215,6 +241,9 @@ def bssrdf_stack_profile(
     """Monte Carlo: interruptible (KeyboardInterrupt)"""
 
 def bssrdf_normalized_diffusion(albedo: float, mfp: float, variant: str) -> Profile: ...
+def bssrdf_check_medium(sigma_a: float, sigma_s: float, g: float, eta: float) -> None:
+    """ParameterError naming the field unless (σa, σs, g, η) is a medium the profile models take."""
+
 def bssrdf_chandrasekhar_reflectance(a: float) -> float: ...
 def bssrdf_table_defaults(g: float, eta: float, n_albedos: int) -> dict: ...
 def bssrdf_table_point(settings: dict, index: int, progress: Callable[[int, int], object] | None = None) -> dict:
@@ -234,8 +263,18 @@ def bssrdf_slab_point(
 ) -> tuple[float, float, float, float]:
     """(rd, rd_stderr, tt, tt_stderr); interruptible (KeyboardInterrupt)"""
 
-def bssrdf_material_from_appearance(
-    albedo: list[float], mfp: list[float], eta: float, g: float, model_name: str, table: ProfileTable | None = None
+BSSRDF_POWERS: list[str]
+BSSRDF_MFP_KINDS: list[str]
+
+def bssrdf_material_from_reflectance(
+    reflectance: list[float],
+    mfp: list[float],
+    eta: float,
+    g: float,
+    model_name: str,
+    power: str,
+    mfp_kind: str,
+    table: ProfileTable | None = None,
 ) -> list[tuple[float, float, float, float]]:
     """(n, mua, mus, g) per channel"""
 
@@ -275,6 +314,16 @@ def bssrdf_fit_slab_totals(
 
 # --- render (crates/subsurf-py/src/render.rs); scene dicts come from subsurf.render.Scene._to_core
 
+#: The render methods (core render::Method), in order.
+RENDER_METHODS: list[str]
+#: Light types → their parameters in the constructor's order (core render::LightKind).
+RENDER_LIGHTS: dict[str, list[str]]
+#: The hierarchical method's settings and defaults (core HierarchicalParams).
+RENDER_HIERARCHICAL_DEFAULTS: dict[str, Any]
+
+def render_check_settings(spp: int, seed: int) -> tuple[int, int]:
+    """(spp, seed) validated: spp in [1, 2^32 - 1], seed in [0, 2^64)."""
+
 class RenderJob:
     """A scene prepared for one method; render_pass adds samples (GIL released)."""
 
@@ -284,11 +333,14 @@ class RenderJob:
         method: str,
         seed: int,
         threads: int | None = None,
-        hierarchical: tuple[float, float, int, int] | None = None,
+        hierarchical: dict[str, Any] | None = None,
         progress: Callable[[str, int, int], object] | None = None,
     ) -> None:
         """Prepare the scene with the GIL released; Ctrl-C raises KeyboardInterrupt. progress(stage,
         done, total): stage "profiles" (monte_carlo photons; none for random_walk) or "irradiance"."""
+    @property
+    def warnings(self) -> list[str]:
+        """Warnings about the scene (lights that cannot light anything), one line each."""
     def render_pass(self, n: int) -> int:
         """Render n more samples per pixel; returns the total so far."""
     def image(self) -> np.ndarray:
@@ -304,13 +356,13 @@ def render_shape(
     b: Sequence[float] | None = None,
     c: float = 0.0,
     d: float = 0.0,
-    level: int = 4,
+    level: int | None = None,
     nu: int = 64,
     nv: int = 32,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(positions (N, 3), triangles (M, 3)) of a built-in shape."""
 
-def render_mesh_info(mesh: dict, name: str) -> tuple[bool, int, float, float]:
+def render_mesh_info(mesh: dict) -> tuple[bool, int, float, float]:
     """(closed, open_edges, area, volume) of a validated mesh."""
 
 def render_walk_simulate(
@@ -318,7 +370,7 @@ def render_walk_simulate(
     source: tuple[str, Sequence[float], Sequence[float]],
     photons: int,
     seed: int,
-    channel: int = 0,
+    channel: int | None = None,
     voxels: tuple[Sequence[float], Sequence[float], Sequence[int]] | None = None,
     threads: int | None = None,
 ) -> dict: ...

@@ -12,7 +12,12 @@ after sleeps and timers. ``SUBSURF_TEST_HOOK`` holds comma-separated ``name[=val
 * ``pause_in_write=DIR`` — an atomic write (:mod:`subsurf.atomic`), with half of its bytes in the
   temporary file, creates ``DIR/paused`` and waits up to 60 s for ``DIR/resume`` to appear;
 * ``sigint_at_start`` — the ``subsurf`` command sends itself SIGINT before it loads numpy and the
-  extension (a Ctrl-C during start-up).
+  extension (a Ctrl-C during start-up);
+* ``connecting=DIR`` — :func:`subsurf.cluster.connect` creates ``DIR/connecting`` once it waits for
+  the scheduler's answer (tests then interrupt it there);
+* ``task_photons=N`` — a cluster run uses photon ranges of N photons (a multiple of 4096);
+* ``kill_scheduler_after=N:PID`` — after the N-th finished range (or sweep point) of a cluster run,
+  SIGKILL process PID (the test's scheduler) and wait until the client has seen the connection close.
 
 This module imports nothing but the standard library, so the command can read it first.
 """
@@ -53,6 +58,29 @@ def wrap_progress(progress, prefix: str = ""):
                 raise KeyboardInterrupt
 
     return hooked
+
+
+def touch(name: str) -> None:
+    """Create ``DIR/name`` if hook ``name=DIR`` is set (tells a test the command reached that point)."""
+    d = get(name)
+    if d:
+        with open(os.path.join(d, name), "w"):
+            pass
+
+
+def after_task(count: int, client) -> None:
+    """``kill_scheduler_after=N:PID``: at ``count == N``, kill PID and wait (at most 60 s) until
+    ``client`` (a Dask client) no longer says it is running."""
+    value = get("kill_scheduler_after")
+    if not value:
+        return
+    n, _, pid = value.partition(":")
+    if count != int(n):
+        return
+    os.kill(int(pid), signal.SIGKILL)
+    deadline = time.monotonic() + 60.0
+    while client.status == "running" and time.monotonic() < deadline:
+        time.sleep(0.01)
 
 
 def pause_in_write() -> None:

@@ -1,5 +1,5 @@
-"""Files written whole or not at all: :func:`write_bytes`, :func:`write_with`, :func:`check_target`,
-:func:`hold_sigint`.
+"""Files written whole or not at all: :func:`write_bytes`, :func:`write_with`, :func:`write_group`,
+:func:`check_target`, :func:`hold_sigint`.
 
 Results (``.h5``), MCML ``.mco`` files and figures are serialised in memory first, then written to a
 temporary file in the target's directory (``.NAME.XXXXXXXX.subsurf-tmp``; writers that need a file
@@ -10,6 +10,12 @@ truncated one. An existing target is replaced only with ``force=True``; without 
 file is published by a hard link, which fails if the target appeared in the meantime (no race
 between the check and the write). A process killed with SIGKILL can leave its hidden temporary
 file behind; it never replaces anything.
+
+A group of files that belong together (a rendered image's ``.exr`` and its ``.png``) is written by
+:func:`write_group`: every file is filled first, then all targets are checked and all are published
+while an exclusive lock (``flock``) on their directory is held, so two processes writing the same
+group never leave files of different runs side by side, and without ``force`` nothing is published
+when any target exists.
 
 Every error is an ``OSError`` whose message is one line naming the file: a missing directory, a
 target that is a directory, an existing file, or a failed write (``No space left on device``).
@@ -26,7 +32,7 @@ import threading
 
 from . import _testhooks
 
-__all__ = ["write_bytes", "write_with", "check_target", "hold_sigint", "partial_path"]
+__all__ = ["write_bytes", "write_with", "write_group", "check_target", "hold_sigint", "partial_path", "partial_paths"]
 
 _TMP_SUFFIX = ".subsurf-tmp"
 
@@ -80,6 +86,22 @@ def partial_path(path: str | os.PathLike) -> str:
     while True:
         cand = f"{stem}.partial{'' if k == 1 else f'-{k}'}{ext}"
         if not os.path.lexists(cand):
+            return cand
+        k += 1
+
+
+def partial_paths(paths) -> list[str]:
+    """:func:`partial_path` for a group of files written together: ``paths`` themselves when none
+    exists, else the first ``.partial`` / ``.partial-K`` suffix free for every one of them (so the
+    group keeps matching names)."""
+    paths = [os.fspath(p) for p in paths]
+    if not any(os.path.lexists(p) for p in paths):
+        return paths
+    k = 1
+    while True:
+        tag = f".partial{'' if k == 1 else f'-{k}'}"
+        cand = [f"{stem}{tag}{ext}" for stem, ext in map(os.path.splitext, paths)]
+        if not any(os.path.lexists(c) for c in cand):
             return cand
         k += 1
 
@@ -206,6 +228,60 @@ def write_with(path: str | os.PathLike, write, force: bool = False, inputs=(), v
     if held.received:
         raise KeyboardInterrupt
     return path
+
+
+@contextlib.contextmanager
+def _dir_lock(d: str):
+    """An exclusive ``flock`` on directory ``d`` (nothing where directories cannot be locked)."""
+    try:
+        import fcntl
+
+        fd = os.open(d, os.O_RDONLY)
+    except (ImportError, OSError):
+        yield
+        return
+    try:
+        with contextlib.suppress(OSError):
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # closing releases the lock
+
+
+def write_group(items, force: bool = False, inputs=()) -> list[str]:
+    """Create the files of a group, ``items`` = [(path, write)] with ``write(tmp)`` as in
+    :func:`write_with`, all in one directory: each is filled and flushed first; then, under a lock
+    on the directory, every target is checked (:func:`check_target`; without ``force`` an existing
+    one refuses the whole group) and all are published. Ctrl-C is held back meanwhile. Returns
+    the paths."""
+    items = [(check_target(p, force, inputs), w) for p, w in items]
+    dirs = {os.path.dirname(os.path.abspath(p)) for p, _ in items}
+    if len(dirs) != 1:
+        raise ValueError(f"write_group: the files {[p for p, _ in items]} must share a directory")
+    d = dirs.pop()
+    tmps: list[str] = []
+    with hold_sigint() as held:
+        try:
+            for path, write in items:
+                tmps.append(os.path.join(d, f".{os.path.basename(path)}.{secrets.token_hex(4)}{_TMP_SUFFIX}"))
+                try:
+                    write(tmps[-1])
+                    _fsync_file(tmps[-1])
+                except OSError as e:
+                    raise _write_error(path, e) from None
+            with _dir_lock(d):
+                for path, _ in items:
+                    check_target(path, force, inputs)
+                for (path, _), tmp in zip(items, tmps):
+                    _publish(tmp, path, force)
+        finally:
+            for tmp in tmps:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+        _fsync_dir(d)
+    if held.received:
+        raise KeyboardInterrupt
+    return [p for p, _ in items]
 
 
 def _write_error(path: str, e: OSError) -> OSError:

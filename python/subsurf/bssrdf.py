@@ -16,15 +16,13 @@ normally incident pencil beam of unit power, for one colour channel. Models, sel
 Every method takes and returns numpy arrays or floats. A material given per channel (RGB or a
 spectrum) is a list of stacks: :func:`profiles`. :class:`ProfileTable` tabulates Monte Carlo
 profiles in optical units (albedo × r/ℓ) for a g and η, saved to HDF5. Inverse problems:
-:func:`material_from_appearance`, :func:`fit_profile`, :func:`fit_profile_layer`,
+:func:`material_from_reflectance`, :func:`fit_profile`, :func:`fit_profile_layer`,
 :func:`fit_slab_totals` (:class:`SlabTable`). Bad input raises :class:`subsurf.ParameterError`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import io
 import json
 import os
 
@@ -34,11 +32,17 @@ from . import _core
 from .medium import Layer, Stack
 
 MODELS = tuple(_core.bssrdf_models())
+POWERS = tuple(_core.BSSRDF_POWERS)
+MFP_KINDS = tuple(_core.BSSRDF_MFP_KINDS)
 TABLE_FORMAT = "subsurf-profile-table"
-TABLE_FORMAT_VERSION = 1
+#: 2: the checksummed container (:mod:`subsurf.container`); 1 (plain HDF5) is refused.
+TABLE_FORMAT_VERSION = 2
+_POINT_ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
 
 __all__ = [
+    "MFP_KINDS",
     "MODELS",
+    "POWERS",
     "Fit",
     "Profile",
     "ProfileTable",
@@ -47,7 +51,7 @@ __all__ = [
     "fit_profile",
     "fit_profile_layer",
     "fit_slab_totals",
-    "material_from_appearance",
+    "material_from_reflectance",
     "profiles",
 ]
 
@@ -223,15 +227,6 @@ def chandrasekhar_reflectance(albedo) -> float:
 # ---- tables ---------------------------------------------------------------------------------
 
 
-def _checksum(settings: dict, points: list) -> str:
-    h = hashlib.sha256(json.dumps(settings, sort_keys=True).encode())
-    for p in points:
-        for k in ("edges", "weight", "stderr", "single", "single_stderr"):
-            h.update(np.ascontiguousarray(p[k], dtype=np.float64).tobytes())
-        h.update(np.array([p["total"], p["total_stderr"], p["photons"]], dtype=np.float64).tobytes())
-    return h.hexdigest()
-
-
 class _TablePoint:
     """A :class:`ProfileTable` albedo point as a sweep point (picklable; threads: one per task on
     a cluster, the settings' otherwise)."""
@@ -329,56 +324,46 @@ class ProfileTable:
         return Profile(self._t.profile(float(sigma_a), float(sigma_s)))
 
     def save(self, path) -> str:
-        """Write an HDF5 file (atomically, :mod:`subsurf.atomic`; the directory must exist) with the
-        settings, the version that built it, every point's bins and a SHA-256 checksum verified on load."""
-        import h5py
-
-        from . import atomic
-        from ._core import __version__
+        """Write the table to ``path`` (atomically, :mod:`subsurf.atomic`; the directory must
+        exist) in subsurf's checksummed HDF5 container (:mod:`subsurf.container`): the settings,
+        the version that built it and every point's bins, verified before HDF5 reads them back."""
+        from . import atomic, container
 
         pts = [dict(p) for p in self._t.points()]
-        buf = io.BytesIO()
-        with h5py.File(buf, "w") as f:
-            f.attrs["format"] = TABLE_FORMAT
-            f.attrs["format_version"] = TABLE_FORMAT_VERSION
-            f.attrs["version"] = __version__
+
+        def fill(f) -> None:
             f.attrs["settings"] = json.dumps(self.settings, sort_keys=True)
-            f.attrs["checksum"] = _checksum(self.settings, pts)
             for i, p in enumerate(pts):
                 g = f.create_group(f"points/{i:04d}")
-                for k in ("edges", "weight", "stderr", "single", "single_stderr"):
+                for k in _POINT_ARRAYS:
                     g.create_dataset(k, data=np.asarray(p[k], dtype=np.float64))
-                g.attrs["total"], g.attrs["total_stderr"], g.attrs["photons"] = (
-                    p["total"],
-                    p["total_stderr"],
-                    int(p["photons"]),
-                )
-        return atomic.write_bytes(path, buf.getvalue(), force=True)
+                g.attrs["total"], g.attrs["total_stderr"] = float(p["total"]), float(p["total_stderr"])
+                g.attrs["photons"] = int(p["photons"])
+
+        return atomic.write_bytes(path, container.to_bytes(TABLE_FORMAT, TABLE_FORMAT_VERSION, fill), force=True)
 
     @classmethod
     def load(cls, path) -> ProfileTable:
-        """Read a table written by :meth:`save`; a damaged or altered file raises ParameterError."""
-        import h5py
+        """Read a table written by :meth:`save`. A damaged, altered or foreign file — or one of
+        format version 1, from before tables were checksummed — raises
+        :class:`subsurf.container.FileFormatError` (a :class:`subsurf.ParameterError`), one line
+        naming the file."""
+        from . import container
 
         path = os.fspath(path)
+        with container.open_file(path, TABLE_FORMAT, TABLE_FORMAT_VERSION, "profile table", advice="; rebuild it") as o:
+            settings = json.loads(o.f.attrs["settings"])
+            pts = []
+            for name in sorted(o.f["points"]):
+                g = o.f["points"][name]
+                p = {k: np.asarray(g[k][()], dtype=np.float64) for k in _POINT_ARRAYS}
+                p.update(total=float(g.attrs["total"]), total_stderr=float(g.attrs["total_stderr"]))
+                p["photons"] = int(g.attrs["photons"])
+                pts.append(p)
         try:
-            with h5py.File(path, "r") as f:
-                if f.attrs.get("format") != TABLE_FORMAT:
-                    raise _core.ParameterError(f"table file {path}: not a subsurf profile table")
-                settings = json.loads(f.attrs["settings"])
-                pts = []
-                for name in sorted(f["points"]):
-                    g = f["points"][name]
-                    p = {k: np.asarray(g[k][()], dtype=np.float64) for k in g}
-                    p.update(total=float(g.attrs["total"]), total_stderr=float(g.attrs["total_stderr"]))
-                    p["photons"] = int(g.attrs["photons"])
-                    pts.append(p)
-                stored = str(f.attrs["checksum"])
-        except (OSError, KeyError, ValueError) as e:
-            raise _core.ParameterError(f"table file {path}: unreadable or corrupted ({e})") from None
-        if _checksum(settings, pts) != stored:
-            raise _core.ParameterError(f"table file {path}: checksum mismatch (the file is corrupted or was altered)")
-        return cls.assemble(settings, pts)
+            return cls.assemble(settings, pts)
+        except (_core.ParameterError, TypeError) as e:
+            raise container.FileFormatError(f"{path}: not a valid profile table ({container.one_line(e)})") from None
 
 
 # ---- inverse --------------------------------------------------------------------------------
@@ -413,23 +398,57 @@ class Fit:
         return {n: (float(p), float(s)) for n, p, s in zip(self.names, self.params, self.stderr)}
 
 
-def material_from_appearance(
-    albedo, mfp, eta=1.0, g=0.0, model="monte_carlo", table=None, *, client=None
+def material_from_reflectance(
+    reflectance,
+    mfp,
+    *,
+    eta=1.3,
+    g=0.0,
+    model="dipole",
+    power="incident",
+    mfp_kind="extinction",
+    table=None,
+    client=None,
 ) -> list[Layer]:
-    """One semi-infinite :class:`subsurf.Layer` per channel whose total diffuse reflectance under
-    a normally incident beam, per unit incident power with the specular reflection excluded (what
-    :func:`subsurf.simulate` reports), is ``albedo[i]`` under ``model``, with mean free path 1/σt
-    ``mfp[i]`` (mm), for HG ``g`` and relative index ``eta``. Closed-form models predict the colour
-    as (1 − R_sp) × their total. ``monte_carlo`` and ``normalized_diffusion`` (whose total is its
-    surface albedo for any medium) invert ρ_eff of a :class:`ProfileTable` (``table``; built for
-    (g, eta) with default settings — on a Dask ``client`` if given — and cached in memory if not
-    given): their materials, simulated, reproduce the colour."""
-    a = np.atleast_1d(_arr("albedo", albedo)).astype(float)
-    m = np.broadcast_to(np.atleast_1d(_arr("mfp", mfp)), a.shape).astype(float)
+    """One semi-infinite :class:`subsurf.Layer` per channel from a reflectance and a mean free
+    path per channel: the package's one colour → material inversion (``subsurf_core::bssrdf::
+    inverse::appearance``; :meth:`subsurf.Material.from_reflectance` and
+    :meth:`subsurf.render.Translucent.from_reflectance` forward to it). Spelling as pbrt's
+    ``SubsurfaceMaterial`` (``reflectance``, ``mfp``).
+
+    Parameters:
+
+    - ``reflectance`` (∈ [0, 1], one per channel): the total diffuse reflectance under a
+      normally incident beam, specular reflection excluded, under ``model``;
+    - ``mfp`` (mm, > 0; one, or one per channel): a mean free path of kind ``mfp_kind``;
+    - ``eta`` (n_medium / n_outside), ``g`` (Henyey–Greenstein, |g| < 1);
+    - ``model`` (:data:`MODELS`) whose total is inverted for the single-scattering albedo:
+      closed forms for ``dipole``, ``better_dipole``, ``multipole``; the integrated total of
+      ``photon_beam_diffusion``; the engine's ρ_eff from a :class:`ProfileTable` for
+      ``monte_carlo`` and for ``normalized_diffusion`` (whose total is its surface albedo for
+      every medium: its material is the engine's);
+    - ``power`` (:data:`POWERS`): ``"incident"`` — per unit power incident on the surface (what
+      :func:`subsurf.simulate` and a render show) — or ``"entering"`` — per unit power entering
+      the medium (the diffusion totals, pbrt's ρ_eff); incident = (1 − R_sp) × entering;
+    - ``mfp_kind`` (:data:`MFP_KINDS`): ``"extinction"`` 1/σt (pbrt's ``mfp``),
+      ``"transport"`` 1/σt', ``"diffuse"`` 1/σtr with the model's diffusion coefficient (Jensen &
+      Buhler 2002, §4: 1/(3σt'); Grosjean's (2σa + σs')/(3σt'²) for ``better_dipole`` and
+      ``photon_beam_diffusion``), or ``"burley_d"`` Christensen & Burley's (2015) d = ℓ_d/s(A),
+      eq. (8), the d of the ``normalized_diffusion`` profile a render builds;
+    - ``table``: the :class:`ProfileTable` for (g, eta) of the two table models (built with
+      default settings — on a Dask ``client`` if given — and cached in memory if not given).
+
+    The result reproduces the reflectance under ``model``; the engine's reflectance of a
+    closed-form model's material differs by that model's error (``docs/profiles.md``)."""
+    r = np.atleast_1d(_arr("reflectance", reflectance)).astype(float).ravel()
+    m = np.atleast_1d(_arr("mfp", mfp)).astype(float).ravel()
+    m = np.repeat(m, r.size) if m.size == 1 else m
     core_table = None
     if _model(model) in ("monte_carlo", "normalized_diffusion"):
         core_table = (table if table is not None else _default_table(float(g), float(eta), client))._t
-    out = _core.bssrdf_material_from_appearance(list(a), list(m), float(eta), float(g), model, core_table)
+    out = _core.bssrdf_material_from_reflectance(
+        list(r), list(m), float(eta), float(g), model, str(power), str(mfp_kind), core_table
+    )
     return [Layer(n, mua, mus, gg) for n, mua, mus, gg in out]
 
 
@@ -452,7 +471,9 @@ def _data(r, rd, sigma):
 def fit_profile(r, rd, sigma, model="dipole", g=0.0, eta=1.0, initial=(0.01, 1.0), table=None) -> Fit:
     """Fit (σa, σs') in mm⁻¹ of a semi-infinite medium to R_d(r) (mm⁻² at radii r in mm, with
     standard deviations ``sigma``) by Levenberg–Marquardt; the covariance is (JᵀWJ)⁻¹. Model
-    ``monte_carlo`` evaluates the profile from ``table`` (a :class:`ProfileTable` of g, eta)."""
+    ``monte_carlo`` evaluates the profile from ``table`` (a :class:`ProfileTable` of g, eta).
+    Data that do not identify the parameters (no signal, χ² not finite, a relative standard
+    uncertainty above 1) raise :class:`subsurf.ParameterError` (docs/profiles.md), as in every fit here."""
     args = _data(r, rd, sigma)
     t = table._t if table is not None else None
     d = _core.bssrdf_fit_profile(_model(model), *args, float(g), float(eta), tuple(map(float, initial)), t)

@@ -25,13 +25,13 @@ sizes never change the result.
 from __future__ import annotations
 
 import asyncio
-import concurrent.futures
 import math
 import sys
+import threading
 import time
 import uuid
 
-from . import _core
+from . import _core, _testhooks
 from .state import CHUNK_PHOTONS, TallyState
 
 __all__ = [
@@ -42,12 +42,19 @@ __all__ = [
     "task_threads",
     "DEFAULT_TASK_SECONDS",
     "CONNECT_TIMEOUT",
+    "MAX_CONNECT_TIMEOUT",
+    "check_timeout",
+    "scheduler_lost",
 ]
 
 #: Target duration of one photon-range task, seconds.
 DEFAULT_TASK_SECONDS = 5.0
 #: Seconds to wait for a scheduler to answer in :func:`connect`.
 CONNECT_TIMEOUT = 10.0
+#: Longest wait :func:`connect` accepts, seconds (a scheduler that is starting comes up in seconds).
+MAX_CONNECT_TIMEOUT = 3600.0
+#: How often the waiting thread looks for Ctrl-C and SIGTERM while connecting, seconds.
+POLL_S = 0.05
 #: Scattering events per second per thread assumed before the first task reports its speed.
 RATE_GUESS = 1e7
 #: Bytes per second assumed for shipping a state to the client and merging it.
@@ -79,29 +86,76 @@ async def _identity(address: str, timeout: float) -> dict:
         comm.abort()
 
 
+class _ProbeTimeout(Exception):
+    pass
+
+
 def _probe(address: str, timeout: float) -> dict:
     """The scheduler's identity, asked for with a bounded wait. (A ``Client`` waits for ever on a
-    server that accepts the connection but never answers the handshake; this does not.)"""
+    server that accepts the connection but never answers the handshake; this does not.)
 
-    async def bounded():
-        return await asyncio.wait_for(_identity(address, timeout), timeout)
+    The question runs on an event loop of its own in a daemon thread; this thread waits for it in
+    steps of :data:`POLL_S`, so Ctrl-C and SIGTERM (as the command line's exception) are handled at
+    once, and gives up after ``timeout`` seconds whatever the question is doing (it is then
+    cancelled, and never holds the process)."""
+    loop = asyncio.new_event_loop()
+    box: dict = {}
 
-    with concurrent.futures.ThreadPoolExecutor(1) as ex:  # its own event loop, whatever the caller runs
-        return ex.submit(asyncio.run, bounded()).result()
+    def ask() -> None:
+        try:
+            box["identity"] = loop.run_until_complete(asyncio.wait_for(_identity(address, timeout), timeout))
+        except BaseException as e:  # noqa: BLE001 - handed to the waiting thread
+            box["error"] = e
+        finally:
+            loop.close()
+
+    thread = threading.Thread(target=ask, name="subsurf-connect", daemon=True)
+    thread.start()
+    _testhooks.touch("connecting")  # tests: interrupt here, while the scheduler is awaited
+    deadline = time.monotonic() + timeout
+    try:
+        while thread.is_alive() and time.monotonic() < deadline:
+            thread.join(min(POLL_S, max(deadline - time.monotonic(), 0.0)))
+    finally:
+        if thread.is_alive():  # timed out or interrupted: cancel the question; nobody waits for it
+            try:
+                loop.call_soon_threadsafe(lambda: [t.cancel() for t in asyncio.all_tasks(loop)])
+            except RuntimeError:  # the loop closed meanwhile
+                pass
+    if "error" in box:
+        raise box["error"]
+    if "identity" not in box:
+        raise _ProbeTimeout
+    return box["identity"]
+
+
+def check_timeout(timeout, name: str = "timeout") -> float:
+    """``timeout`` (seconds) if it is in (0, :data:`MAX_CONNECT_TIMEOUT`]; ParameterError otherwise."""
+    try:
+        t = float(timeout)
+    except (TypeError, ValueError):
+        t = math.nan
+    if not 0 < t <= MAX_CONNECT_TIMEOUT:
+        raise _core.ParameterError(
+            f"{name} = {timeout!r} is out of range: seconds in (0, {MAX_CONNECT_TIMEOUT:g}] to wait for the scheduler"
+        )
+    return t
 
 
 def connect(address: str, timeout: float = CONNECT_TIMEOUT):
     """A ``dask.distributed.Client`` connected to the scheduler at ``address``
-    (``tcp://HOST:PORT``). A scheduler that does not answer within ``timeout`` seconds, or an
-    address that is not one, raises :class:`ClusterError` with a one-line message; this never
-    hangs. Close the client when done (``with connect(...) as client:``)."""
+    (``tcp://HOST:PORT``). A scheduler that does not answer within ``timeout`` seconds (at most
+    :data:`MAX_CONNECT_TIMEOUT`; ParameterError beyond), or an address that is not one, raises
+    :class:`ClusterError` with a one-line message; this never hangs, and Ctrl-C or SIGTERM stop
+    the wait at once. Close the client when done (``with connect(...) as client:``)."""
     distributed = _distributed()
+    timeout = check_timeout(timeout)
     address = str(address)
     try:
-        info = _probe(address, float(timeout))
+        info = _probe(address, timeout)
     except ValueError as e:
         raise ClusterError(f"{address!r} is not a scheduler address (tcp://HOST:PORT): {e}") from None
-    except (OSError, asyncio.TimeoutError, concurrent.futures.TimeoutError):
+    except (OSError, asyncio.TimeoutError, asyncio.CancelledError, _ProbeTimeout):
         raise ClusterError(
             f"no Dask scheduler answered at {address} within {timeout:g} s "
             "(start one with `dask scheduler`, see docs/cluster.md)"
@@ -210,6 +264,7 @@ class _Ranges:
         self.state_bytes = 0
         self.tag = uuid.uuid4().hex[:10]
         self.submitted = 0
+        self.taken = 0
         events = _core.mc_expected_events(*stack._to_core())
         self.rate_guess = RATE_GUESS * self.threads / max(events, 1.0)
 
@@ -227,6 +282,8 @@ class _Ranges:
         return task_photons(remaining, workers, rate, self.state_bytes, self.task_seconds)
 
     def submit(self) -> None:
+        if self.client.status != "running":  # the scheduler went away (the client reconnects or closed)
+            raise _ClusterGone(f"the client is {self.client.status}")
         workers = self.workers()
         ahead = AHEAD_PER_THREAD * workers
         while self.next_submit < self.photons and len(self.pending) + len(self.finished) < ahead:
@@ -262,6 +319,8 @@ class _Ranges:
         self.merge()
         if self.progress is not None:
             self.progress(self.done_photons, self.total)
+        self.taken += 1
+        _testhooks.after_task(self.taken, self.client)  # tests: lose the scheduler here
 
     def merge(self) -> None:
         """Append every finished range that now follows the merged prefix (in range order)."""
@@ -275,9 +334,10 @@ class _Ranges:
             for s in run:
                 del self.finished[s.start]
 
-    def run(self) -> bool:
-        """Trace everything; returns whether the run was interrupted (Ctrl-C or ``progress``
-        raising KeyboardInterrupt), in which case the merged prefix is what was completed."""
+    def run(self) -> str | None:
+        """Trace everything; returns None when complete, else why the run stopped early —
+        ``"interrupted"`` (Ctrl-C or ``progress`` raising KeyboardInterrupt) or a sentence on the
+        lost scheduler (:func:`scheduler_lost`) — in which case the merged prefix is what was completed."""
         distributed = _distributed()
         self.ac = distributed.as_completed(loop=self.client.loop)
         try:
@@ -285,16 +345,20 @@ class _Ranges:
             while self.pending:
                 self.take(next(self.ac))
                 self.submit()
-            return False
+            return None
         except KeyboardInterrupt:
             self.stop(collect=True)
-            return True
-        except BaseException:
-            self.stop(collect=False)
-            raise
+            return "interrupted"
+        except BaseException as e:
+            lost = scheduler_lost(e)
+            self.stop(collect=False, cancel=lost is None)  # nobody to cancel with on a lost scheduler
+            if lost is None:
+                raise
+            return lost
 
-    def stop(self, collect: bool) -> None:
-        """Cancel what is left; with ``collect``, first keep the tasks that already finished."""
+    def stop(self, collect: bool, cancel: bool = True) -> None:
+        """Cancel what is left (with ``cancel``); with ``collect``, first keep the tasks that
+        already finished."""
         futs = list(self.pending.values())
         self.pending.clear()
         if collect:
@@ -306,11 +370,28 @@ class _Ranges:
                     except Exception:  # noqa: BLE001 - a state we cannot fetch is just not kept
                         pass
             self.merge()
-        if futs:
+        if futs and cancel:
             try:
                 self.client.cancel(futs)
             except Exception:  # noqa: BLE001 - a scheduler gone away cancels everything anyway
                 pass
+
+
+class _ClusterGone(Exception):
+    """The client no longer has a scheduler to talk to."""
+
+
+def scheduler_lost(e: BaseException) -> str | None:
+    """A sentence saying the scheduler went away when ``e`` is how Dask reports it (the
+    connection closed, the client reconnecting, or the tasks cancelled by anyone but this run);
+    None for anything else (a task's own error, which is raised)."""
+    from distributed.client import FutureCancelledError
+    from distributed.comm import CommClosedError
+
+    if isinstance(e, (FutureCancelledError, CommClosedError, _ClusterGone)):
+        why = getattr(e, "reason", None) or str(e) or type(e).__name__
+        return f"the Dask scheduler stopped answering ({why})"
+    return None
 
 
 def run_ranges(
@@ -327,14 +408,18 @@ def run_ranges(
     task_photons: int | None = None,
 ):
     """Trace photons ``[prior.stop or 0, photons)`` on ``client``'s workers; returns ``(state,
-    interrupted)`` where ``state`` is the merged state of photons ``[0, N)`` (``None`` if nothing
-    was completed). ``task_seconds`` (default :data:`DEFAULT_TASK_SECONDS`) sets the task
+    stopped)`` where ``state`` is the merged state of photons ``[0, N)`` (``None`` if nothing
+    was completed) and ``stopped`` None for a complete run, else why it stopped early:
+    ``"interrupted"`` (Ctrl-C) or a sentence on the lost scheduler (its finished photons are kept,
+    as on Ctrl-C). ``task_seconds`` (default :data:`DEFAULT_TASK_SECONDS`) sets the task
     duration aimed at, ``task_photons`` a fixed task size instead. Arguments are checked by
     :func:`subsurf.simulate`."""
     _distributed()
     check_client(client)
     if task_seconds is None:
         task_seconds = DEFAULT_TASK_SECONDS
+    if task_photons is None and _testhooks.get("task_photons"):
+        task_photons = int(_testhooks.get("task_photons"))
     if not (task_seconds > 0 and math.isfinite(task_seconds)):
         raise _core.ParameterError(f"task_seconds = {task_seconds!r} is out of range: must be a number > 0")
     if task_photons is not None and (task_photons < 1 or task_photons % CHUNK_PHOTONS):
@@ -342,5 +427,5 @@ def run_ranges(
             f"task_photons = {task_photons!r} is out of range: must be a positive multiple of {CHUNK_PHOTONS}"
         )
     r = _Ranges(client, stack, photons, seed, threads, source, tallies, progress, prior, task_seconds, task_photons)
-    interrupted = r.run()
-    return r.prefix, interrupted
+    stopped = r.run()
+    return r.prefix, stopped

@@ -39,11 +39,9 @@ import numpy as np
 from . import _core
 
 MODELS = ("dipole", "better_dipole")
-MFP_KINDS = ("transport", "diffuse")
 
 __all__ = [
     "MODELS",
-    "MFP_KINDS",
     "fdr",
     "A",
     "fresnel_moments",
@@ -58,7 +56,6 @@ __all__ = [
     "profile",
     "total_diffuse_reflectance",
     "alpha_prime_from_rd",
-    "properties_from_color",
     "ft",
     "sd",
     "diffusion_brdf",
@@ -204,23 +201,6 @@ def alpha_prime_from_rd(rd, eta, model="dipole"):
     """Reduced albedo α' whose total diffuse reflectance is ``rd`` (∈ [0, 1]), by bisection to
     1e-15; ``rd`` outside [0, 1] raises ParameterError."""
     return _call(_core.diffusion_alpha_prime_from_rd, ["rd", "eta"], [rd, eta], _model(model))
-
-
-def properties_from_color(diffuse_color, mean_free_path, eta=1.3, model="dipole", mfp_kind="transport"):
-    """(σa, σs') in mm⁻¹ from a total diffuse reflectance per channel and a mean free path (mm).
-
-    α' = alpha_prime_from_rd(colour); then with ``mfp_kind="transport"`` (default; pbrt-v3
-    ``SubsurfaceFromDiffuse``) ℓ = 1/σt', or with ``"diffuse"`` (Jensen & Buhler 2002, §4)
-    ℓ_d = 1/σtr; σs' = α'σt', σa = (1 − α')σt'."""
-    if mfp_kind not in MFP_KINDS:
-        raise _core.ParameterError(f"mfp_kind = {mfp_kind!r} must be one of {list(MFP_KINDS)}")
-    return _call(
-        _core.diffusion_properties_from_color,
-        ["diffuse_color", "mean_free_path", "eta"],
-        [diffuse_color, mean_free_path, eta],
-        _model(model),
-        mfp_kind,
-    )
 
 
 def _dirs(name, w):

@@ -26,7 +26,8 @@ Layout (``format = "subsurf-result"``, ``format_version = 2``)::
                            datasets, scalars and names as attributes), so a partial run can be
                            resumed from its file; absent for merged results
 
-Integrity (format 2): the file's first bytes — the HDF5 user block, which HDF5 reserves for the
+Integrity (format 2): the file is subsurf's checksummed container (:mod:`subsurf.container`, shared
+with profile tables and sweeps): its first bytes — the HDF5 user block, which HDF5 reserves for the
 application — hold a checksum manifest: the SHA-256 of every dataset's stored bytes (of each chunk
 of a compressed one) and of all the remaining bytes (the structure and every attribute). :func:`load`
 checks the whole file against it before HDF5 reads a byte of it, so a damaged file can neither
@@ -42,9 +43,6 @@ S1 = N·m and S2 = N·(s²·(N − 1) + m²), which add across independent runs.
 
 from __future__ import annotations
 
-import datetime
-import hashlib
-import io
 import json
 import math
 import os
@@ -53,20 +51,21 @@ from typing import Any
 
 import numpy as np
 
-from . import atomic
+from . import atomic, container
 from ._core import ParameterError
+from .container import jsonable as _jsonable
+from .container import one_line as _one_line
+from .container import plain as _plain
 from .result import TOTALS, Histogram, Result
 
 FORMAT = "subsurf-result"
-#: 2: a checksum manifest in the HDF5 user block; 1 (plain HDF5, no checksums) still loads.
+#: 2: the checksummed container (:mod:`subsurf.container`); 1 (plain HDF5, no checksums) still loads.
 FORMAT_VERSION = 2
-MAGIC = b"subsurf-result manifest 1 "
-HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
 __all__ = ["save", "load", "merge", "to_bytes", "results_equal", "ResultFileError", "UnverifiedResultWarning"]
 
 
-class ResultFileError(ValueError):
+class ResultFileError(container.FileFormatError):
     """A file that is not a subsurf results file, or is damaged; the message is one line naming the
     file and the dataset or attribute."""
 
@@ -75,39 +74,15 @@ class UnverifiedResultWarning(UserWarning):
     """A results file without checksums (format version 1) was loaded: its integrity is unknown."""
 
 
-def _jsonable(obj: Any) -> Any:
-    """Plain JSON-friendly data from configs holding numpy scalars/arrays, tuples, inf."""
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.floating,)):
-        return float(obj)
-    if isinstance(obj, (np.bool_,)):
-        return bool(obj)
-    if hasattr(obj, "to_dict"):
-        return _jsonable(obj.to_dict())
-    return obj
-
-
 def _config_json(config: dict) -> str:
     # Python's json writes inf/nan as Infinity/NaN and reads them back.
     return json.dumps(_jsonable(config), sort_keys=True)
 
 
-def _image(result: Result, userblock: int) -> bytes:
-    """The HDF5 file of ``result`` (built in memory), with ``userblock`` bytes reserved at its start."""
-    import h5py
+def _fill(result: Result):
+    """The writer of ``result``'s contents into an open h5py file (see the module docstring)."""
 
-    buf = io.BytesIO()
-    with h5py.File(buf, "w", userblock_size=userblock) as f:
-        f.attrs["format"] = FORMAT
-        f.attrs["format_version"] = FORMAT_VERSION
-        f.attrs["software"] = "subsurf"
+    def fill(f) -> None:
         f.attrs["version"] = str(result.version)
         f.attrs["seed"] = int(result.seed)
         f.attrs["photons"] = int(result.photons)
@@ -116,7 +91,6 @@ def _image(result: Result, userblock: int) -> bytes:
         f.attrs["events"] = int(result.events)
         f.attrs["elapsed_s"] = float(result.elapsed_s)
         f.attrs["elapsed_s_units"] = "s"
-        f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         f.attrs["config"] = _config_json(result.config)
         t = f.create_group("totals")
         t.attrs["description"] = "fractions of the incident power, each with its standard error"
@@ -130,27 +104,31 @@ def _image(result: Result, userblock: int) -> bytes:
             ds.attrs["axes"] = "layer"
         hg = f.create_group("histograms")
         for name, h in result.histograms.items():
-            g = hg.create_group(name)
-            kw = dict(compression="gzip", compression_opts=4) if np.size(h.values) > 4096 else {}
-            g.create_dataset("values", data=np.asarray(h.values, dtype=float), **kw)
-            g.create_dataset("stderr", data=np.asarray(h.stderr, dtype=float), **kw)
-            g.attrs["units"] = str(h.units)
-            g.attrs["description"] = str(h.description)
-            g.attrs["axes"] = [str(a) for a in h.axes]
-            g.attrs["edge_units"] = [str(u) for u in h.edge_units]
-            for i, (e, a, u) in enumerate(zip(h.edges, h.axes, h.edge_units)):
-                ds = g.create_dataset(f"edges_{i}", data=np.asarray(e, dtype=float))
-                ds.attrs["axis"] = str(a)
-                ds.attrs["units"] = str(u)
-            if len(h.measures) == len(h.edges):
-                g.attrs["overflow"] = [bool(o) for o in h.overflow]
-                for i, m in enumerate(h.measures):
-                    g.create_dataset(f"measures_{i}", data=np.asarray(m, dtype=float))
+            _save_histogram(hg.create_group(name), h)
         for key in ("roulette", "roulette_stderr"):
             t.create_dataset(key, data=float(getattr(result, key))).attrs["units"] = "1"
         if result.state is not None:
             _save_state(f.create_group("state"), result.state)
-    return buf.getvalue()
+
+    return fill
+
+
+def _save_histogram(g, h: Histogram) -> None:
+    kw = dict(compression="gzip", compression_opts=4) if np.size(h.values) > 4096 else {}
+    g.create_dataset("values", data=np.asarray(h.values, dtype=float), **kw)
+    g.create_dataset("stderr", data=np.asarray(h.stderr, dtype=float), **kw)
+    g.attrs["units"] = str(h.units)
+    g.attrs["description"] = str(h.description)
+    g.attrs["axes"] = [str(a) for a in h.axes]
+    g.attrs["edge_units"] = [str(u) for u in h.edge_units]
+    for i, (e, a, u) in enumerate(zip(h.edges, h.axes, h.edge_units)):
+        ds = g.create_dataset(f"edges_{i}", data=np.asarray(e, dtype=float))
+        ds.attrs["axis"] = str(a)
+        ds.attrs["units"] = str(u)
+    if len(h.measures) == len(h.edges):
+        g.attrs["overflow"] = [bool(o) for o in h.overflow]
+        for i, m in enumerate(h.measures):
+            g.create_dataset(f"measures_{i}", data=np.asarray(m, dtype=float))
 
 
 def _save_state(g, state) -> None:
@@ -165,14 +143,8 @@ def _save_state(g, state) -> None:
 
 def to_bytes(result: Result) -> bytes:
     """The bytes of the results file of ``result``: the HDF5 file, its user block holding the
-    checksum manifest (see the module docstring)."""
-    userblock = 4096
-    while True:
-        image = _image(result, userblock)
-        manifest = _manifest(image, userblock)
-        if len(manifest) <= userblock:
-            return manifest.ljust(userblock, b"\n") + image[userblock:]
-        userblock *= 4
+    checksum manifest (:mod:`subsurf.container`)."""
+    return container.to_bytes(FORMAT, FORMAT_VERSION, _fill(result))
 
 
 def save(result: Result, path: str | os.PathLike, force: bool = True) -> str:
@@ -185,108 +157,7 @@ def save(result: Result, path: str | os.PathLike, force: bool = True) -> str:
     return atomic.write_bytes(path, to_bytes(result), force=force)
 
 
-# --- checksums ------------------------------------------------------------------------------
-
-
-def _sha(data) -> str:
-    return hashlib.sha256(data).hexdigest()
-
-
-def _regions(image: bytes) -> dict:
-    """Where each dataset's stored bytes lie in an HDF5 image: {path: [(offset, length)]} (one
-    range for a contiguous dataset, one per chunk of a compressed one)."""
-    import h5py
-
-    out = {}
-    with h5py.File(io.BytesIO(image), "r") as f:
-
-        def visit(name, obj):
-            if not isinstance(obj, h5py.Dataset):
-                return
-            if obj.chunks is None:
-                off = obj.id.get_offset()
-                if off is not None:
-                    out["/" + name] = [(off, obj.id.get_storage_size())]
-            else:
-                infos = (obj.id.get_chunk_info(i) for i in range(obj.id.get_num_chunks()))
-                out["/" + name] = [(c.byte_offset, c.size) for c in infos]
-
-        f.visititems(visit)
-    return out
-
-
-def _rest(data, userblock: int, regions: dict) -> str:
-    """SHA-256 of every byte after the user block that is not a dataset's data: the structure and
-    all attributes."""
-    h = hashlib.sha256()
-    pos = userblock
-    for off, n in sorted(r for rs in regions.values() for r in rs):
-        h.update(data[pos:off])
-        pos = max(pos, off + n)
-    h.update(data[pos:])
-    return h.hexdigest()
-
-
-def _manifest(image: bytes, userblock: int) -> bytes:
-    regions = _regions(image)
-    body = {
-        "size": len(image),
-        "userblock": userblock,
-        "datasets": {k: [[off, n, _sha(image[off : off + n])] for off, n in rs] for k, rs in regions.items()},
-        "rest": _rest(image, userblock, regions),
-    }
-    text = json.dumps(body, sort_keys=True, separators=(",", ":")).encode()
-    return MAGIC + _sha(text).encode() + b"\n" + text + b"\n"
-
-
-def _verify(path: str, data: bytes) -> bool:
-    """Check a file's bytes against its manifest before HDF5 reads any of them; False for a file of
-    format version 1 (plain HDF5, no manifest)."""
-    if data[:8] == HDF5_SIGNATURE:
-        return False
-    if not data.startswith(MAGIC):
-        raise ResultFileError(f"{path}: not an HDF5 results file")
-    head, _, rest = data[len(MAGIC) :].partition(b"\n")
-    text = rest.partition(b"\n")[0]
-    if _sha(text).encode() != head:
-        raise ResultFileError(f"{path}: its checksum manifest is damaged")
-    m = json.loads(text)
-    if len(data) != m["size"]:
-        raise ResultFileError(f"{path}: {len(data)} bytes where {m['size']} were written (truncated or extended)")
-    regions = {}
-    for name, rs in m["datasets"].items():
-        regions[name] = [(off, n) for off, n, _ in rs]
-        if any(_sha(data[off : off + n]) != want for off, n, want in rs):
-            raise ResultFileError(f"{path}: {name}: fails its checksum (the file is damaged or was edited)")
-    if _rest(data, m["userblock"], regions) != m["rest"]:
-        raise ResultFileError(
-            f"{path}: its structure or attributes fail their checksum (the file is damaged or was edited)"
-        )
-    return True
-
-
 # --- loading ----------------------------------------------------------------------------------
-
-
-def _plain(v):
-    """An HDF5 attribute value as plain Python data (str, int, float, bool, lists of them)."""
-    if isinstance(v, bytes):
-        return v.decode("utf-8", "surrogateescape")
-    if isinstance(v, np.ndarray):
-        return [_plain(x) for x in v.tolist()]
-    if isinstance(v, (list, tuple)):
-        return [_plain(x) for x in v]
-    if isinstance(v, np.generic):
-        return _plain(v.item())
-    return v
-
-
-def _str(x) -> str:
-    return x.decode() if isinstance(x, bytes) else str(x)
-
-
-_NOUNS = {"str": "a string", "int": "an integer", "bool": "a boolean", "float": "a number"}
-_NOUNS.update(strs="a list of strings", bools="a list of booleans")
 
 
 class _Reader:
@@ -311,7 +182,7 @@ class _Reader:
         ds = self.member(group, name, where, "dataset")
         try:
             a = np.asarray(ds[()])
-        except _READ_ERRORS as e:
+        except container.READ_ERRORS as e:
             raise self.fail(where, f"cannot be read ({_one_line(e)})") from None
         if a.dtype.kind not in "fiu":
             raise self.fail(where, f"expected numbers, found {a.dtype}")
@@ -348,17 +219,6 @@ class _Reader:
 
     def result(self) -> Result:
         f = self.f
-        if _str(_plain(f.attrs.get("format", ""))) != FORMAT:
-            raise ResultFileError(f"{self.path}: not a subsurf results file (no format = {FORMAT!r} attribute)")
-        ver = self.attr(f, "format_version", "/", "int")
-        if ver > FORMAT_VERSION:
-            raise ResultFileError(
-                f"{self.path}: results format version {ver} is newer than this subsurf reads ({FORMAT_VERSION})"
-            )
-        if ver < 1:
-            raise self.fail("/", f"format_version = {ver} is not a results format version")
-        if ver >= 2 and not self.verified:
-            raise self.fail("/", f"format version {ver} without its checksum manifest (the file was rewritten)")
         try:
             config = json.loads(self.attr(f, "config", "/", "str"))
         except ValueError as e:
@@ -446,49 +306,19 @@ class _Reader:
         return out
 
 
-#: What h5py raises on a damaged file, besides the checks above (caught only around reading a file).
-_READ_ERRORS = (OSError, KeyError, ValueError, TypeError, IndexError, AttributeError, RuntimeError, OverflowError)
-
-
 def load(path: str | os.PathLike) -> Result:
     """Read a results file written by :func:`save` back into a :class:`~subsurf.result.Result`.
 
-    The file's bytes are checked against its checksum manifest before HDF5 reads them, then every
-    piece is checked for presence, type and shape: a damaged, truncated or foreign file raises
-    :class:`ResultFileError`, one line naming the file and the dataset or attribute. Files of format
-    version 1 (before checksums) load with an :class:`UnverifiedResultWarning`.
+    The file's bytes are checked against its checksum manifest before HDF5 reads them
+    (:mod:`subsurf.container`), then every piece is checked for presence, type and shape: a
+    damaged, truncated or foreign file raises :class:`ResultFileError`, one line naming the file
+    and the dataset or attribute. Files of format version 1 (before checksums) load with an
+    :class:`UnverifiedResultWarning`.
     """
-    import h5py
-
     path = os.fspath(path)
-    try:
-        with open(path, "rb") as fh:
-            data = fh.read()
-    except FileNotFoundError:
-        raise ResultFileError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise ResultFileError(f"{path}: is a directory, not a results file") from None
-    except OSError as e:
-        raise ResultFileError(f"{path}: cannot read ({e.strerror})") from None
-    try:
-        verified = _verify(path, data)
-    except (ValueError, KeyError, TypeError) as e:  # a manifest that parses but is not ours
-        if isinstance(e, ResultFileError):
-            raise
-        raise ResultFileError(f"{path}: its checksum manifest is damaged ({_one_line(e)})") from None
-    try:
-        f = h5py.File(io.BytesIO(data), "r")
-    except _READ_ERRORS as e:
-        raise ResultFileError(f"{path}: not an HDF5 results file ({_one_line(e)})") from None
-    reader = _Reader(path, f, verified)
-    try:
-        with f:
-            result = reader.result()
-    except ResultFileError:
-        raise
-    except _READ_ERRORS as e:
-        raise ResultFileError(f"{path}: damaged results file ({type(e).__name__}: {_one_line(e)})") from None
-    if not verified:
+    with container.open_file(path, FORMAT, FORMAT_VERSION, "results", error=ResultFileError, legacy=(1,)) as o:
+        result = _Reader(path, o.f, o.verified).result()
+    if not o.verified:
         warnings.warn(
             f"{path}: results format version 1 has no checksums; its integrity cannot be verified",
             UnverifiedResultWarning,
@@ -497,52 +327,68 @@ def load(path: str | os.PathLike) -> Result:
     return result
 
 
-def _one_line(e: BaseException) -> str:
-    return " ".join(str(e).split())
-
-
 def _arr_equal(a, b) -> bool:
     a, b = np.asarray(a), np.asarray(b)
     return a.shape == b.shape and bool(np.array_equal(a, b, equal_nan=a.dtype.kind == "f" and b.dtype.kind == "f"))
 
 
-def results_equal(a: Result, b: Result) -> bool:
-    """True when two results hold the same numbers, histograms, provenance and configuration.
+def _same(x, y) -> bool:
+    return x == y or (isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y))
 
-    Configurations are compared as JSON data (tuples and lists are the same), as a results file
-    stores them.
-    """
-    scalars = (
-        [n for n in TOTALS]
-        + [n + "_stderr" for n in TOTALS]
-        + ["photons", "seed", "elapsed_s", "events", "photons_requested", "partial", "version"]
-    )
-    for n in scalars:
-        if getattr(a, n) != getattr(b, n) and not (
-            isinstance(getattr(a, n), float) and math.isnan(getattr(a, n)) and math.isnan(getattr(b, n))
-        ):
-            return False
-    for n in ("absorbed_per_layer", "absorbed_per_layer_stderr"):
-        if not _arr_equal(getattr(a, n), getattr(b, n)):
-            return False
-    if _jsonable(a.config) != _jsonable(b.config):
+
+#: Compared by :func:`results_equal` only with ``provenance=True``.
+_PROVENANCE = ("elapsed_s", "version")
+_SCALARS = (
+    *TOTALS,
+    *(n + "_stderr" for n in TOTALS),
+    "roulette",
+    "roulette_stderr",
+    "photons",
+    "seed",
+    "events",
+    "photons_requested",
+    "partial",
+)
+_HISTOGRAM_LABELS = ("axes", "edge_units", "units", "description", "overflow")
+_HISTOGRAM_ARRAYS = ("edges", "measures")
+
+
+def _histograms_equal(a: dict, b: dict) -> bool:
+    if set(a) != set(b):
         return False
-    if set(a.histograms) != set(b.histograms):
-        return False
-    for k, ha in a.histograms.items():
-        hb = b.histograms[k]
-        if (
-            tuple(ha.axes) != tuple(hb.axes)
-            or tuple(ha.edge_units) != tuple(hb.edge_units)
-            or ha.units != hb.units
-            or ha.description != hb.description
-        ):
+    for k, ha in a.items():
+        hb = b[k]
+        if any(_jsonable(getattr(ha, n)) != _jsonable(getattr(hb, n)) for n in _HISTOGRAM_LABELS):
             return False
         if not (_arr_equal(ha.values, hb.values) and _arr_equal(ha.stderr, hb.stderr)):
             return False
-        if len(ha.edges) != len(hb.edges) or not all(_arr_equal(x, y) for x, y in zip(ha.edges, hb.edges)):
-            return False
+        for n in _HISTOGRAM_ARRAYS:
+            x, y = getattr(ha, n), getattr(hb, n)
+            if len(x) != len(y) or not all(_arr_equal(u, v) for u, v in zip(x, y)):
+                return False
     return True
+
+
+def results_equal(a: Result, b: Result, *, provenance: bool = True) -> bool:
+    """True when two results hold the same numbers, bit for bit (NaN equals NaN): every total and
+    its standard error, ``roulette``, ``absorbed_per_layer``, photons (done and requested), seed,
+    events, ``partial``, every histogram (values, errors, edges, bin measures, labels) and the
+    exact state. This is the one bit-identity comparison of subsurf and its tests (file round
+    trips, threads, resuming, clusters).
+
+    ``provenance`` (default) also compares what describes the run rather than its numbers: the
+    elapsed time, the version and the configuration (as JSON data, as a results file stores it —
+    tuples and lists are the same). ``provenance=False`` compares two runs of the same photons made
+    differently (other thread counts, resumed, on a cluster).
+    """
+    names = _SCALARS + (_PROVENANCE if provenance else ())
+    if not all(_same(getattr(a, n), getattr(b, n)) for n in names):
+        return False
+    if not all(_arr_equal(getattr(a, n), getattr(b, n)) for n in ("absorbed_per_layer", "absorbed_per_layer_stderr")):
+        return False
+    if provenance and _jsonable(a.config) != _jsonable(b.config):
+        return False
+    return _histograms_equal(a.histograms, b.histograms) and a.state == b.state
 
 
 #: Config keys that may differ between runs that are merged.

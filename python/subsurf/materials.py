@@ -124,17 +124,37 @@ class Material:
         )
 
     @classmethod
+    def from_reflectance(
+        cls,
+        reflectance,
+        mfp,
+        *,
+        eta=1.3,
+        g=0.0,
+        model="dipole",
+        power="incident",
+        mfp_kind="extinction",
+        name=None,
+        table=None,
+    ):
+        """From a reflectance (∈ [0, 1]) and a mean free path (mm) per channel, by
+        :func:`subsurf.bssrdf.material_from_reflectance` (same parameters: ``power`` incident or
+        entering, ``mfp_kind`` extinction, transport, diffuse or burley_d): σa, σs' = σs(1 − g)."""
+        from .bssrdf import material_from_reflectance
+
+        layers = material_from_reflectance(
+            reflectance, mfp, eta=eta, g=g, model=model, power=power, mfp_kind=mfp_kind, table=table
+        )
+        return cls([l.mua for l in layers], [l.mus_prime for l in layers], eta=eta, g=g, name=name)
+
+    @classmethod
     def from_color(cls, diffuse_color, mean_free_path, eta=1.3, model="dipole", mfp_kind="transport", name=None):
-        """From a total diffuse reflectance per channel (``diffuse_color`` ∈ [0, 1]) and a mean
-        free path per channel (mm): α' = alpha_prime_from_rd(colour, η, model); σt' = 1/ℓ for
-        ``mfp_kind="transport"`` (ℓ = 1/(σa + σs'), pbrt-v3 ``SubsurfaceFromDiffuse``) or σtr = 1/ℓ_d
-        for ``"diffuse"`` (Jensen & Buhler 2002); σs' = α'σt', σa = (1 − α')σt'. The result's
-        total diffuse reflectance under ``model`` equals the colour."""
-        c = _channels("diffuse_color", diffuse_color)
-        mfp = _channels("mean_free_path", mean_free_path)
-        c, mfp = np.broadcast_arrays(c, mfp)
-        sa, ssp = _dif.properties_from_color(c, mfp, eta, model=model, mfp_kind=mfp_kind)
-        return cls(sa, ssp, eta=eta, name=name)
+        """Deprecated forwarding alias, kept until the demo that calls it is merged:
+        :meth:`from_reflectance` with ``power="entering"``, ``g=0`` and ``mfp_kind`` transport
+        (default) or diffuse."""
+        return cls.from_reflectance(
+            diffuse_color, mean_free_path, eta=eta, model=model, power="entering", mfp_kind=mfp_kind, name=name
+        )
 
     # ---- derived quantities -------------------------------------------------------------
     @property
@@ -168,8 +188,6 @@ class Material:
     def total_rd(self, model="dipole"):
         """Total diffuse reflectance per channel (closed form)."""
         return _dif.total_diffuse_reflectance(self.alpha_prime, self.eta, model)
-
-    diffuse_color = total_rd
 
     def sd(self, xi, wi, xo, wo, model="dipole"):
         """S_d per channel, shape (..., channels); see :func:`subsurf.diffusion.sd`."""

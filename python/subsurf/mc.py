@@ -228,40 +228,59 @@ def simulate(
     _core.mc_validate_run(photons, seed, threads)
     prior, elapsed0 = None, 0.0
     if resume is not None:
-        if isinstance(resume, Result):
-            if resume.state is None:
-                raise _core.ParameterError("resume: the result holds no state (merged or loaded from an old file)")
-            prior, elapsed0 = resume.state, float(resume.elapsed_s)
-        elif isinstance(resume, TallyState):
-            prior = resume
-        else:
-            raise _core.ParameterError(f"resume = {resume!r} is not a subsurf.Result or subsurf.TallyState")
-        if prior.start != 0:
-            raise _core.ParameterError(
-                f"resume: the state holds photons [{prior.start}, {prior.stop}), not a run from photon 0; "
-                "merge it after the states of the photons before it"
-            )
+        prior = check_resume(stack, resume, seed=seed, source=source, tallies=tallies)
+        elapsed0 = float(resume.elapsed_s) if isinstance(resume, Result) else 0.0
     remaining = photons - (prior.stop if prior is not None else 0)
     _warn_cost(stack, max(remaining, 0))
     if client is not None:
         from .cluster import run_ranges
 
         t0 = time.perf_counter()
-        state, interrupted = run_ranges(client, stack, photons, seed, threads, source, tallies, progress, prior)
+        state, stopped = run_ranges(client, stack, photons, seed, threads, source, tallies, progress, prior)
         elapsed = time.perf_counter() - t0
     else:
         d = _run(stack, photons, seed, threads, source, tallies, progress, state=prior)
-        state, interrupted, elapsed = TallyState(d["state"]), d["interrupted"], d["elapsed_s"]
-    if interrupted and (state is None or state.photons == 0):
+        state, elapsed = TallyState(d["state"]), d["elapsed_s"]
+        stopped = "interrupted" if d["interrupted"] else None
+    if stopped and (state is None or state.photons == 0):
+        if stopped != "interrupted":  # the cluster went away: an error, not an interruption
+            from .cluster import ClusterError
+
+            raise ClusterError(f"subsurf.simulate: {stopped} before any photon range was completed; nothing traced")
         raise KeyboardInterrupt("subsurf.simulate was interrupted before any photon was completed")
     partial = state.photons < photons
     if partial:
+        why = "subsurf.simulate interrupted" if stopped in (None, "interrupted") else f"subsurf.simulate: {stopped}"
         warnings.warn(
-            f"subsurf.simulate interrupted: returning the {state.photons} of {photons} photons traced so far",
+            f"{why}: returning the {state.photons} of {photons} photons traced so far (resume= finishes the run)",
             RuntimeWarning,
             stacklevel=2,
         )
     return _result(stack, seed, source, tallies, photons, state, elapsed0 + elapsed)
+
+
+def check_resume(stack, resume, seed=0, source=None, tallies=None) -> TallyState:
+    """The state of ``resume`` (a partial :class:`~subsurf.result.Result` or a
+    :class:`~subsurf.state.TallyState`) after checking, without tracing anything, that it can
+    continue the run of ``stack`` with ``seed``, ``source`` and ``tallies`` (as
+    :func:`simulate` does before it resumes); raises :class:`subsurf.ParameterError` otherwise."""
+    if isinstance(resume, Result):
+        if resume.state is None:
+            raise _core.ParameterError("resume: the result holds no state (merged or loaded from an old file)")
+        prior = resume.state
+    elif isinstance(resume, TallyState):
+        prior = resume
+    else:
+        raise _core.ParameterError(f"resume = {resume!r} is not a subsurf.Result or subsurf.TallyState")
+    if prior.start != 0:
+        raise _core.ParameterError(
+            f"resume: the state holds photons [{prior.start}, {prior.stop}), not a run from photon 0; "
+            "merge it after the states of the photons before it"
+        )
+    stack, seed, _, source, tallies = _prepare(stack, seed, None, source, tallies, None)
+    layers, n_above, n_below = stack._to_core()
+    _core.mc_check_state(layers, n_above, n_below, seed, source._to_core(), prior._core(), _core_tallies(tallies))
+    return prior
 
 
 def simulate_range(stack, start, stop, seed=0, threads=None, source=None, tallies=None, progress=None) -> TallyState:

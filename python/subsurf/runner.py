@@ -89,15 +89,29 @@ def scheduler_client(a):
     if not getattr(a, "scheduler", None):
         yield None
         return
-    from .cluster import connect
+    from .cluster import check_timeout, connect
 
-    if not (a.connect_timeout > 0):
-        raise UserError(f"--connect-timeout = {a.connect_timeout:g} is out of range: must be > 0 (seconds)")
+    timeout = check_timeout(a.connect_timeout, "--connect-timeout")
     try:
-        client = connect(a.scheduler, timeout=a.connect_timeout)
+        client = connect(a.scheduler, timeout=timeout)
     except ImportError as e:  # no dask.distributed: say how to get it, in one line
         raise UserError(str(e)) from None
     try:
         yield client
     finally:
+        _close(client)
+
+
+def _close(client) -> None:
+    """Close a client; after a lost scheduler, without Dask's log line about the reconnection that
+    closing ends (the command has said what happened, in one line)."""
+    import logging
+
+    log = logging.getLogger("distributed.client")
+    level = log.level
+    if client.status != "running":
+        log.setLevel(logging.CRITICAL)
+    try:
         client.close()
+    finally:
+        log.setLevel(level)

@@ -22,18 +22,24 @@ quantity``, readable from MATLAB, Julia or C like the results files (:mod:`subsu
 needs only h5py, already a dependency, so sweeps run without the cluster extra. (An xarray user
 wraps it in a few lines: ``xr.DataArray(s[name], coords=s.coords, dims=...)``.)
 
-Layout (``format = "subsurf-sweep"``, ``format_version = 1``)::
+Layout (``format = "subsurf-sweep"``, ``format_version = 2``: subsurf's checksummed container,
+:mod:`subsurf.container`, as results files and profile tables)::
 
     /            attrs: format, format_version, software, version, created, axes (names),
                         shape, fingerprint, spec (JSON: what is computed + the axes), complete,
-                        points_done, checksum (SHA-256 of everything below and the spec)
+                        points_done
     /coords/<axis>    the axis values             attrs: units
     /done             bool, grid shape: points computed
     /data/<quantity>  grid shape + quantity shape (NaN where not done)   attrs: units, …
     /static/<name>    arrays shared by every point (e.g. histogram edges)
 
-Restarts: with ``path`` given, finished points are written to it atomically (a temporary file
-renamed over it, then read back and its checksum verified) while the sweep runs — at the end,
+Integrity: the file's bytes are checked against the SHA-256 manifest in its user block before
+HDF5 reads them, so a damaged file is refused in one line (never a crash of the HDF5 library).
+Format version 1 (plain HDF5 with a ``checksum`` attribute, verified only after HDF5 had parsed
+the file) is refused, naming its version.
+
+Restarts: with ``path`` given, finished points are written to it atomically (built in memory,
+written to a temporary file renamed over it) while the sweep runs — at the end,
 on Ctrl-C or an error, and at most every few seconds in between — and a sweep started again
 with the same ``path`` and the same point and axes skips the points already done. A file of
 another sweep is never overwritten (ParameterError), nor is a damaged one.
@@ -41,7 +47,6 @@ another sweep is never overwritten (ParameterError), nor is a damaged one.
 
 from __future__ import annotations
 
-import datetime
 import hashlib
 import itertools
 import json
@@ -54,12 +59,14 @@ from typing import Any
 
 import numpy as np
 
-from . import _core, atomic
+from . import _core, _testhooks, atomic, container
+from .container import jsonable as _jsonable
 
 __all__ = ["sweep", "SweepResult", "load", "same_sweep", "result_data", "FORMAT", "FORMAT_VERSION"]
 
 FORMAT = "subsurf-sweep"
-FORMAT_VERSION = 1
+#: 2: the checksummed container (:mod:`subsurf.container`); 1 (plain HDF5) is refused.
+FORMAT_VERSION = 2
 #: Shortest time between two checkpoint writes, seconds (also at least 10× the last write's time).
 CHECKPOINT_S = 2.0
 
@@ -89,12 +96,6 @@ def _axes(axes) -> dict[str, np.ndarray]:
 
 def _coords_at(axes: dict, index: tuple) -> dict:
     return {name: v[i].item() for (name, v), i in zip(axes.items(), index)}
-
-
-def _jsonable(x):
-    from .io import _jsonable as j
-
-    return j(x)
 
 
 def _identity(point) -> Any:
@@ -192,55 +193,34 @@ class SweepResult:
 
     # ---- file -------------------------------------------------------------------------------
 
-    def _checksum(self) -> str:
-        h = hashlib.sha256(json.dumps(self.spec, sort_keys=True).encode())
-        for name, v in self.axes.items():
-            h.update(name.encode())
-            h.update(np.ascontiguousarray(v).tobytes())
-        h.update(np.ascontiguousarray(self.done).tobytes())
-        for group in (self.data, self.static):
-            for k in sorted(group):
-                h.update(k.encode())
-                h.update(np.ascontiguousarray(group[k], dtype=np.float64).tobytes())
-        return h.hexdigest()
+    def to_bytes(self) -> bytes:
+        """The bytes of the sweep file (see the module docstring)."""
+
+        def fill(f) -> None:
+            f.attrs["axes"] = list(self.axes)
+            f.attrs["shape"] = list(self.shape)
+            f.attrs["spec"] = json.dumps(self.spec, sort_keys=True)
+            f.attrs["fingerprint"] = _fingerprint(self.spec)
+            f.attrs["complete"] = self.complete
+            f.attrs["points_done"] = self.points_done
+            for name, v in self.axes.items():
+                f.create_dataset(f"coords/{name}", data=v).attrs["units"] = self.units.get(name, "")
+            f.create_dataset("done", data=self.done)
+            for k, v in self.data.items():
+                kw = dict(compression="gzip", compression_opts=4) if v.size > 4096 else {}
+                ds = f.create_dataset(f"data/{k}", data=v, **kw)
+                for a, x in self.attrs.get(k, {}).items():
+                    ds.attrs[a] = json.dumps(_jsonable(x)) if isinstance(x, (list, tuple, dict)) else x
+            for k, v in self.static.items():
+                f.create_dataset(f"static/{k}", data=np.asarray(v, dtype=np.float64))
+
+        return container.to_bytes(FORMAT, FORMAT_VERSION, fill)
 
     def save(self, path) -> str:
-        """Write the file atomically (temporary file, renamed over ``path``), then read it back
-        and verify its checksum."""
-        import h5py
-
-        from ._core import __version__
-
+        """Write the sweep file atomically (:mod:`subsurf.atomic`), creating its directory."""
         path = os.fspath(path)
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-
-        def write(tmp):
-            with h5py.File(tmp, "w") as f:
-                f.attrs["format"] = FORMAT
-                f.attrs["format_version"] = FORMAT_VERSION
-                f.attrs["software"] = "subsurf"
-                f.attrs["version"] = __version__
-                f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-                f.attrs["axes"] = list(self.axes)
-                f.attrs["shape"] = list(self.shape)
-                f.attrs["spec"] = json.dumps(self.spec, sort_keys=True)
-                f.attrs["fingerprint"] = _fingerprint(self.spec)
-                f.attrs["complete"] = self.complete
-                f.attrs["points_done"] = self.points_done
-                f.attrs["checksum"] = self._checksum()
-                for name, v in self.axes.items():
-                    f.create_dataset(f"coords/{name}", data=v).attrs["units"] = self.units.get(name, "")
-                f.create_dataset("done", data=self.done)
-                for k, v in self.data.items():
-                    kw = dict(compression="gzip", compression_opts=4) if v.size > 4096 else {}
-                    ds = f.create_dataset(f"data/{k}", data=v, **kw)
-                    for a, x in self.attrs.get(k, {}).items():
-                        ds.attrs[a] = json.dumps(_jsonable(x)) if isinstance(x, (list, tuple, dict)) else x
-                for k, v in self.static.items():
-                    f.create_dataset(f"static/{k}", data=np.asarray(v, dtype=np.float64))
-
-        # load: verify what was written before it replaces anything
-        return atomic.write_with(path, write, force=True, verify=load)
+        return atomic.write_bytes(path, self.to_bytes(), force=True)
 
 
 def _spec(point, grid: dict) -> dict:
@@ -274,41 +254,39 @@ def _attr(x):
 
 
 def load(path) -> SweepResult:
-    """Read a sweep file written by :meth:`SweepResult.save`; a file that is not one, is
-    damaged or was altered raises :class:`subsurf.ParameterError`."""
-    import h5py
-
+    """Read a sweep file written by :meth:`SweepResult.save`; a file that is not one, is damaged
+    or was altered raises :class:`subsurf.container.FileFormatError` (a
+    :class:`subsurf.ParameterError`), one line naming the file."""
     path = os.fspath(path)
-    if not os.path.exists(path):
-        raise _error(f"{path}: no such file")
-    try:
-        with h5py.File(path, "r") as f:
-            if _str(f.attrs.get("format", "")) != FORMAT:
-                raise _error(f"{path}: not a subsurf sweep file (no format = {FORMAT!r} attribute)")
-            if int(f.attrs["format_version"]) > FORMAT_VERSION:
-                raise _error(f"{path}: sweep format version {int(f.attrs['format_version'])} is newer than this one")
-            names = [_str(a) for a in f.attrs["axes"]]
-            axes = {n: f[f"coords/{n}"][()] for n in names}
-            units = {n: _str(f[f"coords/{n}"].attrs.get("units", "")) for n in names}
-            data, attrs, static = {}, {}, {}
-            for group, out in (("data", data), ("static", static)):
-                if group in f:
-                    f[group].visititems(
-                        lambda k, o, out=out: out.__setitem__(k, o[()]) if hasattr(o, "shape") else None
-                    )
-            for k in data:
-                attrs[k] = {a: _attr(x) for a, x in f[f"data/{k}"].attrs.items()}
-            res = SweepResult(
-                axes, data, f["done"][()], attrs, static, spec=json.loads(_str(f.attrs["spec"])), units=units
-            )
-            stored = _str(f.attrs["checksum"])
-    except (OSError, KeyError, ValueError, TypeError) as e:
-        if isinstance(e, _core.ParameterError):
-            raise
-        raise _error(f"{path}: unreadable or damaged sweep file ({e})") from None
-    if res._checksum() != stored:
-        raise _error(f"{path}: checksum mismatch (the sweep file is damaged or was altered)")
-    return res
+    with container.open_file(path, FORMAT, FORMAT_VERSION, "sweep", advice="; run the sweep again") as o:
+        return _read(path, o.f)
+
+
+def _read(path: str, f) -> SweepResult:
+    def fail(problem):
+        return container.FileFormatError(f"{path}: {problem}")
+
+    names = [_str(a) for a in np.atleast_1d(f.attrs["axes"])]
+    axes = {n: np.asarray(f[f"coords/{n}"][()]) for n in names}
+    units = {n: _str(f[f"coords/{n}"].attrs.get("units", "")) for n in names}
+    shape = tuple(len(v) for v in axes.values())
+    if any(v.ndim != 1 for v in axes.values()):
+        raise fail("/coords: an axis is not a list of values")
+    done = np.asarray(f["done"][()])
+    if done.dtype != bool or done.shape != shape:
+        raise fail(f"/done: expected booleans of shape {shape}, found {done.dtype} {done.shape}")
+    data, attrs, static = {}, {}, {}
+    for group, out in (("data", data), ("static", static)):
+        if group in f:
+            f[group].visititems(lambda k, o, out=out: out.__setitem__(k, o[()]) if hasattr(o, "shape") else None)
+    for k, v in data.items():
+        if np.shape(v)[: len(shape)] != shape:
+            raise fail(f"/data/{k}: shape {np.shape(v)} does not start with the grid's {shape}")
+        attrs[k] = {a: _attr(x) for a, x in f[f"data/{k}"].attrs.items()}
+    spec = json.loads(_str(f.attrs["spec"]))
+    if not isinstance(spec, dict):
+        raise fail("/: attribute 'spec' is not a JSON object")
+    return SweepResult(axes, data, done, attrs, static, spec=spec, units=units)
 
 
 def result_data(result) -> tuple[dict, dict, dict]:
@@ -428,8 +406,9 @@ def sweep(point, axes, path=None, *, client=None, progress=None, units=None) -> 
 
 
 def _on_cluster(client, point, grid, todo, record) -> None:
-    """One Dask task per point; results are recorded as they come back."""
-    from .cluster import _distributed, check_client
+    """One Dask task per point; results are recorded as they come back. A scheduler that goes
+    away raises :class:`subsurf.cluster.ClusterError` (the points recorded so far are kept)."""
+    from .cluster import ClusterError, _distributed, check_client, scheduler_lost
 
     distributed = _distributed()
     check_client(client)
@@ -438,10 +417,16 @@ def _on_cluster(client, point, grid, todo, record) -> None:
         key = f"subsurf-point-{tag}-{'-'.join(map(str, idx))}"
         futures[client.submit(_call_point, point, _coords_at(grid, idx), key=key, pure=False)] = idx
     try:
-        for fut in distributed.as_completed(list(futures), loop=client.loop):
+        for taken, fut in enumerate(distributed.as_completed(list(futures), loop=client.loop), 1):
             record(futures.pop(fut), fut.result())
+            _testhooks.after_task(taken, client)  # tests: lose the scheduler here
+    except Exception as e:
+        lost = scheduler_lost(e)
+        if lost is None:
+            raise
+        raise ClusterError(f"sweep: {lost}; the points finished before are kept") from None
     finally:
-        if futures:
+        if futures and client.status == "running":  # a lost scheduler has nothing left to cancel
             try:
                 client.cancel(list(futures))
             except Exception:  # noqa: BLE001 - a scheduler gone away cancels everything anyway

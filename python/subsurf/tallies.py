@@ -20,6 +20,9 @@ from ._core import ParameterError
 #: is checked by the core, ``subsurf_core::mc::tally::config``).
 MAX_BINS: int = _core.MC_MAX_BINS
 MAX_ORDER: int = _core.MC_MAX_ORDER
+#: Kind of each field ("count", "length", "pair", "order", "bool"), from the core's list of the
+#: fields (``TallyConfig::fields``); ``tests/test_registry.py`` checks that the dataclass matches it.
+KINDS: dict[str, str] = {name: kind for name, kind, _ in _core.MC_TALLY_FIELDS}
 
 
 def _integer(name: str, v: Any) -> int:
@@ -75,24 +78,20 @@ class Tallies:
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
-        for name in ("nr", "nz", "na", "nt"):
-            set_(name, _integer(name, getattr(self, name)))
-        for name in ("dr", "dz", "dt"):
-            set_(name, _number(name, getattr(self, name)))
-        if self.brdf is not None:
-            try:
-                nc, nphi = self.brdf
-            except (TypeError, ValueError):
-                raise ParameterError(
-                    f"tallies.brdf = {self.brdf!r} is invalid: "
-                    "must be None or a pair (n_cos_theta, n_phi) of integers >= 1"
-                ) from None
-            set_("brdf", (_integer("brdf[0]", nc), _integer("brdf[1]", nphi)))
-        if self.max_order is not None:
-            set_("max_order", _integer("max_order", self.max_order))
-        for name in ("spatial", "angular", "errors"):
+        for name, kind in KINDS.items():
             v = getattr(self, name)
-            if not isinstance(v, bool):
+            if kind == "count" or (kind == "order" and v is not None):
+                set_(name, _integer(name, v))
+            elif kind == "length":
+                set_(name, _number(name, v))
+            elif kind == "pair" and v is not None:
+                try:
+                    a, b = v
+                except (TypeError, ValueError):
+                    msg = "must be None or a pair (n_cos_theta, n_phi) of integers >= 1"
+                    raise ParameterError(f"tallies.{name} = {v!r} is invalid: {msg}") from None
+                set_(name, (_integer(f"{name}[0]", a), _integer(f"{name}[1]", b)))
+            elif kind == "bool" and not isinstance(v, bool):
                 raise ParameterError(f"tallies.{name} = {v!r} is invalid: must be True or False")
         _core.mc_validate_tallies({**self.to_dict(), "brdf": self.brdf})
 

@@ -21,6 +21,7 @@ pub mod error;
 pub mod hk;
 pub mod mc;
 pub mod medium;
+pub mod names;
 pub mod optics;
 pub mod render;
 pub mod rng;

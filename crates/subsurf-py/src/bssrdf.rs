@@ -13,7 +13,7 @@ use subsurf_core::bssrdf::inverse::{self, Fit, SlabTable};
 use subsurf_core::bssrdf::monte_carlo::{McSettings, MonteCarloProfile, RadialData};
 use subsurf_core::bssrdf::normalized_diffusion::{NormalizedDiffusion, ShapeFit};
 use subsurf_core::bssrdf::table::{build_point, default_albedos, ProfileTable, TableSettings};
-use subsurf_core::bssrdf::{chandrasekhar, medium_profile, profile, Medium, Model, RadialProfile};
+use subsurf_core::bssrdf::{chandrasekhar, medium_profile, profile, Medium, Model, Query, RadialProfile};
 use subsurf_core::Error;
 
 type Arr<'py> = PyReadonlyArray1<'py, f64>;
@@ -25,7 +25,7 @@ fn slice<'a>(a: &'a Arr<'_>) -> PyResult<&'a [f64]> {
 }
 
 fn model(name: &str) -> PyResult<Model> {
-    Model::from_name(name).py()
+    Model::from_name("model", name).py()
 }
 
 fn stack(s: &StackTuple) -> PyResult<subsurf_core::medium::Stack> {
@@ -45,35 +45,34 @@ impl PyProfile {
     fn new(inner: Arc<dyn RadialProfile>, model: &str) -> Self {
         PyProfile { inner, mc: None, model: model.to_string() }
     }
-    fn map<'py>(
-        &self,
-        py: Python<'py>,
-        x: Arr<'py>,
-        f: impl Fn(&dyn RadialProfile, f64) -> f64 + Sync,
-    ) -> PyResult<Out<'py>> {
+    /// `q` of `p` (this profile, or its single-scattering part) at every element of `x`,
+    /// checked ([`Query`]: an argument out of its range is an error naming it).
+    fn query<'py>(py: Python<'py>, p: &dyn RadialProfile, q: Query, x: Arr<'py>) -> PyResult<Out<'py>> {
         let xs = slice(&x)?;
-        let p = self.inner.clone();
-        let v: Vec<f64> = py.detach(|| xs.iter().map(|&r| f(p.as_ref(), r)).collect());
+        let v = py.detach(|| xs.iter().map(|&r| q.eval(p, r)).collect::<Result<Vec<f64>, Error>>()).py()?;
         Ok(PyArray1::from_vec(py, v))
+    }
+    fn map<'py>(&self, py: Python<'py>, x: Arr<'py>, q: Query) -> PyResult<Out<'py>> {
+        Self::query(py, self.inner.as_ref(), q, x)
     }
 }
 
 #[pymethods]
 impl PyProfile {
     fn rd<'py>(&self, py: Python<'py>, r: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, r, |p, x| p.rd(x))
+        self.map(py, r, Query::Rd)
     }
     fn pdf<'py>(&self, py: Python<'py>, r: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, r, |p, x| p.pdf(x))
+        self.map(py, r, Query::Pdf)
     }
     fn cdf<'py>(&self, py: Python<'py>, r: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, r, |p, x| p.cdf(x))
+        self.map(py, r, Query::Cdf)
     }
     fn sample_r<'py>(&self, py: Python<'py>, u: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, u, |p, x| p.sample_r(x))
+        self.map(py, u, Query::SampleR)
     }
     fn radius_for_fraction<'py>(&self, py: Python<'py>, q: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, q, |p, x| p.radius_for_fraction(x))
+        self.map(py, q, Query::RadiusForFraction)
     }
     fn total(&self) -> f64 {
         self.inner.total()
@@ -85,7 +84,13 @@ impl PyProfile {
         self.inner.single_scattering().map_or(0.0, |s| s.total())
     }
     fn single_rd<'py>(&self, py: Python<'py>, r: Arr<'py>) -> PyResult<Out<'py>> {
-        self.map(py, r, |p, x| p.single_scattering().map_or(0.0, |s| s.rd(x)))
+        match self.inner.single_scattering() {
+            Some(s) => Self::query(py, s, Query::Rd, r),
+            None => Err(crate::errors::to_py(Error::Invalid(format!(
+                "model {:?} has no separate single-scattering part",
+                self.model
+            )))),
+        }
     }
     /// Monte Carlo profiles: the tallied data as a dict (None for other models).
     fn mc_data<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
@@ -196,6 +201,25 @@ fn bssrdf_normalized_diffusion(albedo: f64, mfp: f64, variant: &str) -> PyResult
 #[pyfunction]
 fn bssrdf_models() -> Vec<&'static str> {
     Model::ALL.iter().map(|m| m.name()).collect()
+}
+
+/// Check a homogeneous medium (σa, σs in mm⁻¹, g, η) as every profile model takes it.
+#[pyfunction]
+fn bssrdf_check_medium(sigma_a: f64, sigma_s: f64, g: f64, eta: f64) -> PyResult<()> {
+    Medium::new(sigma_a, sigma_s, g, eta).py().map(|_| ())
+}
+
+/// The Monte Carlo profile's defaults (`McSettings::default()`) a user can give.
+fn mc_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let McSettings { photons, seed, threads: _, r_min, r_max, per_decade, max_rel_err } = McSettings::default();
+    let d = PyDict::new(py);
+    d.set_item("photons", photons)?;
+    d.set_item("seed", seed)?;
+    d.set_item("per_decade", per_decade)?;
+    d.set_item("max_rel_err", max_rel_err)?;
+    d.set_item("r_min", r_min)?;
+    d.set_item("r_max", r_max)?;
+    Ok(d)
 }
 
 /// 1 − H(1)√(1 − a): exact reflectance of a semi-infinite index-matched isotropic medium.
@@ -314,21 +338,30 @@ fn fit_to_py<'py>(py: Python<'py>, f: Fit) -> PyResult<Bound<'py, PyDict>> {
     Ok(d)
 }
 
-/// One semi-infinite layer per channel: (n, mua, mus, g) tuples.
+/// One semi-infinite layer per channel from a reflectance and a mean free path per channel:
+/// (n, mua, mus, g) tuples ([`inverse::material_from_reflectance`]).
 #[pyfunction]
-#[pyo3(signature = (albedo, mfp, eta, g, model_name, table=None))]
-fn bssrdf_material_from_appearance(
+#[pyo3(signature = (reflectance, mfp, eta, g, model_name, power, mfp_kind, table=None))]
+#[allow(clippy::too_many_arguments)]
+fn bssrdf_material_from_reflectance(
     py: Python<'_>,
-    albedo: Vec<f64>,
+    reflectance: Vec<f64>,
     mfp: Vec<f64>,
     eta: f64,
     g: f64,
     model_name: &str,
+    power: &str,
+    mfp_kind: &str,
     table: Option<&PyProfileTable>,
 ) -> PyResult<Vec<(f64, f64, f64, f64)>> {
     let m = model(model_name)?;
+    let conv = inverse::Conventions {
+        power: inverse::Power::from_name(power).py()?,
+        mfp_kind: inverse::MeanFreePath::from_name(mfp_kind).py()?,
+    };
     let t = table.map(|t| t.inner.clone());
-    let layers = py.detach(|| inverse::material_from_appearance(&albedo, &mfp, eta, g, m, t.as_deref())).py()?;
+    let layers =
+        py.detach(|| inverse::material_from_reflectance(&reflectance, &mfp, eta, g, m, conv, t.as_deref())).py()?;
     Ok(layers.iter().map(|l| (l.n, l.mua, l.mus, l.g())).collect())
 }
 
@@ -458,11 +491,16 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bssrdf_stack_profile, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_normalized_diffusion, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_models, m)?)?;
+    m.add_function(wrap_pyfunction!(bssrdf_check_medium, m)?)?;
+    m.add("BSSRDF_MODELS", Model::NAMES.to_vec())?;
+    m.add("BSSRDF_MC_DEFAULTS", mc_defaults(m.py())?)?;
     m.add_function(wrap_pyfunction!(bssrdf_chandrasekhar_reflectance, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_table_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_table_point, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_slab_point, m)?)?;
-    m.add_function(wrap_pyfunction!(bssrdf_material_from_appearance, m)?)?;
+    m.add_function(wrap_pyfunction!(bssrdf_material_from_reflectance, m)?)?;
+    m.add("BSSRDF_POWERS", inverse::Power::NAMES)?;
+    m.add("BSSRDF_MFP_KINDS", inverse::MeanFreePath::NAMES)?;
     m.add_function(wrap_pyfunction!(bssrdf_fit_profile, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_fit_profile_layer, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_fit_slab_totals, m)?)?;

@@ -6,7 +6,7 @@
 use crate::errors::IntoPyResult;
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
-use subsurf_core::diffusion::{self as dif, better_dipole, MeanFreePath, Model};
+use subsurf_core::diffusion::{self as dif, better_dipole, Model};
 use subsurf_core::{Error, Result};
 
 type In<'py> = PyReadonlyArray1<'py, f64>;
@@ -148,25 +148,6 @@ by_model! {
     };
 }
 
-/// (sigma_a, sigma_s_prime) from a diffuse colour and a mean free path.
-#[pyfunction]
-fn diffusion_properties_from_color<'py>(
-    py: Python<'py>,
-    model_name: &str,
-    mfp_kind: &str,
-    rd: In<'py>,
-    mfp: In<'py>,
-    eta: In<'py>,
-) -> PyResult<(Out<'py>, Out<'py>)> {
-    let m = model(model_name)?;
-    let kind = MeanFreePath::from_name(mfp_kind).py()?;
-    let mut v = map_rows::<2>(py, &[(&rd, 1), (&mfp, 1), (&eta, 1)], |x| {
-        dif::properties_from_color(x[0][0], x[1][0], x[2][0], m, kind).map(|(a, s)| [a, s])
-    })?;
-    let ssp = v.pop().expect("two outputs");
-    Ok((v.pop().expect("two outputs"), ssp))
-}
-
 /// F_t(η, cos θ) = 1 − F_r(1 → η) (0 for cos θ ≤ 0); η validated, |cos θ| ≤ 1.
 #[pyfunction]
 fn diffusion_ft<'py>(py: Python<'py>, eta: In<'py>, cos_theta: In<'py>) -> PyResult<Out<'py>> {
@@ -193,7 +174,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(diffusion_rd, m)?)?;
     m.add_function(wrap_pyfunction!(diffusion_total_rd, m)?)?;
     m.add_function(wrap_pyfunction!(diffusion_alpha_prime_from_rd, m)?)?;
-    m.add_function(wrap_pyfunction!(diffusion_properties_from_color, m)?)?;
     m.add_function(wrap_pyfunction!(diffusion_sd, m)?)?;
     m.add_function(wrap_pyfunction!(diffusion_brdf, m)?)?;
     m.add_function(wrap_pyfunction!(diffusion_check_properties, m)?)?;

@@ -44,6 +44,12 @@ pub fn u64_arg(obj: &Bound<'_, PyAny>, field: &str, allowed: &'static str) -> Py
     })
 }
 
+/// A thread count (1 … 1024, `MAX_THREADS`) through [`u64_arg`].
+pub fn threads_arg(t: &Bound<'_, PyAny>) -> PyResult<usize> {
+    let n = u64_arg(t, "threads", subsurf_core::mc::config::THREADS_ALLOWED)?;
+    Ok(usize::try_from(n).unwrap_or(usize::MAX))
+}
+
 /// A number argument as f64 (a Python int too large for a float is +∞, so the core refuses it by range).
 pub fn f64_arg(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<f64> {
     obj.extract::<f64>().or_else(|e| {

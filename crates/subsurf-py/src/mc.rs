@@ -8,17 +8,17 @@
 //! `interrupted = True` (always a prefix of whole chunks); any other exception from `progress`
 //! propagates.
 
-use crate::errors::{f64_arg, to_py, u64_arg, IntoPyResult};
+use crate::errors::{f64_arg, threads_arg, to_py, u64_arg, IntoPyResult};
 use crate::medium::{stack_from_py, LayerTuple};
 use crate::wait::interruptible;
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::time::Instant;
-use subsurf_core::mc::config::{CHUNK_PHOTONS, MAX_THREADS, PHOTONS_ALLOWED, SEED_ALLOWED, THREADS_ALLOWED};
+use subsurf_core::mc::config::{CHUNK_PHOTONS, MAX_THREADS, PHOTONS_ALLOWED, SEED_ALLOWED};
 use subsurf_core::mc::tally::histogram::AxisKind;
 use subsurf_core::mc::tally::totals::{Total, Totals, TOTAL_NAMES};
-use subsurf_core::mc::tally::{Channel, HistogramOut, TallyConfig, TallySet};
+use subsurf_core::mc::tally::{Channel, HistogramOut, TallyConfig, TallyInput, TallySet, TallyValue};
 use subsurf_core::mc::{cost, extend, fingerprint, finish, FlatState, RunConfig, Source, TallyState};
 use subsurf_core::medium::Stack;
 use subsurf_core::Error;
@@ -40,10 +40,6 @@ fn mc_validate_source(kind: &str, theta: f64, phi: f64) -> PyResult<()> {
     source_from_py(kind, theta, phi).py().map(|_| ())
 }
 
-fn threads_arg(t: &Bound<'_, PyAny>) -> PyResult<usize> {
-    Ok(usize::try_from(u64_arg(t, "threads", THREADS_ALLOWED)?).unwrap_or(usize::MAX))
-}
-
 /// Validate the run parameters photons, seed and threads; raises ParameterError naming the field.
 #[pyfunction]
 #[pyo3(signature = (photons, seed, threads=None))]
@@ -63,39 +59,49 @@ fn mc_validate_run(
     cfg.validate().py()
 }
 
-/// The `subsurf.Tallies.to_dict()` of Python as a validated core [`TallyConfig`].
+/// The `subsurf.Tallies.to_dict()` of Python as a validated core [`TallyConfig`]: every field
+/// of [`TallyConfig::fields`] read by its name and kind (a missing one takes its default, as in
+/// states saved before the field existed); numbers through the one argument mapping.
 fn tally_config_from_py(d: &Bound<'_, PyDict>) -> PyResult<TallyConfig> {
-    let item = |k: &str| -> PyResult<Bound<'_, PyAny>> {
-        d.get_item(k)?.ok_or_else(|| to_py(Error::Invalid(format!("tallies: missing field {k}"))))
-    };
-    let num = |k: &str| f64_arg(&item(k)?, &format!("tallies.{k}"));
-    let opt = |k: &str| -> PyResult<Option<Bound<'_, PyAny>>> { Ok(Some(item(k)?).filter(|v| !v.is_none())) };
-    let brdf = match opt("brdf")? {
-        Some(b) => {
-            let (c, p): (Bound<'_, PyAny>, Bound<'_, PyAny>) = b.extract().map_err(|_| {
-                to_py(Error::Invalid("tallies.brdf: must be None or a pair (n_cos_theta, n_phi)".into()))
-            })?;
-            Some((f64_arg(&c, "tallies.brdf[0]")?, f64_arg(&p, "tallies.brdf[1]")?))
-        }
-        None => None,
-    };
-    let max_order = opt("max_order")?.map(|k| f64_arg(&k, "tallies.max_order")).transpose()?;
-    TallyConfig::from_numbers(
-        num("nr")?,
-        num("dr")?,
-        num("nz")?,
-        num("dz")?,
-        num("na")?,
-        num("nt")?,
-        num("dt")?,
-        brdf,
-        max_order,
-        item("spatial")?.extract()?,
-        item("angular")?.extract()?,
-        // (absent in states saved before the field existed: errors were always kept)
-        d.get_item("errors")?.map_or(Ok(true), |v| v.extract())?,
-    )
-    .py()
+    let mut inputs = Vec::new();
+    for (name, value) in TallyConfig::default().fields() {
+        let Some(v) = d.get_item(name)? else { continue };
+        let field = format!("tallies.{name}");
+        let input = match value {
+            TallyValue::Count(_) | TallyValue::Width(_) => TallyInput::Number(f64_arg(&v, &field)?),
+            TallyValue::Order(_) if v.is_none() => TallyInput::Optional(None),
+            TallyValue::Order(_) => TallyInput::Optional(Some(f64_arg(&v, &field)?)),
+            TallyValue::Pair(_) if v.is_none() => TallyInput::Pair(None),
+            TallyValue::Pair(_) => {
+                let (a, b): (Bound<'_, PyAny>, Bound<'_, PyAny>) = v
+                    .extract()
+                    .map_err(|_| to_py(Error::Invalid(format!("{field}: must be None or a pair of integers"))))?;
+                TallyInput::Pair(Some((f64_arg(&a, &format!("{field}[0]"))?, f64_arg(&b, &format!("{field}[1]"))?)))
+            }
+            TallyValue::Flag(_) => TallyInput::Flag(
+                v.extract().map_err(|_| to_py(Error::Invalid(format!("{field}: must be True or False"))))?,
+            ),
+        };
+        inputs.push((name, input));
+    }
+    TallyConfig::from_inputs(inputs).py()
+}
+
+/// The fields of `subsurf.Tallies` as the core defines them: (name, kind, default) in order;
+/// kinds "count", "length", "pair", "order", "bool".
+fn tally_fields(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
+    let out = PyList::empty(py);
+    for (name, v) in TallyConfig::default().fields() {
+        let default = match v {
+            TallyValue::Count(n) => n.into_pyobject(py)?.into_any(),
+            TallyValue::Width(w) => w.into_pyobject(py)?.into_any(),
+            TallyValue::Pair(p) => p.into_pyobject(py)?.into_any(),
+            TallyValue::Order(k) => k.into_pyobject(py)?.into_any(),
+            TallyValue::Flag(b) => b.into_pyobject(py)?.to_owned().into_any(),
+        };
+        out.append((name, v.kind(), default))?;
+    }
+    Ok(out)
 }
 
 /// Validate a `subsurf.Tallies.to_dict()`; raises ParameterError naming the field.
@@ -283,6 +289,24 @@ fn mc_run<'py>(
     Ok(d)
 }
 
+/// Check, without tracing or finishing anything, that `state` belongs to the run described by
+/// the arguments (same stack, source, seed and tallies): what `mc_run` checks before it resumes.
+#[pyfunction]
+#[pyo3(signature = (layers, n_above, n_below, seed, source, state, tallies=None))]
+#[allow(clippy::too_many_arguments)]
+fn mc_check_state(
+    layers: Vec<LayerTuple>,
+    n_above: f64,
+    n_below: f64,
+    seed: Bound<'_, PyAny>,
+    source: (String, f64, f64),
+    state: Bound<'_, PyDict>,
+    tallies: Option<Bound<'_, PyDict>>,
+) -> PyResult<()> {
+    let su = setup(&layers, n_above, n_below, None, &seed, None, &source, tallies.as_ref())?;
+    state_from_py(&state)?.check_compatible(su.fingerprint, &su.layout).py()
+}
+
 /// Totals (with `*_stderr`), `absorbed_per_layer` (+ stderr), `photons`, `events` and
 /// `histograms` (see [`histograms_to_py`]) of a state of the run described by the arguments.
 #[pyfunction]
@@ -368,6 +392,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mc_isa, m)?)?;
     m.add_function(wrap_pyfunction!(mc_run, m)?)?;
     m.add_function(wrap_pyfunction!(mc_finish, m)?)?;
+    m.add_function(wrap_pyfunction!(mc_check_state, m)?)?;
     m.add_function(wrap_pyfunction!(mc_merge_states, m)?)?;
     m.add_function(wrap_pyfunction!(mc_validate_source, m)?)?;
     m.add_function(wrap_pyfunction!(mc_validate_run, m)?)?;
@@ -381,5 +406,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MC_MAX_PENCIL_THETA", subsurf_core::mc::source::MAX_PENCIL_THETA)?;
     m.add("MC_MAX_EVENTS_PER_PHOTON", cost::MAX_EVENTS_PER_PHOTON)?;
     m.add("MC_STATE_SCHEME", subsurf_core::mc::state::SCHEME)?;
+    m.add("MC_TALLY_FIELDS", tally_fields(m.py())?)?;
     Ok(())
 }

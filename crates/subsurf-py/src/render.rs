@@ -1,10 +1,13 @@
 //! Bindings of `subsurf_core::render`: a `RenderJob` (scene + method, rendered pass by pass
 //! with the GIL released so Python can draw progress and catch Ctrl-C between passes),
-//! built-in shapes, mesh checks and the random-walk simulation.
+//! built-in shapes, mesh checks, the random-walk simulation, and the render registries
+//! (methods, light types and their parameters, the hierarchical method's defaults).
 //!
-//! Scenes arrive as plain dicts built by python/subsurf/render/scene.py (see `scene_spec`).
+//! Scenes arrive as the plain dicts python/subsurf/render/scene.py makes, extracted into the
+//! typed structs below ([`SceneArgs`]); every integer goes through the one argument mapping
+//! ([`u64_arg`]), so a negative or huge value gets the core's range error for its field.
 
-use crate::errors::{to_py, IntoPyResult};
+use crate::errors::{threads_arg, to_py, u64_arg, IntoPyResult};
 use crate::medium::{stack_from_py, LayerTuple};
 use crate::wait::{interrupted, interruptible, interruptible_ctl};
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, ToPyArray};
@@ -13,51 +16,97 @@ use pyo3::types::{PyDict, PyList};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use subsurf_core::bssrdf::monte_carlo::McSettings;
+use subsurf_core::mc::config::{PHOTONS_ALLOWED, SEED_ALLOWED};
+use subsurf_core::render::camera::RESOLUTION_ALLOWED;
+use subsurf_core::render::driver::{check_spp, SPP_ALLOWED};
+use subsurf_core::render::shapes::{MAX_SUBDIVISIONS, SUBDIVISIONS_ALLOWED};
 use subsurf_core::render::walk_sim::{simulate, BeamSource, VoxelGrid, WalkConfig};
 use subsurf_core::render::{
-    shapes, Camera, Control, HierarchicalParams, Light, Material, Mesh, Method, Object, Renderer, Scene,
+    shapes, Camera, Control, HierarchicalParams, Light, LightKind, Material, Mesh, Method, Object, Renderer, Scene,
     TranslucentSpec,
 };
 use subsurf_core::Error;
 
-fn v3(d: &Bound<'_, PyDict>, key: &str, ctx: &str) -> PyResult<[f64; 3]> {
-    let v: Vec<f64> = get_any(d, key, ctx)?;
-    v.try_into().map_err(|_| to_py(Error::Invalid(format!("{ctx}.{key}: expected 3 numbers"))))
+fn invalid(msg: String) -> PyErr {
+    to_py(Error::Invalid(msg))
 }
 
-fn get_any<'py, T>(d: &Bound<'py, PyDict>, key: &str, ctx: &str) -> PyResult<T>
-where
-    T: for<'a> FromPyObject<'a, 'py>,
-{
-    match d.get_item(key)? {
-        Some(v) => v.extract::<T>().map_err(|_| to_py(Error::Invalid(format!("{ctx}.{key}: wrong type")))),
-        None => Err(to_py(Error::Invalid(format!("{ctx}: missing key {key:?}")))),
+/// A mesh: `Object._mesh_dict()`.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct MeshArgs<'py> {
+    name: String,
+    positions: PyReadonlyArray2<'py, f64>,
+    triangles: PyReadonlyArray2<'py, i64>,
+    tint: Option<PyReadonlyArray2<'py, f64>>,
+}
+
+/// Rows of an (n, 3) array; errors name `what`.
+fn rows3<T: Copy + numpy::Element>(a: &PyReadonlyArray2<'_, T>, what: &str) -> PyResult<Vec<[T; 3]>> {
+    let a = a.as_array();
+    if a.ncols() != 3 {
+        return Err(invalid(format!("{what}: expected an array of shape (n, 3), got {:?}", a.shape())));
+    }
+    Ok(a.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
+}
+
+impl MeshArgs<'_> {
+    fn build(&self) -> PyResult<Mesh> {
+        let name = &self.name;
+        let positions = rows3(&self.positions, &format!("{name}.positions"))?;
+        let nv = positions.len();
+        let mut triangles = Vec::new();
+        for (i, t) in rows3(&self.triangles, &format!("{name}.triangles"))?.into_iter().enumerate() {
+            if let Some(&k) = t.iter().find(|&&k| k < 0 || k as u64 >= nv as u64) {
+                return Err(invalid(format!(
+                    "{name}: triangle {i} refers to vertex {k}, but the mesh has {nv} vertices (indices 0 … {})",
+                    nv as i64 - 1
+                )));
+            }
+            triangles.push(t.map(|k| k as u32));
+        }
+        let tint = self.tint.as_ref().map(|t| rows3(t, &format!("{name}.tint"))).transpose()?;
+        Mesh::new(name, positions, triangles, tint).py()
     }
 }
 
-fn mesh_from_py(d: &Bound<'_, PyDict>, name: &str) -> PyResult<Mesh> {
-    let pos: PyReadonlyArray2<f64> = get_any(d, "positions", name)?;
-    let tri: PyReadonlyArray2<i64> = get_any(d, "triangles", name)?;
-    let (pos, tri) = (pos.as_array(), tri.as_array());
-    if pos.ncols() != 3 || tri.ncols() != 3 {
-        return Err(to_py(Error::Invalid(format!("{name}: positions and triangles must have 3 columns"))));
-    }
-    let positions: Vec<[f64; 3]> = pos.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
-    let mut triangles = Vec::with_capacity(tri.nrows());
-    for r in tri.rows() {
-        if r.iter().any(|&k| k < 0 || k > u32::MAX as i64) {
-            return Err(to_py(Error::Invalid(format!("{name}: a triangle has a negative vertex index"))));
-        }
-        triangles.push([r[0] as u32, r[1] as u32, r[2] as u32]);
-    }
-    let tint = match d.get_item("tint")? {
-        Some(t) if !t.is_none() => {
-            let t: PyReadonlyArray2<f64> = t.extract()?;
-            Some(t.as_array().rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
-        }
-        _ => None,
-    };
-    Mesh::new(name, positions, triangles, tint).py()
+/// An object: its mesh and the index of its material.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct ObjectArgs<'py> {
+    mesh: MeshArgs<'py>,
+    material: usize,
+}
+
+/// A translucent material: `Translucent._to_core()`.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct TranslucentArgs<'py> {
+    name: String,
+    sigma_a: [f64; 3],
+    sigma_s: [f64; 3],
+    g: f64,
+    eta: f64,
+    model: String,
+    stacks: Vec<(Vec<LayerTuple>, f64, f64)>,
+    mc_photons: Bound<'py, PyAny>,
+    mc_seed: Bound<'py, PyAny>,
+    single_scattering: Option<bool>,
+    reflectance: Option<[f64; 3]>,
+}
+
+/// An opaque Lambertian material: `Lambertian._to_core()`.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct LambertianArgs {
+    name: String,
+    albedo: [f64; 3],
+}
+
+#[derive(FromPyObject)]
+enum MaterialArgs<'py> {
+    Translucent(TranslucentArgs<'py>),
+    Lambertian(LambertianArgs),
 }
 
 /// A material as given: Lambertian ones are ready; translucent ones compute their profiles
@@ -67,66 +116,147 @@ enum MaterialSpec {
     Translucent(Box<TranslucentSpec>),
 }
 
-fn material_from_py(d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<MaterialSpec> {
-    let name: String = get_any(d, "name", "material")?;
-    let ctx = format!("materials.{name}");
-    let kind: String = get_any(d, "kind", &ctx)?;
-    match kind.as_str() {
-        "lambertian" => Ok(MaterialSpec::Ready(Material::lambertian(&ctx, v3(d, "albedo", &ctx)?).py()?)),
-        "translucent" => {
-            let stacks: Vec<(Vec<LayerTuple>, f64, f64)> = get_any(d, "stacks", &ctx)?;
-            if stacks.len() != 3 {
-                return Err(to_py(Error::Invalid(format!("{ctx}.stacks: one stack per RGB channel (3) needed"))));
-            }
-            let mut st = Vec::with_capacity(3);
-            for (k, (layers, above, below)) in stacks.iter().enumerate() {
-                st.push(
-                    stack_from_py(layers, *above, *below)
-                        .map_err(|e| to_py(Error::Invalid(format!("{ctx}.stacks[{k}]: {e}"))))?,
-                );
-            }
-            let mc = McSettings {
-                photons: get_any(d, "mc_photons", &ctx)?,
-                seed: get_any(d, "mc_seed", &ctx)?,
-                threads,
-                ..McSettings::default()
-            };
-            Ok(MaterialSpec::Translucent(Box::new(TranslucentSpec {
-                sigma_a: v3(d, "sigma_a", &ctx)?,
-                sigma_s: v3(d, "sigma_s", &ctx)?,
-                g: get_any(d, "g", &ctx)?,
-                eta: get_any(d, "eta", &ctx)?,
-                model: get_any(d, "model", &ctx)?,
-                stacks: st.try_into().map_err(|_| to_py(Error::Invalid("stacks".into())))?,
-                mc,
-                colour: get_any(d, "colour", &ctx)?,
-                single_scattering: get_any(d, "single_scattering", &ctx)?,
-                field: ctx,
-            })))
+impl TranslucentArgs<'_> {
+    /// The material's inputs, checked (the profiles are computed by [`TranslucentSpec::build`]).
+    fn spec(&self, threads: Option<usize>) -> PyResult<TranslucentSpec> {
+        let ctx = format!("materials.{}", self.name);
+        let mut st = Vec::with_capacity(3);
+        for (k, (layers, above, below)) in self.stacks.iter().enumerate() {
+            st.push(stack_from_py(layers, *above, *below).map_err(|e| invalid(format!("{ctx}.stacks[{k}]: {e}")))?);
         }
-        other => {
-            Err(to_py(Error::Invalid(format!("{ctx}.kind = {other:?}: must be \"translucent\" or \"lambertian\""))))
-        }
+        let stacks: [_; 3] =
+            st.try_into().map_err(|_| invalid(format!("{ctx}.stacks: one stack per RGB channel (3) needed")))?;
+        let mc = McSettings {
+            photons: u64_arg(&self.mc_photons, &format!("{ctx}.mc_photons"), PHOTONS_ALLOWED)?,
+            seed: u64_arg(&self.mc_seed, &format!("{ctx}.mc_seed"), SEED_ALLOWED)?,
+            threads,
+            ..McSettings::default()
+        };
+        subsurf_core::bssrdf::Model::from_name(&format!("{ctx}.model"), &self.model).py()?;
+        Ok(TranslucentSpec {
+            field: ctx,
+            sigma_a: self.sigma_a,
+            sigma_s: self.sigma_s,
+            g: self.g,
+            eta: self.eta,
+            model: self.model.clone(),
+            stacks,
+            mc,
+            reflectance: self.reflectance,
+            single_scattering: self.single_scattering,
+        })
     }
 }
 
-fn light_from_py(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Light> {
-    let ctx = format!("lights[{i}]");
-    let kind: String = get_any(d, "kind", &ctx)?;
-    match kind.as_str() {
-        "point" => Light::point(&ctx, v3(d, "position", &ctx)?, v3(d, "power", &ctx)?),
-        "directional" => Light::directional(&ctx, v3(d, "direction", &ctx)?, v3(d, "irradiance", &ctx)?),
-        "sphere" => Light::sphere(&ctx, v3(d, "position", &ctx)?, get_any(d, "radius", &ctx)?, v3(d, "power", &ctx)?),
-        "rect" => {
-            Light::rect(&ctx, v3(d, "position", &ctx)?, v3(d, "u", &ctx)?, v3(d, "v", &ctx)?, v3(d, "power", &ctx)?)
-        }
-        other => Err(Error::Invalid(format!("{ctx}.kind = {other:?}: must be point, directional, sphere or rect"))),
-    }
-    .py()
+/// A light: `kind` (a [`LightKind`] name) and the parameters [`LightKind::params`] lists.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct LightArgs {
+    kind: String,
+    #[pyo3(default)]
+    position: Option<[f64; 3]>,
+    #[pyo3(default)]
+    power: Option<[f64; 3]>,
+    #[pyo3(default)]
+    direction: Option<[f64; 3]>,
+    #[pyo3(default)]
+    irradiance: Option<[f64; 3]>,
+    #[pyo3(default)]
+    radius: Option<f64>,
+    #[pyo3(default)]
+    u: Option<[f64; 3]>,
+    #[pyo3(default)]
+    v: Option<[f64; 3]>,
 }
 
-/// A scene as given (read from the dict python/subsurf/render/scene.py makes, with the GIL),
-/// before its materials' profiles are computed.
+impl LightArgs {
+    fn build(&self, i: usize) -> PyResult<Light> {
+        let ctx = format!("lights[{i}]");
+        let need = |v: Option<[f64; 3]>, key: &str| v.ok_or_else(|| invalid(format!("{ctx}: missing {key}")));
+        match LightKind::from_name(&format!("{ctx}.type"), &self.kind).py()? {
+            LightKind::Point => Light::point(&ctx, need(self.position, "position")?, need(self.power, "power")?),
+            LightKind::Directional => {
+                Light::directional(&ctx, need(self.direction, "direction")?, need(self.irradiance, "irradiance")?)
+            }
+            LightKind::Sphere => {
+                let radius = self.radius.ok_or_else(|| invalid(format!("{ctx}: missing radius")))?;
+                Light::sphere(&ctx, need(self.position, "position")?, radius, need(self.power, "power")?)
+            }
+            LightKind::Rect => Light::rect(
+                &ctx,
+                need(self.position, "position")?,
+                need(self.u, "u")?,
+                need(self.v, "v")?,
+                need(self.power, "power")?,
+            ),
+        }
+        .py()
+    }
+}
+
+/// The camera: `Camera._to_core()`.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct CameraArgs<'py> {
+    position: [f64; 3],
+    look_at: [f64; 3],
+    up: [f64; 3],
+    fov: f64,
+    width: Bound<'py, PyAny>,
+    height: Bound<'py, PyAny>,
+}
+
+impl CameraArgs<'_> {
+    fn build(&self) -> PyResult<Camera> {
+        let size = |v: &Bound<'_, PyAny>, f: &str| -> PyResult<usize> {
+            Ok(usize::try_from(u64_arg(v, f, RESOLUTION_ALLOWED)?).unwrap_or(usize::MAX))
+        };
+        let (w, h) = (size(&self.width, "camera.width")?, size(&self.height, "camera.height")?);
+        Camera::new(self.position, self.look_at, self.up, self.fov, w, h).py()
+    }
+}
+
+/// A scene: `Scene._to_core()`.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct SceneArgs<'py> {
+    objects: Vec<ObjectArgs<'py>>,
+    materials: Vec<MaterialArgs<'py>>,
+    lights: Vec<LightArgs>,
+    environment: [f64; 3],
+    camera: Option<CameraArgs<'py>>,
+}
+
+impl SceneArgs<'_> {
+    /// The scene's inputs, checked, with the GIL: everything but the materials' profiles.
+    fn spec(&self, threads: Option<usize>) -> PyResult<SceneSpec> {
+        let mut materials = vec![];
+        for m in &self.materials {
+            materials.push(match m {
+                MaterialArgs::Translucent(t) => MaterialSpec::Translucent(Box::new(t.spec(threads)?)),
+                MaterialArgs::Lambertian(l) => {
+                    MaterialSpec::Ready(Material::lambertian(&format!("materials.{}", l.name), l.albedo).py()?)
+                }
+            });
+        }
+        let mut objects = vec![];
+        for o in &self.objects {
+            objects.push(Object { name: o.mesh.name.clone(), mesh: o.mesh.build()?, material: o.material });
+        }
+        let lights = self.lights.iter().enumerate().map(|(i, l)| l.build(i)).collect::<PyResult<Vec<_>>>()?;
+        let camera = self.camera.as_ref().map(CameraArgs::build).transpose()?;
+        Ok(SceneSpec { objects, materials, lights, env: self.environment, camera })
+    }
+
+    /// The core scene without profiles (the random walk and the BVH benchmark: nothing long).
+    fn build_without_profiles(&self, py: Python<'_>, threads: Option<usize>) -> PyResult<Scene> {
+        let spec = self.spec(threads)?;
+        let scene = py.detach(|| spec.build(false, &Control::default())).py()?;
+        Ok(scene.expect("never cancelled"))
+    }
+}
+
+/// A scene read from Python, before its materials' profiles are computed.
 struct SceneSpec {
     objects: Vec<Object>,
     materials: Vec<MaterialSpec>,
@@ -145,8 +275,8 @@ impl SceneSpec {
         specs.fold(0, u64::saturating_add)
     }
 
-    /// The core scene; with `profiles` false (random walks) no profile is computed. `None` when
-    /// `ctl.cancel` stopped a Monte Carlo profile (which counts photons in `ctl.done`).
+    /// The core scene; materials get profiles only when `profiles` (the method uses them).
+    /// `None` when `ctl.cancel` stopped a Monte Carlo profile (which counts photons in `ctl.done`).
     fn build(self, profiles: bool, ctl: &Control) -> subsurf_core::Result<Option<Scene>> {
         let mut materials = Vec::with_capacity(self.materials.len());
         for m in self.materials {
@@ -162,57 +292,59 @@ impl SceneSpec {
     }
 }
 
-/// Read a scene from the dict python/subsurf/render/scene.py makes.
-fn scene_spec(d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<SceneSpec> {
-    let mut materials = vec![];
-    for m in get_any::<Bound<PyList>>(d, "materials", "scene")?.iter() {
-        let md = m.cast::<PyDict>()?;
-        materials.push(material_from_py(md, threads)?);
-    }
-    let mut objects = vec![];
-    for o in get_any::<Bound<PyList>>(d, "objects", "scene")?.iter() {
-        let od = o.cast::<PyDict>()?;
-        let name: String = get_any(od, "name", "object")?;
-        let mesh = mesh_from_py(od, &name)?;
-        objects.push(Object { name, mesh, material: get_any(od, "material", "object")? });
-    }
-    let mut lights = vec![];
-    for (i, l) in get_any::<Bound<PyList>>(d, "lights", "scene")?.iter().enumerate() {
-        lights.push(light_from_py(l.cast::<PyDict>()?, i)?);
-    }
-    let env = v3(d, "environment", "scene")?;
-    let camera = match d.get_item("camera")? {
-        Some(c) if !c.is_none() => {
-            let c = c.cast::<PyDict>()?.clone();
-            Some(
-                Camera::new(
-                    v3(&c, "position", "camera")?,
-                    v3(&c, "look_at", "camera")?,
-                    v3(&c, "up", "camera")?,
-                    get_any(&c, "fov", "camera")?,
-                    get_any(&c, "width", "camera")?,
-                    get_any(&c, "height", "camera")?,
-                )
-                .py()?,
-            )
-        }
-        _ => None,
-    };
-    Ok(SceneSpec { objects, materials, lights, env, camera })
-}
-
-/// A core scene without profiles (for the random walk and the BVH benchmark: nothing long).
-fn walk_scene(py: Python<'_>, d: &Bound<'_, PyDict>, threads: Option<usize>) -> PyResult<Scene> {
-    let spec = scene_spec(d, threads)?;
-    let scene = py.detach(|| spec.build(false, &Control::default())).py()?;
-    Ok(scene.expect("never cancelled"))
-}
-
 /// `progress` bound to a stage name: `functools.partial(progress, stage)`.
 fn staged(py: Python<'_>, progress: Option<&Py<PyAny>>, stage: &str) -> PyResult<Option<Py<PyAny>>> {
     let Some(p) = progress else { return Ok(None) };
     let partial = py.import("functools")?.getattr("partial")?;
     Ok(Some(partial.call1((p, stage))?.unbind()))
+}
+
+/// Settings of the hierarchical method: the dict `render(hierarchical=...)` completes with
+/// [`hierarchical_defaults`].
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct HierarchicalArgs<'py> {
+    spacing: f64,
+    epsilon: f64,
+    env_samples: Bound<'py, PyAny>,
+    light_samples: Bound<'py, PyAny>,
+}
+
+impl HierarchicalArgs<'_> {
+    fn build(&self) -> PyResult<HierarchicalParams> {
+        let count = |v: &Bound<'_, PyAny>, f: &str, allowed: &'static str| -> PyResult<u32> {
+            let n = u64_arg(v, f, allowed)?;
+            u32::try_from(n).map_err(|_| to_py(Error::param_int(f, n as i128, allowed)))
+        };
+        let hp = HierarchicalParams {
+            spacing: self.spacing,
+            epsilon: self.epsilon,
+            env_samples: count(&self.env_samples, "hierarchical.env_samples", "an integer in [0, 4294967295]")?,
+            light_samples: count(&self.light_samples, "hierarchical.light_samples", "an integer in [1, 4294967295]")?,
+            ..HierarchicalParams::default()
+        };
+        hp.validate().py()?;
+        Ok(hp)
+    }
+}
+
+/// The hierarchical method's settings a user can give, with their defaults.
+fn hierarchical_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let HierarchicalParams { spacing, epsilon, env_samples, light_samples, max_samples: _ } =
+        HierarchicalParams::default();
+    let d = PyDict::new(py);
+    d.set_item("spacing", spacing)?;
+    d.set_item("epsilon", epsilon)?;
+    d.set_item("env_samples", env_samples)?;
+    d.set_item("light_samples", light_samples)?;
+    Ok(d)
+}
+
+/// (spp, seed) of a render, validated: spp in [1, 2³² − 1], seed in [0, 2⁶⁴).
+#[pyfunction]
+fn render_check_settings(spp: &Bound<'_, PyAny>, seed: &Bound<'_, PyAny>) -> PyResult<(u32, u64)> {
+    let spp = check_spp(u64_arg(spp, "spp", SPP_ALLOWED)?).py()?;
+    Ok((spp, u64_arg(seed, "seed", SEED_ALLOWED)?))
 }
 
 /// A scene prepared for one method; `render_pass` adds samples to its accumulator.
@@ -226,29 +358,28 @@ struct RenderJob {
 
 #[pymethods]
 impl RenderJob {
-    /// Prepare `scene` (a dict) for `method`; `hierarchical` = (spacing, epsilon, env_samples,
-    /// light_samples) or None for the defaults. The set-up runs with the GIL released and stops
-    /// on Ctrl-C (KeyboardInterrupt) or SIGTERM: `monte_carlo` profiles (not built for
-    /// `random_walk`, which uses none) call `progress("profiles", photons done, total)`, the
-    /// hierarchical irradiance samples `progress("irradiance", samples done, total)`; stages
-    /// with nothing to do are not reported.
+    /// Prepare `scene` (a dict) for `method`; `hierarchical`: the method's settings (a dict of
+    /// every key of `RENDER_HIERARCHICAL_DEFAULTS`) or None for the defaults. The set-up runs
+    /// with the GIL released and stops on Ctrl-C (KeyboardInterrupt) or SIGTERM:
+    /// `monte_carlo` profiles (built only for methods that use profiles) call
+    /// `progress("profiles", photons done, total)`, the hierarchical irradiance samples
+    /// `progress("irradiance", samples done, total)`; stages with nothing to do are not reported.
     #[new]
     #[pyo3(signature = (scene, method, seed, threads=None, hierarchical=None, progress=None))]
     fn new(
         py: Python<'_>,
-        scene: &Bound<'_, PyDict>,
+        scene: SceneArgs<'_>,
         method: &str,
-        seed: u64,
-        threads: Option<usize>,
-        hierarchical: Option<(f64, f64, u32, u32)>,
+        seed: &Bound<'_, PyAny>,
+        threads: Option<&Bound<'_, PyAny>>,
+        hierarchical: Option<HierarchicalArgs<'_>>,
         progress: Option<Py<PyAny>>,
     ) -> PyResult<Self> {
-        let m = Method::from_name(method).py()?;
-        let mut hp = HierarchicalParams::default();
-        if let Some((a, b, c, e)) = hierarchical {
-            (hp.spacing, hp.epsilon, hp.env_samples, hp.light_samples) = (a, b, c, e);
-        }
-        let spec = scene_spec(scene, threads)?;
+        let m = Method::from_name("method", method).py()?;
+        let seed = u64_arg(seed, "seed", SEED_ALLOWED)?;
+        let threads = threads.map(threads_arg).transpose()?;
+        let hp = hierarchical.as_ref().map_or_else(|| Ok(HierarchicalParams::default()), HierarchicalArgs::build)?;
+        let spec = scene.spec(threads)?;
         let (profiles, photons) = (m.uses_profiles(), spec.photons(m.uses_profiles()));
         let cb = staged(py, progress.as_ref().filter(|_| photons > 0), "profiles")?;
         let (sc, stop) = interruptible_ctl(py, cb.as_ref(), photons, move |ctl| spec.build(profiles, ctl))?;
@@ -265,6 +396,12 @@ impl RenderJob {
             return Err(stop.unwrap_or_else(|| interrupted("the render set-up")));
         };
         Ok(RenderJob { renderer: Arc::new(r), accum: vec![0.0; w * h * 3], spp: 0, threads })
+    }
+
+    /// Warnings about the scene (lights that cannot light anything), one line each.
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.renderer.scene.warnings()
     }
 
     /// Render `n` more samples per pixel; returns the total so far. The pass runs on a worker
@@ -312,10 +449,11 @@ impl RenderJob {
 /// Positions (N, 3) and triangles (M, 3) of a mesh.
 type MeshArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>);
 
-/// A built-in shape as (positions (N, 3), triangles (M, 3)): kind "sphere" (center, radius,
-/// subdivisions), "box" (lo, hi), "plane" (cx, cy, z, sx, sy) or "torus" (center, R, r, nu, nv).
+/// A built-in shape as (positions (N, 3), triangles (M, 3)): kind "sphere" (center, radius `c`,
+/// subdivisions `level`), "box" (lo, hi), "plane" (center, sizes `c`, `d`) or "torus" (center,
+/// R = `c`, r = `d`, nu, nv). Sizes are checked by the core (`render::shapes`).
 #[pyfunction]
-#[pyo3(signature = (kind, a, b=None, c=0.0, d=0.0, level=4, nu=64, nv=32))]
+#[pyo3(signature = (kind, a, b=None, c=0.0, d=0.0, level=None, nu=64, nv=32))]
 #[allow(clippy::too_many_arguments)]
 fn render_shape<'py>(
     py: Python<'py>,
@@ -324,27 +462,24 @@ fn render_shape<'py>(
     b: Option<[f64; 3]>,
     c: f64,
     d: f64,
-    level: u32,
+    level: Option<&Bound<'py, PyAny>>,
     nu: u32,
     nv: u32,
 ) -> PyResult<MeshArrays<'py>> {
     let mesh = match kind {
-        "sphere" if c > 0.0 && level <= 8 => shapes::icosphere(a, c, level),
-        "box" => {
-            let hi = b.ok_or_else(|| to_py(Error::Invalid("box: give lo and hi corners".into())))?;
-            if (0..3).any(|k| !(hi[k] > a[k])) {
-                return Err(to_py(Error::Invalid("box: every coordinate of hi must exceed lo's".into())));
+        "sphere" => {
+            let level = level.map_or(Ok(4), |l| u64_arg(l, "subdivisions", SUBDIVISIONS_ALLOWED))?;
+            if level > MAX_SUBDIVISIONS as u64 {
+                return Err(to_py(Error::param_int("subdivisions", level as i128, SUBDIVISIONS_ALLOWED)));
             }
-            shapes::cuboid(a, hi)
+            shapes::icosphere(a, c, level as u32)
         }
-        "plane" if c > 0.0 && d > 0.0 => shapes::rectangle(a[0], a[1], a[2], c, d),
-        "torus" if c > d && d > 0.0 && nu >= 3 && nv >= 3 => shapes::torus(a, c, d, nu, nv),
-        _ => {
-            return Err(to_py(Error::Invalid(format!(
-                "shape {kind:?}: unknown kind or sizes out of range (radius > 0, level <= 8; torus R > r > 0)"
-            ))))
-        }
-    };
+        "box" => shapes::cuboid(a, b.ok_or_else(|| invalid("box: give lo and hi corners".into()))?),
+        "plane" => shapes::rectangle(a[0], a[1], a[2], c, d),
+        "torus" => shapes::torus(a, c, d, nu, nv),
+        other => return Err(invalid(format!("shape = {other:?}: must be sphere, box, plane or torus"))),
+    }
+    .py()?;
     let p: Vec<f64> = mesh.positions.iter().flatten().copied().collect();
     let t: Vec<i64> = mesh.triangles.iter().flatten().map(|&x| x as i64).collect();
     Ok((
@@ -353,47 +488,65 @@ fn render_shape<'py>(
     ))
 }
 
-/// (closed, open_edges, area, volume) of a mesh, validating it (errors name `name`).
+/// (closed, open_edges, area, volume) of a mesh (`Object._mesh_dict()`), validating it.
 #[pyfunction]
-fn render_mesh_info(mesh: &Bound<'_, PyDict>, name: &str) -> PyResult<(bool, usize, f64, f64)> {
-    let m = mesh_from_py(mesh, name)?;
+fn render_mesh_info(mesh: MeshArgs<'_>) -> PyResult<(bool, usize, f64, f64)> {
+    let m = mesh.build()?;
     Ok((m.closed, m.open_edges, m.total_area(), m.volume()))
 }
 
+/// A voxel grid: (lo, hi, (nx, ny, nz)); the counts through [`u64_arg`].
+type VoxelArgs<'py> = ([f64; 3], [f64; 3], [Bound<'py, PyAny>; 3]);
+
 /// The random-walk simulation: `source` = ("pencil", origin, direction) or ("collimated",
-/// direction, direction); returns a dict of tallies (fractions of launched power). Ctrl-C stops
-/// it with KeyboardInterrupt.
+/// direction, direction); `voxels` = (lo, hi, (nx, ny, nz)); returns a dict of tallies
+/// (fractions of launched power). Ctrl-C stops it with KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (scene, source, photons, seed, channel=0, voxels=None, threads=None))]
+#[pyo3(signature = (scene, source, photons, seed, channel=None, voxels=None, threads=None))]
 #[allow(clippy::too_many_arguments)]
 fn render_walk_simulate<'py>(
     py: Python<'py>,
-    scene: &Bound<'py, PyDict>,
+    scene: SceneArgs<'py>,
     source: (String, [f64; 3], [f64; 3]),
-    photons: u64,
-    seed: u64,
-    channel: usize,
-    voxels: Option<([f64; 3], [f64; 3], [usize; 3])>,
-    threads: Option<usize>,
+    photons: &Bound<'py, PyAny>,
+    seed: &Bound<'py, PyAny>,
+    channel: Option<&Bound<'py, PyAny>>,
+    voxels: Option<VoxelArgs<'py>>,
+    threads: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let sc = walk_scene(py, scene, threads)?;
+    let threads = threads.map(threads_arg).transpose()?;
+    let photons = u64_arg(photons, "photons", PHOTONS_ALLOWED)?;
+    let seed = u64_arg(seed, "seed", SEED_ALLOWED)?;
+    let channel = channel.map_or(Ok(0), |c| u64_arg(c, "channel", "0, 1 or 2"))?;
+    let voxels = match voxels {
+        Some((lo, hi, n)) => {
+            let mut counts = [0usize; 3];
+            for (k, v) in n.iter().enumerate() {
+                let c = u64_arg(v, &format!("voxels.n[{k}]"), "an integer >= 1")?;
+                counts[k] = usize::try_from(c).unwrap_or(usize::MAX);
+            }
+            Some(VoxelGrid { lo, hi, n: counts })
+        }
+        None => None,
+    };
+    let sc = scene.build_without_profiles(py, threads)?;
     let src = match source.0.as_str() {
         "pencil" => BeamSource::Pencil { origin: source.1, direction: source.2 },
         "collimated" => BeamSource::Collimated { direction: source.2 },
-        other => return Err(to_py(Error::Invalid(format!("source: unknown kind {other:?} (pencil or collimated)")))),
+        other => return Err(invalid(format!("source: unknown kind {other:?} (pencil or collimated)"))),
     };
     if photons == 0 {
-        return Err(to_py(Error::param("photons", 0.0, "an integer >= 1")));
+        return Err(to_py(Error::param_int("photons", 0, PHOTONS_ALLOWED)));
     }
-    let cfg =
-        WalkConfig { source: src, photons, seed, channel, voxels: voxels.map(|(lo, hi, n)| VoxelGrid { lo, hi, n }) };
+    let channel = usize::try_from(channel).unwrap_or(usize::MAX);
+    let cfg = WalkConfig { source: src, photons, seed, channel, voxels };
     let sc = Arc::new(sc);
     let shared = sc.clone();
     let (t, stop) = interruptible(py, None, photons, move |cancel, done| {
         subsurf_core::render::with_threads(threads, || simulate(&shared, &cfg, cancel, done))
     })?;
     if stop.is_some() {
-        return Err(interrupted("the random-walk simulation"));
+        return Err(crate::wait::interrupted("the random-walk simulation"));
     }
     let t = t.py()?.py()?;
     let n = t.photons as f64;
@@ -421,16 +574,29 @@ fn render_walk_simulate<'py>(
 
 /// (inside rays/s, camera rays/s) of the BVH over `scene`'s meshes, one thread, `n` rays each.
 #[pyfunction]
-fn render_bvh_benchmark(py: Python<'_>, scene: &Bound<'_, PyDict>, n: usize) -> PyResult<(f64, f64)> {
-    let sc = walk_scene(py, scene, None)?;
+fn render_bvh_benchmark(py: Python<'_>, scene: SceneArgs<'_>, n: usize) -> PyResult<(f64, f64)> {
+    let sc = scene.build_without_profiles(py, None)?;
     Ok(py.detach(|| subsurf_core::render::accel::rays_per_second(&sc.accel, n, 1)))
+}
+
+/// Light types and the parameters each takes, in the core's order.
+fn light_kinds(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    for &k in LightKind::ALL {
+        d.set_item(k.name(), k.params().to_vec())?;
+    }
+    Ok(d)
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render_bvh_benchmark, m)?)?;
     m.add_class::<RenderJob>()?;
+    m.add_function(wrap_pyfunction!(render_check_settings, m)?)?;
     m.add_function(wrap_pyfunction!(render_shape, m)?)?;
     m.add_function(wrap_pyfunction!(render_mesh_info, m)?)?;
     m.add_function(wrap_pyfunction!(render_walk_simulate, m)?)?;
+    m.add("RENDER_METHODS", Method::NAMES.to_vec())?;
+    m.add("RENDER_LIGHTS", light_kinds(m.py())?)?;
+    m.add("RENDER_HIERARCHICAL_DEFAULTS", hierarchical_defaults(m.py())?)?;
     Ok(())
 }

@@ -30,22 +30,32 @@ def add_parser(sub):
 
 
 def _read(path, cols):
+    """The columns ``cols`` of a CSV file as float arrays (a UTF-8 byte-order mark is ignored)."""
     from . import CommandError as UserError
 
     try:
-        with open(path, newline="") as f:
+        with open(path, newline="", encoding="utf-8-sig") as f:
             rows = list(csv.DictReader(f))
     except FileNotFoundError:
         raise UserError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise UserError(f"{path}: not a readable CSV file ({e})") from None
     if not rows:
         raise UserError(f"{path}: no data rows")
-    missing = [c for c in cols if c not in rows[0]]
+    header = [str(c).strip() for c in rows[0] if c is not None]
+    missing = [c for c in cols if c not in header]
     if missing:
-        raise UserError(f"{path}: missing column(s) {', '.join(missing)} (need {', '.join(cols)})")
-    try:
-        return {c: np.array([float(r[c]) for r in rows]) for c in cols}
-    except ValueError as e:
-        raise UserError(f"{path}: {e}") from None
+        raise UserError(f"{path}: missing column(s) {', '.join(missing)} (need {', '.join(cols)}; found {header})")
+    out = {c: np.empty(len(rows)) for c in cols}
+    for i, row in enumerate(rows):
+        row = {str(k).strip(): v for k, v in row.items() if k is not None}
+        for c in cols:
+            try:
+                out[c][i] = float(row[c])
+            except (TypeError, ValueError):
+                what = "is missing (a short row)" if row[c] is None else f"= {row[c]!r} is not a number"
+                raise UserError(f"{path}: data row {i + 1}: {c} {what}") from None
+    return out
 
 
 def _show(fit):

@@ -44,8 +44,10 @@ def run(a) -> int:
     atomic.check_target(out, force=a.force, inputs=inputs)  # before the run: a refusal costs nothing
     if a.resume is not None:
         from ..io import load
+        from ..mc import check_resume
 
-        kw["resume"] = prior = load(a.resume)  # the core refuses a state of another configuration
+        kw["resume"] = prior = load(a.resume)
+        check_resume(cfg.stack, prior, kw.get("seed", 0), kw.get("source"), kw.get("tallies"))  # before saying so
         print(f"resuming from {a.resume}: {prior.photons:,} photons already traced")
     with runner.scheduler_client(a) as client:
         if client is not None:

@@ -22,7 +22,11 @@ def add_parser(sub):
     p.add_argument("-o", "--output", metavar="SWEEP.h5", help="sweep file (default: the TOML's output or SWEEP.h5)")
     p.add_argument("--photons", type=int, help="override the photons of every point")
     p.add_argument("--threads", type=int, help="threads per point when run locally (default: all cores)")
-    p.add_argument("--force", action="store_true", help="replace an output file that holds another sweep")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an output file that holds another sweep or is damaged (its points are lost)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or table")
     add_scheduler_options(p)
     p.set_defaults(func=run)
@@ -57,6 +61,32 @@ def _table(res) -> str:
     return "\n".join(lines)
 
 
+def _check_output(a, cfg, out) -> None:
+    """An existing output is resumed when it holds this sweep; otherwise it is replaced only with
+    --force, and never when it is the configuration itself."""
+    from .. import atomic, container, sweeps
+    from . import CommandError as UserError
+
+    if not os.path.lexists(out):
+        return
+    atomic.check_target(out, force=True, inputs=(a.config,))  # a directory, or the TOML itself
+    try:
+        old = sweeps.load(out)
+    except container.FileFormatError as e:
+        if not a.force:
+            raise UserError(f"{e}; use --force to discard it (and any points it held) or -o elsewhere") from None
+        os.unlink(out)
+        return
+    if not sweeps.same_sweep(old, cfg, cfg.grid()):
+        if not a.force:
+            raise UserError(
+                f"{out}: holds another sweep (other configuration or grid); use --force to replace it or -o elsewhere"
+            )
+        os.unlink(out)
+    elif not a.quiet:
+        print(f"{out}: resuming, {old.points_done} of {old.done.size} points already done")
+
+
 def run(a) -> int:
     import warnings
 
@@ -64,7 +94,6 @@ def run(a) -> int:
     from ..config import load_sweep
     from ..runner import EXIT_INTERRUPTED, Interrupted, scheduler_client
     from ..runner import progress_bar as _bar
-    from . import CommandError as UserError
 
     cfg = load_sweep(a.config)
     if a.photons is not None:
@@ -72,18 +101,7 @@ def run(a) -> int:
         cfg.run_config(**{k: v[0] for k, v in cfg.grid().items()})  # the override is checked as the file is
     cfg.threads = a.threads
     out = _output(a, cfg)
-    if os.path.exists(out):
-        try:
-            old = sweeps.load(out)
-            same = sweeps.same_sweep(old, cfg, cfg.grid())
-        except ValueError:
-            same = False
-        if not same:
-            if not a.force:
-                raise UserError(f"{out}: exists and holds something else; use --force to replace it or -o elsewhere")
-            os.unlink(out)
-        elif not a.quiet:
-            print(f"{out}: resuming, {old.points_done} of {old.done.size} points already done")
+    _check_output(a, cfg, out)
     bar = _bar("sweep", a.quiet)
     with scheduler_client(a) as client, warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # "interrupted" is reported below, in one line

@@ -13,12 +13,14 @@ pbrt-v4 materials.
 from __future__ import annotations
 
 import time
+import warnings
 
 import numpy as np
 
 from .. import _core
 from .image import Image, read_exr, tonemap, write_exr, write_png
 from .scene import (
+    LIGHTS,
     MODELS,
     Camera,
     DirectionalLight,
@@ -33,7 +35,10 @@ from .scene import (
 from .toml_scene import load_scene
 from .walk import simulate_walk
 
-METHODS = ("hierarchical", "probe", "random_walk")
+#: The render methods (the core's ``render::Method``).
+METHODS = tuple(_core.RENDER_METHODS)
+#: Settings of the hierarchical method and their defaults (the core's ``HierarchicalParams``).
+HIERARCHICAL_DEFAULTS = dict(_core.RENDER_HIERARCHICAL_DEFAULTS)
 
 
 def render(
@@ -58,26 +63,26 @@ def render(
     for any ``threads``.
     ``hierarchical`` = dict(spacing=, epsilon=, env_samples=, light_samples=) tunes that method."""
     if method not in METHODS:
-        raise _core.ParameterError(f"method = {method!r} is unknown: must be one of {list(METHODS)}")
-    spp = int(spp)
-    if spp < 1:
-        raise _core.ParameterError(f"spp = {spp} is out of range: must be >= 1")
+        raise _core.ParameterError(f"method = {method!r} is not a render method: must be one of {list(METHODS)}")
+    spp, _ = _core.render_check_settings(spp, seed)
     if scene.camera is None:
         raise _core.ParameterError("camera: the scene has no camera")
     hp = None
     if hierarchical:
-        d = {"spacing": 0.35, "epsilon": 0.05, "env_samples": 64, "light_samples": 16}
-        unknown = set(hierarchical) - set(d)
+        unknown = set(hierarchical) - set(HIERARCHICAL_DEFAULTS)
         if unknown:
-            raise _core.ParameterError(f"hierarchical: unknown settings {sorted(unknown)} (allowed: {sorted(d)})")
-        d.update(hierarchical)
-        hp = (float(d["spacing"]), float(d["epsilon"]), int(d["env_samples"]), int(d["light_samples"]))
+            raise _core.ParameterError(
+                f"hierarchical: unknown settings {sorted(unknown)} (allowed: {sorted(HIERARCHICAL_DEFAULTS)})"
+            )
+        hp = {**HIERARCHICAL_DEFAULTS, **hierarchical}
     t0 = time.monotonic()
     try:
-        job = _core.RenderJob(scene._to_core(method), method, int(seed), threads, hp, setup_progress)
+        job = _core.RenderJob(scene._to_core(method), method, seed, threads, hp, setup_progress)
     except KeyboardInterrupt:
         shape = (scene.camera.height, scene.camera.width, 3)
         return Image(np.zeros(shape), 0, spp, method, seed, time.monotonic() - t0)
+    for w in job.warnings:
+        warnings.warn(w, RuntimeWarning, stacklevel=2)
     cap = int(pass_spp) if pass_spp else max(1, spp // 16)
     step = cap if pass_spp else 1  # passes grow from 1 spp while they take under half a second
     done = 0
@@ -97,6 +102,8 @@ def render(
 
 
 __all__ = [
+    "HIERARCHICAL_DEFAULTS",
+    "LIGHTS",
     "METHODS",
     "MODELS",
     "Camera",

@@ -28,8 +28,9 @@ QUICK = dict(width=96, height=36, spp=1)
 
 
 def jade() -> Translucent:
-    """The demo's jade: the one place it calls the colour → material inversion."""
-    return Translucent.from_color(JADE_COLOUR, JADE_MFP, eta=1.6, name="jade")
+    """The demo's jade: the one place it calls the colour → material inversion (reflectance per
+    incident power, mean free path 1/σt)."""
+    return Translucent.from_reflectance(JADE_COLOUR, JADE_MFP, eta=1.6, name="jade")
 
 
 def materials() -> list[tuple[str, Translucent]]:

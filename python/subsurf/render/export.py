@@ -15,27 +15,55 @@ A layered material (a stack of several layers) cannot be expressed by either for
 
 from __future__ import annotations
 
+import math
 import re
 
 from .. import _core
 from .scene import Translucent
 
 
-def _check(m, fmt):
+def _err(msg: str):
+    return _core.ParameterError(msg)
+
+
+def _unit(fmt: str, unit_mm) -> float:
+    try:
+        u = float(unit_mm)
+    except (TypeError, ValueError):
+        u = math.nan
+    if not (math.isfinite(u) and u > 0):
+        raise _err(
+            f"{fmt}: unit_mm = {unit_mm!r} is out of range: the length of one scene unit, a finite number > 0 (mm)"
+        )
+    return u
+
+
+def _check(m, fmt, unit_mm) -> float:
+    """The scene unit after checking that ``m`` is a homogeneous medium both formats can hold."""
     if not isinstance(m, Translucent):
-        raise _core.ParameterError(f"{fmt} export: {m!r} is not a Translucent material")
+        raise _err(f"{fmt} export: {m!r} is not a Translucent material")
     if m.layered:
-        raise _core.ParameterError(
+        raise _err(
             f"{fmt} export: material {m.name!r} is layered (a stack of layers per channel); {fmt} has one "
             "homogeneous medium per shape, so it cannot express it (export each layer as a nested shape)"
         )
+    for i, (a, s) in enumerate(zip(m.sigma_a, m.sigma_s)):
+        try:
+            _core.bssrdf_check_medium(a, s, m.g, m.eta)
+        except _core.ParameterError as e:
+            raise _err(f"{fmt} export: material {m.name!r}, channel {i}: {e}") from None
+    u = _unit(f"{fmt} export", unit_mm)
+    big = max(a + s for a, s in zip(m.sigma_a, m.sigma_s)) * u
+    if not math.isfinite(big):
+        raise _err(f"{fmt} export: unit_mm = {unit_mm!r} makes sigma_t = {big} per scene unit (not finite)")
+    return u
 
 
 def to_mitsuba(m: Translucent, unit_mm: float = 1.0) -> dict:
     """{"bsdf": {...}, "interior": {...}} for a Mitsuba 3 shape dict (``mi.load_dict``)."""
-    _check(m, "Mitsuba 3")
+    unit_mm = _check(m, "Mitsuba 3", unit_mm)
     st = [(a + s) * unit_mm for a, s in zip(m.sigma_a, m.sigma_s)]
-    alb = [s / (a + s) if a + s > 0 else 0.0 for a, s in zip(m.sigma_a, m.sigma_s)]
+    alb = [s / (a + s) for a, s in zip(m.sigma_a, m.sigma_s)]
     return {
         "bsdf": {"type": "dielectric", "int_ior": m.eta, "ext_ior": 1.0},
         "interior": {
@@ -50,25 +78,36 @@ def to_mitsuba(m: Translucent, unit_mm: float = 1.0) -> dict:
 
 def from_mitsuba(d: dict, unit_mm: float = 1.0, name=None) -> Translucent:
     """The material of a :func:`to_mitsuba` dict."""
-    med, bsdf = d["interior"], d["bsdf"]
-    if med.get("type") != "homogeneous" or bsdf.get("type") != "dielectric":
-        raise _core.ParameterError("from_mitsuba: expected a homogeneous interior in a dielectric")
-    sc = float(med.get("scale", 1.0)) / unit_mm
-    st = [x * sc for x in med["sigma_t"]["value"]]
-    alb = med["albedo"]["value"]
+    sc = 1.0 / _unit("from_mitsuba", unit_mm)
+    try:
+        med, bsdf = d["interior"], d["bsdf"]
+        if med.get("type") != "homogeneous" or bsdf.get("type") != "dielectric":
+            raise _err("from_mitsuba: expected a homogeneous interior in a dielectric")
+        sc *= float(med.get("scale", 1.0))
+        st = [float(x) * sc for x in med["sigma_t"]["value"]]
+        alb = [float(x) for x in med["albedo"]["value"]]
+        g, eta = float(med["phase"]["g"]), float(bsdf["int_ior"]) / float(bsdf.get("ext_ior", 1.0))
+    except (KeyError, TypeError, ValueError, AttributeError) as e:
+        if isinstance(e, _core.ParameterError):
+            raise
+        raise _err(f"from_mitsuba: not a to_mitsuba dict ({type(e).__name__}: {e})") from None
     return Translucent(
-        [t * (1 - a) for t, a in zip(st, alb)],
-        [t * a for t, a in zip(st, alb)],
-        g=med["phase"]["g"],
-        eta=bsdf["int_ior"] / bsdf.get("ext_ior", 1.0),
-        name=name,
+        [t * (1 - a) for t, a in zip(st, alb)], [t * a for t, a in zip(st, alb)], g=g, eta=eta, name=name
     )
+
+
+#: Characters a pbrt-v4 string cannot hold as written here (quotes end it; no escapes are written).
+_PBRT_BAD = re.compile(r'["\\\x00-\x1f\x7f]')
 
 
 def to_pbrt(m: Translucent, unit_mm: float = 1.0, name=None) -> str:
     """A pbrt-v4 ``MakeNamedMaterial`` block of type ``subsurface``."""
-    _check(m, "pbrt-v4")
-    nm = name or m.name or "subsurf_material"
+    unit_mm = _check(m, "pbrt-v4", unit_mm)
+    nm = str(name or m.name or "subsurf_material")
+    if _PBRT_BAD.search(nm):
+        raise _err(
+            f"pbrt-v4 export: name = {nm!r}: a pbrt-v4 name cannot hold quotes, backslashes or control characters"
+        )
     f = lambda v: " ".join(f"{x * unit_mm:.9g}" for x in v)  # noqa: E731
     return (
         f'MakeNamedMaterial "{nm}"\n'
@@ -82,22 +121,52 @@ def to_pbrt(m: Translucent, unit_mm: float = 1.0, name=None) -> str:
 
 
 _PARAM = re.compile(r'"(\w+)\s+(\w+)"\s*\[\s*([^\]]*)\]')
+_NAMED = re.compile(r'MakeNamedMaterial\s+"([^"]*)"')
 
 
-def from_pbrt(text: str, unit_mm: float = 1.0) -> Translucent:
-    """Parse a pbrt-v4 ``subsurface`` material block (as :func:`to_pbrt` writes it)."""
-    mname = re.search(r'MakeNamedMaterial\s+"([^"]+)"', text)
+def _pbrt_blocks(text: str) -> list[tuple]:
+    """(name, parameter text) of each ``MakeNamedMaterial`` block; the whole text when it has none."""
+    starts = list(_NAMED.finditer(text))
+    if not starts:
+        return [(None, text)]
+    ends = [m.start() for m in starts[1:]] + [len(text)]
+    return [(m.group(1), text[m.end() : e]) for m, e in zip(starts, ends)]
+
+
+def _pbrt_params(body: str, where: str) -> dict:
     params = {}
-    for typ, key, vals in _PARAM.findall(text):
+    for typ, key, vals in _PARAM.findall(body):
+        if key in params:
+            raise _err(f"from_pbrt: {where}: parameter {key!r} is given twice")
         items = re.findall(r'"[^"]*"|[^\s]+', vals)
-        params[key] = (typ, [v.strip('"') if typ == "string" else float(v) for v in items])
-    if params.get("type", (None, [None]))[1][0] != "subsurface":
-        raise _core.ParameterError("from_pbrt: not a subsurface material")
-    sc = params.get("scale", ("float", [1.0]))[1][0] / unit_mm
-    return Translucent(
-        [x * sc for x in params["sigma_a"][1]],
-        [x * sc for x in params["sigma_s"][1]],
-        g=params.get("g", ("float", [0.0]))[1][0],
-        eta=params["eta"][1][0],
-        name=mname.group(1) if mname else None,
-    )
+        try:
+            params[key] = [v.strip('"') if typ == "string" else float(v) for v in items]
+        except ValueError as e:
+            raise _err(f"from_pbrt: {where}: parameter {key!r}: {e}") from None
+    return params
+
+
+def from_pbrt(text: str, unit_mm: float = 1.0, name=None) -> Translucent:
+    """Parse a pbrt-v4 ``subsurface`` material block (as :func:`to_pbrt` writes it). A text with
+    several ``MakeNamedMaterial`` blocks needs ``name``, the one to read."""
+    sc = 1.0 / _unit("from_pbrt", unit_mm)
+    blocks = _pbrt_blocks(text)
+    if name is not None:
+        blocks = [b for b in blocks if b[0] == name]
+        if not blocks:
+            raise _err(f"from_pbrt: no material named {name!r} in the text")
+    if len(blocks) > 1:
+        names = [b[0] for b in blocks]
+        raise _err(f"from_pbrt: the text holds {len(names)} materials {names}; choose one with name=")
+    mname, body = blocks[0]
+    where = f"material {mname!r}"
+    params = _pbrt_params(body, where)
+    if params.get("type", [None])[:1] != ["subsurface"]:
+        raise _err(f"from_pbrt: {where} is not a subsurface material")
+    try:
+        sc *= params.get("scale", [1.0])[0]
+        sigma_a, sigma_s = [x * sc for x in params["sigma_a"]], [x * sc for x in params["sigma_s"]]
+        g, eta = params.get("g", [0.0])[0], params["eta"][0]
+    except (KeyError, IndexError, TypeError) as e:
+        raise _err(f"from_pbrt: {where} lacks a usable parameter ({type(e).__name__}: {e})") from None
+    return Translucent(sigma_a, sigma_s, g=g, eta=eta, name=mname)

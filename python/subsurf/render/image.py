@@ -34,20 +34,32 @@ class Image:
             "software": "subsurf",
         }
 
-    def save(self, path, exposure=0.0):
+    def save(self, path, exposure=0.0, force=True):
         """Write ``path`` (.exr: linear HDR with metadata; .png: tone-mapped sRGB; .npy: the
-        array). An .exr also gets its PNG beside it (same name, .png). Returns the paths."""
-        ext = os.path.splitext(path)[1].lower()
-        if ext == ".exr":
-            write_exr(path, self.array, self.metadata())
-            png = os.path.splitext(path)[0] + ".png"
-            write_png(png, self.array, exposure)
-            return [path, png]
-        if ext == ".png":
-            return [write_png(path, self.array, exposure)]
-        if ext == ".npy":
-            return [_atomic(path, _npy_writer(self.array))]
-        raise ValueError(f"{path}: unknown image format {ext!r} (use .exr, .png or .npy)")
+        array). An .exr also gets its PNG beside it (same name, .png): the files of
+        :func:`output_paths`, written as one group (:func:`subsurf.atomic.write_group`; an existing
+        one is replaced only with ``force``). Returns the paths."""
+        paths = output_paths(path)
+        writers = {
+            ".exr": lambda: _exr_writer(self.array, self.metadata()),
+            ".png": lambda: _png_writer(self.array, exposure),
+            ".npy": lambda: _npy_writer(self.array),
+        }
+        items = [(p, writers[os.path.splitext(p)[1].lower()]()) for p in paths]
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+        return atomic.write_group(items, force=force)
+
+
+def output_paths(path):
+    """The files :meth:`Image.save` writes for ``path``: ``[path]``, and for an .exr also the
+    .png beside it. Unknown extensions are refused (``ValueError``)."""
+    path = os.fspath(path)
+    stem, ext = os.path.splitext(path)
+    if ext.lower() == ".exr":
+        return [path, stem + ".png"]
+    if ext.lower() in (".png", ".npy"):
+        return [path]
+    raise ValueError(f"{path}: unknown image format {ext!r} (use .exr, .png or .npy)")
 
 
 #: How to get OpenEXR output (the one optional package of the renderer).
@@ -87,8 +99,7 @@ def _atomic(path, write):
     return atomic.write_with(path, write, force=True)
 
 
-def write_exr(path, array, metadata=None):
-    """Linear float32 RGB OpenEXR with string ``metadata`` in the header (openexr ≥ 3.3 API)."""
+def _exr_writer(array, metadata=None):
     OpenEXR = _openexr()
 
     rgb = np.ascontiguousarray(np.asarray(array, dtype=np.float32))
@@ -99,7 +110,12 @@ def write_exr(path, array, metadata=None):
         with OpenEXR.File(header, {"RGB": rgb}) as f:
             f.write(tmp)
 
-    return _atomic(path, write)
+    return write
+
+
+def write_exr(path, array, metadata=None):
+    """Linear float32 RGB OpenEXR with string ``metadata`` in the header (openexr ≥ 3.3 API)."""
+    return _atomic(path, _exr_writer(array, metadata))
 
 
 def read_exr(path):
@@ -131,7 +147,11 @@ def tonemap(array, exposure=0.0, white=None):
     return (np.clip(srgb, 0, 1) * 255 + 0.5).astype(np.uint8)
 
 
-def write_png(path, array, exposure=0.0):
+def _png_writer(array, exposure=0.0):
     import matplotlib.image as mpimg
 
-    return _atomic(path, lambda tmp: mpimg.imsave(tmp, tonemap(array, exposure), format="png"))
+    return lambda tmp: mpimg.imsave(tmp, tonemap(array, exposure), format="png")
+
+
+def write_png(path, array, exposure=0.0):
+    return _atomic(path, _png_writer(array, exposure))

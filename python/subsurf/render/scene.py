@@ -17,11 +17,35 @@ from .. import _core
 from ..materials import get as _library
 from ..medium import Layer, Stack
 
-MODELS = ("dipole", "better_dipole", "multipole", "photon_beam_diffusion", "normalized_diffusion", "monte_carlo")
+#: The profile models (the core's list, ``subsurf_core::bssrdf::Model``).
+MODELS = tuple(_core.BSSRDF_MODELS)
+#: The Monte Carlo profile's defaults (the core's ``McSettings::default()``).
+_MC = _core.BSSRDF_MC_DEFAULTS
 
 
 def _err(msg):
     return _core.ParameterError(msg)
+
+
+def _float(name, v):
+    if isinstance(v, bool):
+        raise _err(f"{name} = {v!r} is not a number")
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        raise _err(f"{name} = {v!r} is not a number") from None
+
+
+def _size2(size):
+    try:
+        a = np.asarray(size, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        a = np.zeros(0)
+    if a.size == 1:
+        a = np.repeat(a, 2)
+    if a.size != 2:
+        raise _err(f"size = {size!r}: expected [width, depth] (two numbers, mm) or one number for a square")
+    return [float(x) for x in a]
 
 
 def _vec3(name, v):
@@ -43,10 +67,11 @@ class Translucent:
     ``model`` the BSSRDF profile used by the ``hierarchical`` and ``probe`` methods (one of
     :data:`MODELS`; ``random_walk`` ignores it). ``stacks`` (three :class:`subsurf.Stack`) gives a
     layered material to the profile models (``multipole``, ``monte_carlo``); ``mc_photons`` and
-    ``mc_seed`` set the Monte Carlo profile's run; ``colour`` (set by :meth:`from_color`) is the
-    surface colour the material was made from, which ``normalized_diffusion`` takes as its surface
-    albedo. Construct from the library with :meth:`library`, from layers with :meth:`from_stacks`,
-    or from a colour with :meth:`from_color`.
+    ``mc_seed`` set the Monte Carlo profile's run; ``reflectance`` (set by :meth:`from_reflectance`)
+    is the reflectance per unit incident power the material was made from, which
+    ``normalized_diffusion`` takes (÷ (1 − R_sp)) as its surface albedo. Construct from the library
+    with :meth:`library`, from layers with :meth:`from_stacks`, or from a reflectance and a mean
+    free path with :meth:`from_reflectance`.
     """
 
     def __init__(
@@ -58,10 +83,10 @@ class Translucent:
         model="dipole",
         name=None,
         stacks=None,
-        mc_photons=100_000,
-        mc_seed=0,
+        mc_photons=_MC["photons"],
+        mc_seed=_MC["seed"],
         single_scattering=None,
-        colour=None,
+        reflectance=None,
     ):
         self.sigma_a = _vec3("sigma_a", sigma_a)
         self.sigma_s = _vec3("sigma_s", sigma_s)
@@ -72,8 +97,8 @@ class Translucent:
         self.stacks = list(stacks) if stacks is not None else None
         if self.stacks is not None and (len(self.stacks) != 3 or not all(isinstance(s, Stack) for s in self.stacks)):
             raise _err("stacks: give three subsurf.Stack objects, one per RGB channel")
-        self.mc_photons, self.mc_seed, self.single_scattering = int(mc_photons), int(mc_seed), single_scattering
-        self.colour = None if colour is None else _vec3("colour", colour)
+        self.mc_photons, self.mc_seed, self.single_scattering = mc_photons, mc_seed, single_scattering  # core checks
+        self.reflectance = None if reflectance is None else _vec3("reflectance", reflectance)
 
     @property
     def layered(self) -> bool:
@@ -114,19 +139,50 @@ class Translucent:
         )
 
     @classmethod
-    def from_color(cls, color, mean_free_path, eta=1.3, g=0.0, model="dipole", name=None, table=None, **kw):
-        """From a surface colour (total diffuse reflectance per channel under normal incidence, per
-        unit incident power) and a mean free path 1/σt per channel (mm), inverted under ``model``
-        by :func:`subsurf.bssrdf.material_from_appearance` (``table``: its
-        :class:`~subsurf.bssrdf.ProfileTable` for ``monte_carlo`` and ``normalized_diffusion``)."""
-        from .. import bssrdf
+    def from_reflectance(
+        cls,
+        reflectance,
+        mfp,
+        *,
+        eta=1.3,
+        g=0.0,
+        model="dipole",
+        power="incident",
+        mfp_kind="extinction",
+        name=None,
+        table=None,
+        **kw,
+    ):
+        """From a reflectance (∈ [0, 1]) and a mean free path (mm) per RGB channel, inverted under
+        ``model`` by :func:`subsurf.bssrdf.material_from_reflectance` (same parameters: ``power``
+        incident or entering, ``mfp_kind`` extinction, transport, diffuse or burley_d; ``table``
+        the :class:`~subsurf.bssrdf.ProfileTable` of ``monte_carlo`` and ``normalized_diffusion``).
+        A render of the material under ``model`` shows the reflectance (per incident power)."""
+        from .. import bssrdf, diffusion
 
-        color = _vec3("color", color)
-        mfp = _vec3("mean_free_path", mean_free_path)
-        layers = bssrdf.material_from_appearance(color, mfp, eta=eta, g=g, model=model, table=table)
-        return cls(
-            [l.mua for l in layers], [l.mus for l in layers], g=g, eta=eta, model=model, name=name, colour=color, **kw
+        refl = _vec3("reflectance", reflectance)
+        mfp = _vec3("mfp", mfp)
+        layers = bssrdf.material_from_reflectance(
+            refl, mfp, eta=eta, g=g, model=model, power=power, mfp_kind=mfp_kind, table=table
         )
+        if power == "entering":  # stored per incident power: × F_t at normal incidence = 1 − R_sp
+            refl = [r * float(diffusion.ft(eta, 1.0)) for r in refl]
+        return cls(
+            [l.mua for l in layers],
+            [l.mus for l in layers],
+            g=g,
+            eta=eta,
+            model=model,
+            name=name,
+            reflectance=refl,
+            **kw,
+        )
+
+    @classmethod
+    def from_color(cls, color, mean_free_path, eta=1.3, g=0.0, model="dipole", name=None, table=None, **kw):
+        """Deprecated forwarding alias, kept until the demo that calls it is merged:
+        :meth:`from_reflectance` (per incident power, mean free path 1/σt)."""
+        return cls.from_reflectance(color, mean_free_path, eta=eta, g=g, model=model, name=name, table=table, **kw)
 
     def _to_core(self, name):
         return {
@@ -141,7 +197,7 @@ class Translucent:
             "mc_photons": self.mc_photons,
             "mc_seed": self.mc_seed,
             "single_scattering": self.single_scattering,
-            "colour": self.colour,
+            "reflectance": self.reflectance,
         }
 
     def __repr__(self):
@@ -154,11 +210,23 @@ class Translucent:
 class Lambertian:
     """Opaque Lambertian reflector with ``albedo`` per channel in [0, 1]."""
 
+    KEYS = ("albedo",)
+
     def __init__(self, albedo=0.8, name=None):
         self.albedo, self.name = _vec3("albedo", albedo), name
 
     def _to_core(self, name):
         return {"kind": "lambertian", "name": name, "albedo": self.albedo}
+
+
+#: Material types of scene files (``type = "..."``).
+MATERIAL_TYPES = ("translucent", "lambertian")
+
+
+def _no_unknown(key, d, allowed):
+    unknown = sorted(set(d) - set(allowed))
+    if unknown:
+        raise _err(f"{key}: unknown keys {unknown} (allowed: {sorted(allowed)})")
 
 
 def material(spec, key="material"):
@@ -173,14 +241,22 @@ def material(spec, key="material"):
     if isinstance(spec, dict):
         d = dict(spec)
         kind = d.pop("type", "translucent")
+        if kind not in MATERIAL_TYPES:
+            raise _err(f"{key}.type = {kind!r}: must be one of {list(MATERIAL_TYPES)}")
+        if kind == "lambertian":
+            _no_unknown(key, d, Lambertian.KEYS)
         try:
             if kind == "lambertian":
                 return Lambertian(d.get("albedo", 0.8))
             if "library" in d:
                 lib = d.pop("library")
                 return Translucent.library(lib, **d)
-            if "color" in d:
+            if "reflectance" in d:
+                return Translucent.from_reflectance(d.pop("reflectance"), d.pop("mfp"), **d)
+            if "color" in d:  # deprecated spelling, kept until the demo that uses it is merged
                 return Translucent.from_color(d.pop("color"), d.pop("mean_free_path"), **d)
+            if not {"sigma_a", "sigma_s"} <= set(d):
+                raise _err(f"{key}: give 'library', 'reflectance' and 'mfp', or 'sigma_a' and 'sigma_s'")
             return Translucent(**d)
         except TypeError as e:
             raise _err(f"{key}: {e}") from None
@@ -222,6 +298,8 @@ class Object:
         self.material = material if isinstance(material, (Translucent, Lambertian)) else globals()["material"](material)
         self.name = name
         self.tint = None if tint is None else np.asarray(tint, dtype=np.float64)
+        if self.tint is not None and self.tint.ndim != 2:
+            raise _err(f"tint: expected an array of shape (n_vertices, 3), got shape {self.tint.shape}")
 
     @classmethod
     def mesh(cls, source, material, name=None, **kw):
@@ -237,10 +315,16 @@ class Object:
             path = os.fspath(source)
             if not os.path.exists(path):
                 raise FileNotFoundError(f"{name or 'mesh'}: mesh file {path!r} does not exist")
-            try:
-                tm = trimesh.load(path, force="mesh")
+            try:  # process=False: the core checks the vertices (a NaN is named, not dropped)
+                tm = trimesh.load(path, force="mesh", process=False)
+            except ImportError:  # trimesh guesses the encoding of undecodable text with an optional package
+                raise _err(f"{name or path}: cannot read mesh file {path!r}: it is not a valid mesh file") from None
             except Exception as e:  # trimesh raises many kinds on malformed files
                 raise _err(f"{name or path}: cannot read mesh file {path!r}: {e}") from None
+            if isinstance(tm, trimesh.Trimesh) and len(tm.faces) == 0:
+                raise _err(
+                    f"{name or path}: cannot read mesh file {path!r}: it is not a valid mesh file (no faces found)"
+                )
         else:
             tm = source
         if not isinstance(tm, trimesh.Trimesh):
@@ -252,7 +336,7 @@ class Object:
 
     @classmethod
     def sphere(cls, material, center=(0, 0, 0), radius=1.0, subdivisions=4, name=None, **kw):
-        p, t = _core.render_shape("sphere", _vec3("center", center), c=float(radius), level=int(subdivisions))
+        p, t = _core.render_shape("sphere", _vec3("center", center), c=_float("radius", radius), level=subdivisions)
         return cls(p, t, material, name=name, **kw)
 
     @classmethod
@@ -262,18 +346,18 @@ class Object:
 
     @classmethod
     def plane(cls, material, center=(0, 0, 0), size=(10, 10), name=None, **kw):
-        c, s = _vec3("center", center), list(size)
-        p, t = _core.render_shape("plane", c, c=float(s[0]), d=float(s[1]))
+        c, s = _vec3("center", center), _size2(size)
+        p, t = _core.render_shape("plane", c, c=s[0], d=s[1])
         return cls(p, t, material, name=name, **kw)
 
     @classmethod
     def torus(cls, material, center=(0, 0, 0), major=2.0, minor=0.5, name=None, **kw):
-        p, t = _core.render_shape("torus", _vec3("center", center), c=float(major), d=float(minor))
+        p, t = _core.render_shape("torus", _vec3("center", center), c=_float("major", major), d=_float("minor", minor))
         return cls(p, t, material, name=name, **kw)
 
     def info(self):
         """(closed, open_edges, area mm², volume mm³), validating the mesh."""
-        return _core.render_mesh_info(self._mesh_dict(self.name or "mesh"), self.name or "mesh")
+        return _core.render_mesh_info(self._mesh_dict(self.name or "mesh"))
 
     def _mesh_dict(self, name):
         return {"name": name, "positions": self.positions, "triangles": self.triangles, "tint": self.tint}
@@ -282,59 +366,65 @@ class Object:
 # --- lights and camera ------------------------------------------------------------------------
 
 
-class PointLight:
+#: Light types and their parameters (the core's ``render::LightKind``).
+LIGHT_PARAMS = {kind: tuple(params) for kind, params in _core.RENDER_LIGHTS.items()}
+
+
+class _Light:
+    """A light of type ``kind``: its parameters (:data:`LIGHT_PARAMS`) are its attributes."""
+
+    kind = ""
+
+    def _to_core(self, i):
+        d = {"kind": self.kind}
+        for p in LIGHT_PARAMS[self.kind]:
+            v = getattr(self, p)
+            d[p] = _float(f"lights[{i}].{p}", v) if p == "radius" else _vec3(f"lights[{i}].{p}", v)
+        return d
+
+    def __repr__(self):
+        args = ", ".join(f"{p}={getattr(self, p)!r}" for p in LIGHT_PARAMS[self.kind])
+        return f"{type(self).__name__}({args})"
+
+
+class PointLight(_Light):
+    """Isotropic point light at ``position`` of total ``power`` (W per channel)."""
+
+    kind = "point"
+
     def __init__(self, position, power):
         self.position, self.power = position, power
 
-    def _to_core(self, i):
-        return {
-            "kind": "point",
-            "position": _vec3(f"lights[{i}].position", self.position),
-            "power": _vec3(f"lights[{i}].power", self.power),
-        }
 
-
-class DirectionalLight:
+class DirectionalLight(_Light):
     """Collimated light arriving from ``direction`` (towards the light) with ``irradiance`` W/mm²."""
+
+    kind = "directional"
 
     def __init__(self, direction, irradiance):
         self.direction, self.irradiance = direction, irradiance
 
-    def _to_core(self, i):
-        return {
-            "kind": "directional",
-            "direction": _vec3(f"lights[{i}].direction", self.direction),
-            "irradiance": _vec3(f"lights[{i}].irradiance", self.irradiance),
-        }
 
+class SphereLight(_Light):
+    """Spherical area light at ``position`` of ``radius`` (mm) and total ``power``."""
 
-class SphereLight:
+    kind = "sphere"
+
     def __init__(self, position, radius, power):
         self.position, self.radius, self.power = position, radius, power
 
-    def _to_core(self, i):
-        return {
-            "kind": "sphere",
-            "position": _vec3(f"lights[{i}].position", self.position),
-            "radius": float(self.radius),
-            "power": _vec3(f"lights[{i}].power", self.power),
-        }
 
-
-class RectLight:
+class RectLight(_Light):
     """One-sided rectangle ``position`` ± ``u`` ± ``v`` (half-edge vectors), emitting along u × v."""
+
+    kind = "rect"
 
     def __init__(self, position, u, v, power):
         self.position, self.u, self.v, self.power = position, u, v, power
 
-    def _to_core(self, i):
-        return {
-            "kind": "rect",
-            "position": _vec3(f"lights[{i}].position", self.position),
-            "u": _vec3(f"lights[{i}].u", self.u),
-            "v": _vec3(f"lights[{i}].v", self.v),
-            "power": _vec3(f"lights[{i}].power", self.power),
-        }
+
+#: The light classes, one per type of :data:`LIGHT_PARAMS`.
+LIGHTS = (PointLight, DirectionalLight, SphereLight, RectLight)
 
 
 class Camera:
@@ -342,7 +432,7 @@ class Camera:
 
     def __init__(self, position, look_at=(0, 0, 0), up=(0, 0, 1), fov=30.0, width=256, height=256):
         self.position, self.look_at, self.up = position, look_at, up
-        self.fov, self.width, self.height = float(fov), int(width), int(height)
+        self.fov, self.width, self.height = _float("camera.fov", fov), width, height  # the core checks the sizes
 
     def _to_core(self):
         return {
@@ -381,9 +471,8 @@ class Scene:
                     )
         objs = []
         for i, o in enumerate(self.objects):
-            d = o._mesh_dict(o.name or f"objects[{i}]")
-            d["material"] = next(k for k, m in enumerate(mats) if m is o.material)
-            objs.append(d)
+            k = next(k for k, m in enumerate(mats) if m is o.material)
+            objs.append({"mesh": o._mesh_dict(o.name or f"objects[{i}]"), "material": k})
         return {
             "objects": objs,
             "materials": [m._to_core(n) for m, n in zip(mats, names)],

@@ -14,7 +14,7 @@ import os
 import sys
 
 from .. import _core
-from .scene import Camera, DirectionalLight, Object, PointLight, RectLight, Scene, SphereLight, material
+from .scene import LIGHT_PARAMS, LIGHTS, Camera, Object, Scene, material
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -47,6 +47,28 @@ def _take(d, key, where, path, cast=None, default=...):
     return v
 
 
+#: Keys of the ``[render]`` table.
+RENDER_KEYS = ("method", "spp", "seed", "output")
+#: Keys of the ``[camera]`` table.
+CAMERA_KEYS = ("position", "look_at", "up", "fov", "width", "height")
+
+
+def _table(doc, key, path, default):
+    """``doc[key]`` when it is a table (dict), ``default`` when absent."""
+    v = doc.get(key, default)
+    if not isinstance(v, dict):
+        raise _err(path, f"{key} = {v!r}: expected a table [{key}]")
+    return v
+
+
+def _tables(doc, key, path):
+    """``doc[key]`` when it is an array of tables ``[[key]]``, [] when absent."""
+    v = doc.get(key, [])
+    if not (isinstance(v, list) and all(isinstance(x, dict) for x in v)):
+        raise _err(path, f"{key} = {v!r}: expected an array of tables [[{key}]]")
+    return v
+
+
 def load_scene(path):
     """Read a TOML scene; returns (Scene, settings dict with method, spp, seed, output)."""
     path = os.fspath(path)
@@ -63,7 +85,7 @@ def load_scene(path):
     if unknown:
         raise _err(path, f"unknown top-level keys {sorted(unknown)} (allowed: {sorted(known)})")
     mats = {}
-    for name, spec in doc.get("materials", {}).items():
+    for name, spec in _table(doc, "materials", path, {}).items():
         try:
             m = material(spec, key=f"materials.{name}")
         except _core.ParameterError as e:
@@ -71,7 +93,7 @@ def load_scene(path):
         m.name = name
         mats[name] = m
     objects = []
-    for i, o in enumerate(doc.get("objects", [])):
+    for i, o in enumerate(_tables(doc, "objects", path)):
         where = f"objects[{i}]"
         o = dict(o)
         mname = _take(o, "material", where, path)
@@ -111,34 +133,40 @@ def load_scene(path):
             msg = str(e)
             raise _core.ParameterError(msg if msg.startswith(path) else f"{path}: {where}: {msg}") from None
     lights = []
-    kinds = {
-        "point": (PointLight, ("position", "power")),
-        "directional": (DirectionalLight, ("direction", "irradiance")),
-        "sphere": (SphereLight, ("position", "radius", "power")),
-        "rect": (RectLight, ("position", "u", "v", "power")),
-    }
-    for i, l in enumerate(doc.get("lights", [])):
+    classes = {cls.kind: cls for cls in LIGHTS}
+    for i, l in enumerate(_tables(doc, "lights", path)):
         where = f"lights[{i}]"
         kind = _take(l, "type", where, path)
-        if kind not in kinds:
-            raise _err(path, f"{where}.type = {kind!r}: must be one of {sorted(kinds)}")
-        cls, keys = kinds[kind]
-        lights.append(cls(*[_take(l, k, where, path) for k in keys]))
-    cam = doc.get("camera")
+        if kind not in LIGHT_PARAMS:
+            raise _err(path, f"{where}.type = {kind!r}: must be one of {list(LIGHT_PARAMS)}")
+        _known(l, ("type", *LIGHT_PARAMS[kind]), where, path)
+        lights.append(classes[kind](*[_take(l, k, where, path) for k in LIGHT_PARAMS[kind]]))
     camera = None
-    if cam is not None:
-        allowed = {"position", "look_at", "up", "fov", "width", "height"}
-        extra = set(cam) - allowed
-        if extra:
-            raise _err(path, f"camera: unknown keys {sorted(extra)} (allowed: {sorted(allowed)})")
-        camera = Camera(
-            _take(cam, "position", "camera", path), **{k: cam[k] for k in allowed - {"position"} if k in cam}
-        )
-    r = doc.get("render", {})
-    settings = {
-        "method": r.get("method", "hierarchical"),
-        "spp": int(r.get("spp", 16)),
-        "seed": int(r.get("seed", 0)),
-        "output": r.get("output"),
-    }
+    if "camera" in doc:
+        cam = _table(doc, "camera", path, None)
+        _known(cam, CAMERA_KEYS, "camera", path)
+        kw = {k: cam[k] for k in CAMERA_KEYS[1:] if k in cam}
+        try:
+            camera = Camera(_take(cam, "position", "camera", path), **kw)
+        except _core.ParameterError as e:
+            raise _err(path, str(e)) from None
+    r = _table(doc, "render", path, {})
+    _known(r, RENDER_KEYS, "render", path)
+    try:
+        spp, seed = _core.render_check_settings(r.get("spp", 16), r.get("seed", 0))
+    except _core.ParameterError as e:
+        raise _err(path, f"render.{e}") from None
+    output = r.get("output")
+    if output is not None and not isinstance(output, str):
+        raise _err(path, f"render.output = {output!r}: expected a file name")
+    method = r.get("method", "hierarchical")
+    if method not in _core.RENDER_METHODS:
+        raise _err(path, f"render.method = {method!r}: must be one of {list(_core.RENDER_METHODS)}")
+    settings = {"method": method, "spp": spp, "seed": seed, "output": output}
     return Scene(objects, lights, doc.get("environment", (0, 0, 0)), camera), settings
+
+
+def _known(d, allowed, where, path):
+    extra = set(d) - set(allowed)
+    if extra:
+        raise _err(path, f"{where}: unknown keys {sorted(extra)} (allowed: {sorted(allowed)})")

@@ -38,9 +38,9 @@ def simulate_walk(
     vox = None
     if voxels is not None:
         lo, hi, n = voxels
-        vox = ([float(x) for x in lo], [float(x) for x in hi], [int(x) for x in n])
+        vox = ([float(x) for x in lo], [float(x) for x in hi], list(n))  # counts: the core checks them
     out = _core.render_walk_simulate(
-        scene._to_core("random_walk"), (source, o, d), int(photons), int(seed), int(channel), vox, threads
+        scene._to_core("random_walk"), (source, o, d), photons, seed, channel, vox, threads
     )
     out["voxels"] = np.asarray(out["voxels"]).reshape(vox[2]) if vox else None
     return out

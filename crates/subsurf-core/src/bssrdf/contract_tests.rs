@@ -1,6 +1,7 @@
 //! The [`RadialProfile`] contract, checked for every model: ∫ pdf = 1 and ∫ R_d 2πr dr = total
 //! to 1e-6 (independent adaptive quadrature), cdf(sample_r(u)) = u, and a χ² test of sample_r
-//! against pdf (Šidák-corrected over the models, overall level 0.01).
+//! against pdf (Šidák-corrected over the models, overall level 0.01); the values at the ends of
+//! the domain (r = 0, r = ∞) and the checked queries ([`Query`]) of the API.
 
 use super::*;
 use crate::stats::{chi2_pooled, chi2_sf, integrate_adaptive, sidak_alpha, SplitMix64};
@@ -29,7 +30,8 @@ fn integral(f: &dyn Fn(f64) -> f64, s: f64) -> f64 {
     sum
 }
 
-fn models() -> Vec<(&'static str, Box<dyn RadialProfile>, f64)> {
+/// The contract cases of one model (exhaustive: a new model must say how it is tested).
+fn cases(model: Model) -> Vec<(String, Box<dyn RadialProfile>, f64)> {
     let m = Medium::new(0.05, 1.2, 0.3, 1.33).unwrap();
     let layered = Stack::new(
         vec![Layer::new(1.4, 0.2, 8.0, 0.8, 0.6).unwrap(), Layer::new(1.4, 0.02, 10.0, 0.8, f64::INFINITY).unwrap()],
@@ -37,21 +39,31 @@ fn models() -> Vec<(&'static str, Box<dyn RadialProfile>, f64)> {
         1.0,
     )
     .unwrap();
-    let mc = McSettingsForTests::settings();
-    vec![
-        ("dipole", medium_profile(Model::Dipole, &m).unwrap(), 1.0),
-        ("better_dipole", medium_profile(Model::BetterDipole, &m).unwrap(), 1.0),
-        (
-            "multipole slab",
-            multipole::profile(&Stack::new(vec![Layer::new(1.33, 0.05, 1.2, 0.3, 3.0).unwrap()], 1.0, 1.0).unwrap())
+    let name = |what: &str| format!("{}{what}", model.name());
+    match model {
+        Model::Dipole | Model::BetterDipole | Model::PhotonBeamDiffusion | Model::NormalizedDiffusion => {
+            vec![(name(""), medium_profile(model, &m).unwrap(), 1.0)]
+        }
+        Model::Multipole => vec![
+            (
+                name(" slab"),
+                multipole::profile(
+                    &Stack::new(vec![Layer::new(1.33, 0.05, 1.2, 0.3, 3.0).unwrap()], 1.0, 1.0).unwrap(),
+                )
                 .unwrap(),
-            1.0,
-        ),
-        ("multipole layered", multipole::profile(&layered).unwrap(), 0.5),
-        ("photon_beam_diffusion", medium_profile(Model::PhotonBeamDiffusion, &m).unwrap(), 1.0),
-        ("normalized_diffusion", medium_profile(Model::NormalizedDiffusion, &m).unwrap(), 1.0),
-        ("monte_carlo", profile(Model::MonteCarlo, &layered, &mc).unwrap(), 0.1),
-    ]
+                1.0,
+            ),
+            (name(" layered"), multipole::profile(&layered).unwrap(), 0.5),
+        ],
+        Model::MonteCarlo => {
+            vec![(name(""), profile(model, &layered, &McSettingsForTests::settings()).unwrap(), 0.1)]
+        }
+    }
+}
+
+/// Every model's cases, in [`Model::ALL`] order.
+fn models() -> Vec<(String, Box<dyn RadialProfile>, f64)> {
+    Model::ALL.iter().copied().flat_map(cases).collect()
 }
 
 struct McSettingsForTests;
@@ -115,12 +127,53 @@ fn sampling_chi2() {
     }
 }
 
+/// Every model (and a profile-table profile) at the ends of its domain, and the API's checked
+/// queries refusing what is outside it with the argument's name (before: `rd(nan)`
+/// was 0, `sample_r(nan)` 0 or ∞, `sample_r(1.5)` clamped, `rd(∞)` NaN for the dipoles, `pdf(0)`
+/// NaN for Monte Carlo).
+#[test]
+fn ends_of_the_domain_and_checked_queries() {
+    let mut all = models();
+    let s = table::TableSettings { albedos: vec![0.9, 0.99], photons: 2000, ..table::TableSettings::new(0.0, 1.3) };
+    let (never, progress) = (std::sync::atomic::AtomicBool::new(false), std::sync::atomic::AtomicU64::new(0));
+    let table = table::ProfileTable::build(s, &never, &progress).unwrap();
+    all.push(("table".to_string(), Box::new(table.profile(0.02, 1.0).unwrap()), 1.0));
+    for (name, p, _) in all {
+        assert_eq!(p.rd(f64::INFINITY), 0.0, "{name}: rd(inf)");
+        assert_eq!(p.pdf(f64::INFINITY), 0.0, "{name}: pdf(inf)");
+        assert_eq!(p.cdf(f64::INFINITY), 1.0, "{name}: cdf(inf)");
+        assert_eq!(p.cdf(0.0), 0.0, "{name}: cdf(0)");
+        let (rd0, pdf0) = (p.rd(0.0), p.pdf(0.0));
+        assert!(rd0 >= 0.0, "{name}: rd(0) = {rd0}");
+        assert!(pdf0.is_finite() && pdf0 >= 0.0, "{name}: pdf(0) = {pdf0}");
+        for u in [0.0, 0.5, 1.0 - f64::EPSILON] {
+            let r = Query::SampleR.eval(p.as_ref(), u).unwrap();
+            assert!(r.is_finite() && r >= 0.0, "{name}: sample_r({u}) = {r}");
+        }
+        for (q, x, arg) in [
+            (Query::Rd, f64::NAN, "r = nan"),
+            (Query::Pdf, -1.0, "r = -1.0"),
+            (Query::Cdf, f64::NEG_INFINITY, "r = -inf"),
+            (Query::SampleR, f64::NAN, "u = nan"),
+            (Query::SampleR, 1.5, "u = 1.5"),
+            (Query::SampleR, 1.0, "u = 1.0"),
+            (Query::SampleR, -0.1, "u = -0.1"),
+            (Query::RadiusForFraction, 1.0, "q = 1.0"),
+        ] {
+            let e = q.eval(p.as_ref(), x).unwrap_err().to_string();
+            assert!(e.starts_with(arg) && e.contains(if arg.starts_with('r') { "[0, inf]" } else { "[0, 1)" }), "{e}");
+        }
+        assert_eq!(Query::Rd.eval(p.as_ref(), 1.0).unwrap(), p.rd(1.0));
+        assert_eq!(Query::Rd.eval(p.as_ref(), f64::INFINITY).unwrap(), 0.0);
+    }
+}
+
 #[test]
 fn names_and_bad_input() {
-    for m in Model::ALL {
-        assert_eq!(Model::from_name(m.name()).unwrap(), m);
+    for &m in Model::ALL {
+        assert_eq!(Model::from_name("model", m.name()).unwrap(), m);
     }
-    assert!(Model::from_name("quadrupole").unwrap_err().to_string().contains("monte_carlo"));
+    assert!(Model::from_name("model", "quadrupole").unwrap_err().to_string().contains("monte_carlo"));
     let e = Medium::new(-1.0, 1.0, 0.0, 1.3).unwrap_err().to_string();
     assert!(e.starts_with("sigma_a"), "{e}");
     let layered = Stack::new(vec![Layer::new(1.4, 0.1, 1.0, 0.0, 1.0).unwrap()], 1.0, 1.0).unwrap();

@@ -35,12 +35,15 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// A radial diffuse-reflectance profile and the sampling routines a renderer needs.
 ///
-/// Contract (tested for every model):
-/// - [`rd`](Self::rd) ≥ 0, finite for r > 0;
+/// Contract (tested for every model in `contract_tests.rs`), for radii r ∈ [0, ∞] and fractions
+/// u ∈ [0, 1) — the domain [`Query`] checks for the API:
+/// - [`rd`](Self::rd) ≥ 0, finite for 0 < r < ∞ (+∞ allowed at r = 0, where some profiles are
+///   singular), and 0 at r = ∞;
 /// - [`total`](Self::total) = ∫₀^∞ R_d(r) 2πr dr (the total diffuse reflectance, in [0, 1]);
-/// - [`pdf`](Self::pdf) = 2πr R_d(r) / total, which integrates to 1 over r ∈ [0, ∞);
-/// - [`cdf`](Self::cdf) is its integral from 0, and [`sample_r`](Self::sample_r) its inverse:
-///   `cdf(sample_r(u)) = u` for u ∈ [0, 1);
+/// - [`pdf`](Self::pdf) = 2πr R_d(r) / total, finite everywhere (its limit at r = 0), 0 at r = ∞,
+///   and it integrates to 1 over r ∈ [0, ∞);
+/// - [`cdf`](Self::cdf) is its integral from 0 (0 at r = 0, 1 at r = ∞), and
+///   [`sample_r`](Self::sample_r) its inverse: `cdf(sample_r(u)) = u`, finite, for u ∈ [0, 1);
 /// - a profile with `total() == 0` has `pdf ≡ 0` and is never sampled.
 pub trait RadialProfile: Send + Sync {
     /// R_d(r), mm⁻², at radius `r` ≥ 0 (mm).
@@ -54,7 +57,7 @@ pub trait RadialProfile: Send + Sync {
     /// 2πr R_d(r) / total, mm⁻¹: the density of [`sample_r`](Self::sample_r).
     fn pdf(&self, r: f64) -> f64 {
         let t = self.total();
-        if t > 0.0 {
+        if t > 0.0 && r < f64::INFINITY {
             2.0 * std::f64::consts::PI * r * self.rd(r) / t
         } else {
             0.0
@@ -70,6 +73,47 @@ pub trait RadialProfile: Send + Sync {
     /// `None` for pure diffusion models.
     fn single_scattering(&self) -> Option<&dyn RadialProfile> {
         None
+    }
+}
+
+/// One query of a profile as the API takes it (`subsurf.bssrdf.Profile`'s methods): the argument
+/// is checked against the domain of the [`RadialProfile`] contract — radii in [0, ∞], fractions in
+/// [0, 1) — and refused with an error naming it, instead of a silent 0, NaN or clamped value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Query {
+    /// [`RadialProfile::rd`] at radius `r`.
+    Rd,
+    /// [`RadialProfile::pdf`] at radius `r`.
+    Pdf,
+    /// [`RadialProfile::cdf`] at radius `r`.
+    Cdf,
+    /// [`RadialProfile::sample_r`] of the fraction `u`.
+    SampleR,
+    /// [`RadialProfile::radius_for_fraction`] of the fraction `q`.
+    RadiusForFraction,
+}
+
+impl Query {
+    /// The query's value at `x` for `p`, or an error naming the argument and its range.
+    pub fn eval(self, p: &dyn RadialProfile, x: f64) -> Result<f64> {
+        let (name, radius) = match self {
+            Query::Rd | Query::Pdf | Query::Cdf => ("r", true),
+            Query::SampleR => ("u", false),
+            Query::RadiusForFraction => ("q", false),
+        };
+        if radius && !(x >= 0.0) {
+            return Err(Error::param(name, x, "a radius in [0, inf] (mm)"));
+        }
+        if !radius && !(0.0..1.0).contains(&x) {
+            return Err(Error::param(name, x, "a fraction in [0, 1)"));
+        }
+        Ok(match self {
+            Query::Rd => p.rd(x),
+            Query::Pdf => p.pdf(x),
+            Query::Cdf => p.cdf(x),
+            Query::SampleR => p.sample_r(x),
+            Query::RadiusForFraction => p.radius_for_fraction(x),
+        })
     }
 }
 
@@ -105,7 +149,7 @@ impl<M: ClosedForm> Tabulated<M> {
 
 impl<M: ClosedForm> RadialProfile for Tabulated<M> {
     fn rd(&self, r: f64) -> f64 {
-        if r >= 0.0 {
+        if (0.0..f64::INFINITY).contains(&r) {
             self.model.rd(r)
         } else {
             0.0
@@ -188,52 +232,48 @@ impl Medium {
     }
 }
 
-/// The profile models, selectable by name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Model {
-    /// Jensen et al. 2001.
-    Dipole,
-    /// d'Eon 2012.
-    BetterDipole,
-    /// Donner & Jensen 2005.
-    Multipole,
-    /// Habel, Christensen & Jarosz 2013.
-    PhotonBeamDiffusion,
-    /// Christensen & Burley 2015.
-    NormalizedDiffusion,
-    /// The Monte Carlo engine.
-    MonteCarlo,
+crate::named_enum! {
+    /// The profile models, selectable by name (in the order the CLI and the docs list them).
+    pub enum Model ("a profile model") {
+        /// Jensen et al. 2001.
+        Dipole = "dipole",
+        /// d'Eon 2012.
+        BetterDipole = "better_dipole",
+        /// Donner & Jensen 2005.
+        Multipole = "multipole",
+        /// Habel, Christensen & Jarosz 2013.
+        PhotonBeamDiffusion = "photon_beam_diffusion",
+        /// Christensen & Burley 2015.
+        NormalizedDiffusion = "normalized_diffusion",
+        /// The Monte Carlo engine.
+        MonteCarlo = "monte_carlo",
+    }
 }
 
 impl Model {
-    /// Every model, in the order the CLI and the docs list them.
-    pub const ALL: [Model; 6] = [
-        Model::Dipole,
-        Model::BetterDipole,
-        Model::Multipole,
-        Model::PhotonBeamDiffusion,
-        Model::NormalizedDiffusion,
-        Model::MonteCarlo,
-    ];
-
-    /// The model's name.
-    pub fn name(self) -> &'static str {
+    /// Whether the renderer's BSSRDF methods add the single-scattering term S⁽¹⁾ to this
+    /// model's R_d: yes for the pure diffusion models (dipole, better dipole, multipole); photon
+    /// beam diffusion and Monte Carlo include single scattering in R_d, and normalized
+    /// diffusion is a fit to every order (Christensen & Burley 2015).
+    pub fn adds_single_scattering(self) -> bool {
         match self {
-            Model::Dipole => "dipole",
-            Model::BetterDipole => "better_dipole",
-            Model::Multipole => "multipole",
-            Model::PhotonBeamDiffusion => "photon_beam_diffusion",
-            Model::NormalizedDiffusion => "normalized_diffusion",
-            Model::MonteCarlo => "monte_carlo",
+            Model::Dipole | Model::BetterDipole | Model::Multipole => true,
+            Model::PhotonBeamDiffusion | Model::NormalizedDiffusion | Model::MonteCarlo => false,
         }
     }
 
-    /// The model called `name`; anything else is an error listing the names.
-    pub fn from_name(name: &str) -> Result<Model> {
-        Model::ALL.iter().copied().find(|m| m.name() == name).ok_or_else(|| {
-            let names: Vec<&str> = Model::ALL.iter().map(|m| m.name()).collect();
-            Error::Invalid(format!("model = {name:?} is not a profile model: must be one of {names:?}"))
-        })
+    /// Whether the model's R_d is per unit power *incident* on the surface (Monte Carlo profiles,
+    /// simulated for a pencil beam) rather than per unit power *entering* the medium (the
+    /// diffusion models' sources sit below the interface).
+    pub fn per_incident_power(self) -> bool {
+        match self {
+            Model::MonteCarlo => true,
+            Model::Dipole
+            | Model::BetterDipole
+            | Model::Multipole
+            | Model::PhotonBeamDiffusion
+            | Model::NormalizedDiffusion => false,
+        }
     }
 }
 
@@ -261,7 +301,9 @@ pub fn profile_with(
             Box::new(run?.0)
         }
         Model::Multipole => multipole::profile(stack)?,
-        _ => medium_profile(model, &Medium::from_stack(stack, model.name())?)?,
+        Model::Dipole | Model::BetterDipole | Model::PhotonBeamDiffusion | Model::NormalizedDiffusion => {
+            medium_profile(model, &Medium::from_stack(stack, model.name())?)?
+        }
     }))
 }
 

@@ -424,6 +424,8 @@ impl MonteCarloProfile {
     fn tail_cdf(&self, r: f64) -> f64 {
         if r <= self.r_t {
             0.0
+        } else if r == f64::INFINITY {
+            1.0
         } else {
             1.0 - (self.r_t / r) * (-self.sigma * (r - self.r_t)).exp()
         }
@@ -442,20 +444,36 @@ pub fn default_edges(stack: &Stack, s: &McSettings) -> Result<Vec<f64>> {
     log_edges(lo, hi, s.per_decade)
 }
 
+impl MonteCarloProfile {
+    /// The radial density 2πr R_d(r) (mm⁻¹, integrating to the total): finite at r = 0, 0 at ∞.
+    fn density(&self, r: f64) -> f64 {
+        if !(r >= 0.0) || r == f64::INFINITY {
+            return 0.0;
+        }
+        if r < self.r_t {
+            self.w_in * self.inner.density(r)
+        } else {
+            self.w_tail * (self.r_t / r) * (-self.sigma * (r - self.r_t)).exp() * (1.0 / r + self.sigma)
+        }
+    }
+}
+
 impl RadialProfile for MonteCarloProfile {
     fn rd(&self, r: f64) -> f64 {
         if !(r > 0.0) || self.total == 0.0 {
             return if r == 0.0 && self.total > 0.0 { f64::INFINITY } else { 0.0 };
         }
-        let dens = if r < self.r_t {
-            self.w_in * self.inner.density(r)
-        } else {
-            self.w_tail * (self.r_t / r) * (-self.sigma * (r - self.r_t)).exp() * (1.0 / r + self.sigma)
-        };
-        dens / (2.0 * PI * r)
+        self.density(r) / (2.0 * PI * r)
     }
     fn total(&self) -> f64 {
         self.total
+    }
+    fn pdf(&self, r: f64) -> f64 {
+        if self.total > 0.0 {
+            self.density(r) / self.total
+        } else {
+            0.0
+        }
     }
     fn cdf(&self, r: f64) -> f64 {
         if self.total == 0.0 {

@@ -123,13 +123,17 @@ pub fn from_medium(m: &Medium) -> Result<NormalizedDiffusion> {
     with_albedo(m, a.clamp(0.0, 1.0))
 }
 
-/// The profile a renderer uses for a material made from a surface `colour` (per unit incident
-/// power, as [`crate::bssrdf::inverse::material_from_appearance`] takes it): A = colour/(1 − R_sp),
+/// The profile a renderer uses for a material made from a `reflectance` per unit *incident*
+/// power ([`crate::bssrdf::inverse::material_from_reflectance`]): A = reflectance/(1 − R_sp),
 /// per unit power entering the medium like the other closed-form profiles.
-pub fn from_colour(m: &Medium, colour: f64) -> Result<NormalizedDiffusion> {
-    let a = colour / crate::bssrdf::inverse::appearance::entering_fraction(m.eta);
-    if !(colour.is_finite() && colour >= 0.0 && a <= 1.0) {
-        return Err(Error::param("colour", colour, "a finite number in [0, 1 − R_sp] (a surface colour)"));
+pub fn from_reflectance(m: &Medium, reflectance: f64) -> Result<NormalizedDiffusion> {
+    let a = reflectance / crate::bssrdf::inverse::appearance::entering_fraction(m.eta);
+    if !(reflectance.is_finite() && reflectance >= 0.0 && a <= 1.0) {
+        return Err(Error::param(
+            "reflectance",
+            reflectance,
+            "a finite number in [0, 1 − R_sp] (a reflectance per incident power)",
+        ));
     }
     with_albedo(m, a)
 }

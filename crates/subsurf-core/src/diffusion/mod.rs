@@ -27,7 +27,7 @@ pub mod inversion;
 pub use better_dipole::{better_dipole_rd, better_dipole_total_rd, fresnel_moment1, fresnel_moment2, BetterDipole};
 pub use bssrdf::{diffusion_brdf, sd};
 pub use dipole::{a_coefficient, dipole_rd, dipole_total_rd, fdr, flux_term, Dipole};
-pub use inversion::{alpha_prime_from_rd, properties_from_color, MeanFreePath};
+pub use inversion::alpha_prime_from_rd;
 
 use crate::error::{Error, Result};
 

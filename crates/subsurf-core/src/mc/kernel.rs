@@ -23,11 +23,10 @@
 //!    cos φ = (x² − y²)/ρ², sin φ = 2xy/ρ² (the doubled angle of a uniform point is uniform;
 //!    von Neumann 1951), then MCML's direction update ([`spin_disc`], = [`crate::optics::spin`],
 //!    with the pole threshold [`SPIN_POLE_COS`]).
-//!    (Measured alternatives, slower on x86-64 and not kept: one uniform with a branch-free
-//!    degree-13/12 polynomial sincos of 2πu, 3.45·10⁷ vs 3.6·10⁷ events per CPU-second; and
-//!    fdlibm's division-based `log` inlined for the step, 3.4·10⁷ vs 3.67·10⁷ — both add work
-//!    to the divider/FP ports that the direction update's division and square root, the
-//!    critical path of an event, already use.)
+//!    (Alternatives not kept, slower on x86-64 — `docs/architecture.md`, "Engine speed
+//!    measurements": a branch-free polynomial sincos of 2πu, and fdlibm's division-based `log`
+//!    inlined for the step; both add work to the divider/FP ports that the direction update's
+//!    division and square root, the critical path of an event, already use.)
 //! 5. **Russian roulette** (MCML §3.8, eq. 3.33), relative to the entering weight w₀ = 1 − R_sp:
 //!    when w < [`ROULETTE_THRESHOLD`]·w₀ the packet survives with probability 1/m (m =
 //!    [`ROULETTE_M`]) with weight m·w, else it dies. (MCML's threshold 10⁻⁴ is absolute; with w₀

@@ -259,21 +259,24 @@ pub fn fingerprint(stack: &Stack, source: &Source, seed: u64, tallies: Option<&T
     match tallies {
         None => h.word(0),
         Some(c) => {
+            // Exhaustive: a new field of TallyConfig does not compile until it is hashed here
+            // (in this order, so that saved states keep their fingerprints).
+            let TallyConfig { nr, dr, nz, dz, na, nt, dt, brdf, max_order, spatial, angular, errors } = *c;
             h.word(1);
-            for n in [c.nr, c.nz, c.na, c.nt] {
+            for n in [nr, nz, na, nt] {
                 h.word(n as u64);
             }
-            for x in [c.dr, c.dz, c.dt] {
+            for x in [dr, dz, dt] {
                 h.num(x);
             }
-            let (nc, np) = c.brdf.unwrap_or((0, 0));
-            h.word(c.brdf.is_some() as u64);
+            let (nc, np) = brdf.unwrap_or((0, 0));
+            h.word(brdf.is_some() as u64);
             h.word(nc as u64);
             h.word(np as u64);
-            h.word(c.max_order.map_or(u64::MAX, |k| k as u64));
-            h.word(c.spatial as u64);
-            h.word(c.angular as u64);
-            h.word(c.errors as u64);
+            h.word(max_order.map_or(u64::MAX, |k| k as u64));
+            h.word(spatial as u64);
+            h.word(angular as u64);
+            h.word(errors as u64);
         }
     }
     h.0

@@ -248,7 +248,7 @@ mod tests {
 
     #[test]
     fn rays_from_inside_a_sphere_hit_it_once_at_the_radius() {
-        let m = icosphere([0.0; 3], 2.0, 4);
+        let m = icosphere([0.0; 3], 2.0, 4).unwrap();
         let acc = Accel::new(&[&m]);
         let mut rng = crate::rng::PhotonRng::new(1, 2);
         for _ in 0..20_000 {

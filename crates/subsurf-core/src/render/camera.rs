@@ -1,7 +1,16 @@
 //! The pinhole camera.
 
 use super::math::{cross, dot, length, normalize, sub, V3};
+use super::mesh::MAX_COORDINATE;
 use crate::error::{Error, Result};
+
+/// Largest image width or height, pixels.
+pub const MAX_RESOLUTION: usize = 1 << 15;
+/// The allowed range of the width and height, as errors state it.
+pub const RESOLUTION_ALLOWED: &str = "an integer in [1, 32768] (pixels)";
+/// Bytes per pixel while rendering: the accumulator, one pass's sums, the mean image and the
+/// caller's copy of it, 3 × f64 each.
+pub const BYTES_PER_PIXEL: u64 = 4 * 3 * 8;
 
 /// A pinhole camera at `position` looking at `look_at`, `fov_deg` the vertical field of view.
 #[derive(Clone, Debug)]
@@ -22,8 +31,8 @@ impl Camera {
     /// the view direction, fov outside (0, 180) degrees, a zero or huge resolution.
     pub fn new(position: V3, look_at: V3, up: V3, fov_deg: f64, width: usize, height: usize) -> Result<Camera> {
         for (name, v) in [("camera.position", position), ("camera.look_at", look_at), ("camera.up", up)] {
-            if let Some(c) = v.iter().find(|c| !c.is_finite()) {
-                return Err(Error::param(name, *c, "finite coordinates"));
+            if let Some(c) = v.iter().find(|c| !(c.abs() <= MAX_COORDINATE)) {
+                return Err(Error::param(name, *c, "coordinates in [-1e15, 1e15] (mm)"));
             }
         }
         let f = sub(look_at, position);
@@ -39,13 +48,31 @@ impl Camera {
             return Err(Error::param("camera.fov", fov_deg, "in (0, 180) degrees"));
         }
         for (name, n) in [("camera.width", width), ("camera.height", height)] {
-            if n == 0 || n > 1 << 15 {
-                return Err(Error::param(name, n as f64, "an integer in [1, 32768] (pixels)"));
+            if n == 0 || n > MAX_RESOLUTION {
+                return Err(Error::param_int(name, n as i128, RESOLUTION_ALLOWED));
             }
         }
         let right = normalize(r);
         let upv = cross(right, forward);
         Ok(Camera { position, width, height, right, up: upv, forward, tan_half: (fov_deg.to_radians() / 2.0).tan() })
+    }
+
+    /// Refuse an image whose buffers ([`BYTES_PER_PIXEL`]) exceed `available` bytes (default:
+    /// the memory available now), before anything is allocated.
+    pub fn check_memory(&self, available: Option<u64>) -> Result<()> {
+        let need = (self.width * self.height) as u64 * BYTES_PER_PIXEL;
+        let Some(have) = available.or_else(crate::mc::run::available_memory) else { return Ok(()) };
+        if need <= have {
+            return Ok(());
+        }
+        Err(Error::Invalid(format!(
+            "camera: a {} × {} image needs about {:.3} GB of memory while rendering ({BYTES_PER_PIXEL} bytes per \
+             pixel) but {:.3} GB is available: lower camera.width and camera.height",
+            self.width,
+            self.height,
+            need as f64 / 1e9,
+            have as f64 / 1e9
+        )))
     }
 
     /// Unit direction through the image point (x, y) in pixels (x right, y down; pixel centres

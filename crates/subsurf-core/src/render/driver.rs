@@ -8,52 +8,34 @@
 //! rendered in one pass or many, and a cancelled render keeps every completed pass.
 
 use super::hierarchical::{Hierarchical, HierarchicalParams};
+use super::material::Material;
 use super::math::Rgb;
 use super::probe::Probe;
 use super::random_walk::RandomWalk;
 use super::scene::Scene;
 use super::shade::{trace, Translucency};
 use crate::error::{Error, Result};
+use crate::mc::config::{MAX_THREADS, THREADS_ALLOWED};
 use crate::rng::PhotonRng;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 
-/// The way the translucent term is computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// Jensen & Buhler (2002): irradiance samples and an octree.
-    Hierarchical,
-    /// pbrt-v4's probe-ray importance sampling of the profile.
-    Probe,
-    /// Brute-force volumetric random walk inside the closed mesh.
-    RandomWalk,
+crate::named_enum! {
+    /// The way the translucent term is computed.
+    pub enum Method ("a render method") {
+        /// Jensen & Buhler (2002): irradiance samples and an octree.
+        Hierarchical = "hierarchical",
+        /// pbrt-v4's probe-ray importance sampling of the profile.
+        Probe = "probe",
+        /// Brute-force volumetric random walk inside the closed mesh.
+        RandomWalk = "random_walk",
+    }
 }
 
 impl Method {
-    pub const NAMES: [&'static str; 3] = ["hierarchical", "probe", "random_walk"];
-
-    /// Parse a method name; errors list the valid names.
-    pub fn from_name(name: &str) -> Result<Method> {
-        match name {
-            "hierarchical" => Ok(Method::Hierarchical),
-            "probe" => Ok(Method::Probe),
-            "random_walk" => Ok(Method::RandomWalk),
-            other => Err(Error::Invalid(format!("method = {other:?} is unknown: must be one of {:?}", Method::NAMES))),
-        }
-    }
-
-    /// The method's name (one of [`NAMES`](Self::NAMES)).
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Hierarchical => "hierarchical",
-            Method::Probe => "probe",
-            Method::RandomWalk => "random_walk",
-        }
-    }
-
-    /// Whether the method reads the materials' radial profiles (the BSSRDF methods do; the
-    /// random walk traces the medium itself, so its materials need none).
+    /// Whether the method evaluates the materials' radial profiles (the BSSRDF methods); the
+    /// random walk follows the medium itself.
     pub fn uses_profiles(self) -> bool {
         match self {
             Method::Hierarchical | Method::Probe => true,
@@ -99,11 +81,13 @@ impl Renderer {
         hp: &HierarchicalParams,
         ctl: &Control,
     ) -> Result<Option<Renderer>> {
-        if scene.camera.is_none() {
+        let Some(camera) = &scene.camera else {
             return Err(Error::Invalid("camera: the scene has no camera; add one to render an image".into()));
-        }
-        if method.uses_profiles() {
-            scene.require_profiles(method.name())?;
+        };
+        camera.check_memory(None)?;
+        let no_profiles = |m: &Material| m.translucent().is_some_and(|t| t.bssrdf.is_none());
+        if method.uses_profiles() && scene.materials.iter().any(no_profiles) {
+            return Err(Error::Invalid(format!("method {}: a translucent material has no profiles", method.name())));
         }
         let tr: Box<dyn Translucency> = match method {
             Method::Hierarchical => match Hierarchical::new_with(&scene, hp, seed, ctl)? {
@@ -178,11 +162,23 @@ impl Renderer {
     }
 }
 
+/// The allowed samples per pixel of a render, as errors state it.
+pub const SPP_ALLOWED: &str = "an integer in [1, 4294967295]";
+
+/// Samples per pixel of a render: 1 … 2³² − 1 (sample indices are 32 bits of each stream's
+/// counter).
+pub fn check_spp(spp: u64) -> Result<u32> {
+    match u32::try_from(spp) {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(Error::param_int("spp", spp as i128, SPP_ALLOWED)),
+    }
+}
+
 /// Run `f` on a pool of `threads` worker threads (all cores for `None`).
 pub fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
     match threads {
         None => Ok(f()),
-        Some(0) => Err(Error::param("threads", 0.0, "an integer >= 1")),
+        Some(t) if !(1..=MAX_THREADS).contains(&t) => Err(Error::param_int("threads", t as i128, THREADS_ALLOWED)),
         Some(t) => rayon::ThreadPoolBuilder::new()
             .num_threads(t)
             .build()

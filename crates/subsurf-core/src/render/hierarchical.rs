@@ -118,9 +118,9 @@ impl Tree {
     /// under-samples a convex peak).
     pub fn exitance(&self, m: &Translucent, x: V3, epsilon: f64) -> Rgb {
         let rho0 = self.rho0;
-        let cap: Rgb = std::array::from_fn(|k| m.profile(k).rd(rho0));
+        let cap: Rgb = std::array::from_fn(|k| m.profiles()[k].rd(rho0));
         let rd = |r: f64| -> Rgb {
-            std::array::from_fn(|k| m.profile(k).rd(r).min(if r < rho0 { cap[k] } else { f64::INFINITY }))
+            std::array::from_fn(|k| m.profiles()[k].rd(r).min(if r < rho0 { cap[k] } else { f64::INFINITY }))
         };
         let (mut acc, mut near_e, mut near_a) = ([0.0; 3], [0.0; 3], 0.0);
         let mut stack = vec![0u32];
@@ -148,7 +148,7 @@ impl Tree {
         }
         if near_a > 0.0 {
             let near: Rgb = std::array::from_fn(|k| {
-                let p = m.profile(k);
+                let p = &m.profiles()[k];
                 (p.total() * p.cdf(rho0) - PI * rho0 * rho0 * cap[k]).max(0.0) * near_e[k] / near_a
             });
             acc = add(acc, near);
@@ -246,7 +246,7 @@ impl Hierarchical {
         let spots: Vec<Option<(Spots, f64)>> = (0..scene.objects.len())
             .map(|oi| {
                 let m = scene.material(oi).translucent()?;
-                let median = (0..3).map(|k| m.profile(k).radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min);
+                let median = (0..3).map(|k| m.profiles()[k].radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min);
                 let total = scene.objects[oi].mesh.total_area();
                 let mut delta = params.spacing * median;
                 if !(delta > 0.0) || total / (delta * delta) > params.max_samples as f64 {

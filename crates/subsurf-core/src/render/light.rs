@@ -5,7 +5,7 @@
 //! consistent unit of power works: images are linear in it). Area lights emit diffusely:
 //! L = Φ/(π A) from the front of a rectangle and outwards from a sphere (A = 4πr²).
 
-use super::math::{cross, dot, length, madd, normalize, scale, sub, Frame, Rgb, V3};
+use super::math::{cross, dot, length, madd, normalize, scale, sub, unit, Frame, Rgb, V3};
 use crate::error::{Error, Result};
 use std::f64::consts::PI;
 
@@ -23,6 +23,32 @@ pub enum Light {
     Rect { center: V3, u: V3, v: V3, n: V3, radiance: Rgb },
 }
 
+crate::named_enum! {
+    /// The types of [`Light`], as scenes name them (`type = "point"`).
+    pub enum LightKind ("a light type") {
+        /// [`Light::point`].
+        Point = "point",
+        /// [`Light::directional`].
+        Directional = "directional",
+        /// [`Light::sphere`].
+        Sphere = "sphere",
+        /// [`Light::rect`].
+        Rect = "rect",
+    }
+}
+
+impl LightKind {
+    /// The parameters a scene gives for this type, in the constructor's order.
+    pub fn params(self) -> &'static [&'static str] {
+        match self {
+            LightKind::Point => &["position", "power"],
+            LightKind::Directional => &["direction", "irradiance"],
+            LightKind::Sphere => &["position", "radius", "power"],
+            LightKind::Rect => &["position", "u", "v", "power"],
+        }
+    }
+}
+
 /// A light sample seen from a point: the unit direction to the light, the distance to it
 /// (∞ for a directional light) and the irradiance it delivers on a surface normal to `wi`
 /// divided by the sampling pdf (W mm⁻²): multiply by cos θ for a tilted surface.
@@ -33,14 +59,15 @@ pub struct LightSample {
     pub value: Rgb,
 }
 
-fn check_power(field: &str, p: Rgb) -> Result<()> {
+/// Largest light power (W), irradiance (W mm⁻²) or environment radiance per channel: radiance
+/// sums over paths and samples stay finite (images are linear in it; rescale the units).
+pub const MAX_POWER: f64 = 1e100;
+
+/// Check a power-like RGB value: each channel in [0, [`MAX_POWER`]].
+pub fn check_power(field: &str, p: Rgb) -> Result<()> {
     for (k, &x) in p.iter().enumerate() {
-        if !(x.is_finite() && x >= 0.0) {
-            return Err(Error::param(
-                format!("{field}[{k}]"),
-                x,
-                "a finite number >= 0 (light power cannot be negative)",
-            ));
+        if !(x.is_finite() && (0.0..=MAX_POWER).contains(&x)) {
+            return Err(Error::param(format!("{field}[{k}]"), x, "a number in [0, 1e100]"));
         }
     }
     Ok(())
@@ -56,10 +83,10 @@ impl Light {
     /// A directional light from `to_light` delivering `irradiance` (W mm⁻²) on a normal surface.
     pub fn directional(field: &str, to_light: V3, irradiance: Rgb) -> Result<Light> {
         check_power(&format!("{field}.irradiance"), irradiance)?;
-        if !(length(to_light) > 0.0) {
-            return Err(Error::Invalid(format!("{field}.direction: must be a non-zero vector")));
-        }
-        Ok(Light::Directional { to_light: normalize(to_light), irradiance })
+        let Some(to_light) = unit(to_light) else {
+            return Err(Error::Invalid(format!("{field}.direction: must be a finite non-zero vector")));
+        };
+        Ok(Light::Directional { to_light, irradiance })
     }
 
     /// A spherical area light of total power `power`.
@@ -81,6 +108,16 @@ impl Light {
             return Err(Error::Invalid(format!("{field}: the rectangle has zero area (u and v must span a plane)")));
         }
         Ok(Light::Rect { center, u, v, n: normalize(c), radiance: scale(power, 1.0 / (PI * area)) })
+    }
+
+    /// The light's type.
+    pub fn kind(&self) -> LightKind {
+        match self {
+            Light::Point { .. } => LightKind::Point,
+            Light::Directional { .. } => LightKind::Directional,
+            Light::Sphere { .. } => LightKind::Sphere,
+            Light::Rect { .. } => LightKind::Rect,
+        }
     }
 
     /// Sample the light from point `p` with uniforms (u1, u2); `None` when nothing reaches `p`.
@@ -143,7 +180,7 @@ impl Light {
                 let dir = crate::optics::sample_uniform_sphere(u1, u2);
                 Some((madd(center, dir, radius), dir, radiance, 1.0 / (4.0 * PI * radius * radius)))
             }
-            _ => None,
+            Light::Point { .. } | Light::Directional { .. } => None,
         }
     }
 
@@ -167,7 +204,7 @@ impl Light {
                 let (a, b) = (dot(q, u) / dot(u, u), dot(q, v) / dot(v, v));
                 (a.abs() <= 1.0 && b.abs() <= 1.0).then_some((t, radiance))
             }
-            _ => None,
+            Light::Point { .. } | Light::Directional { .. } => None,
         }
     }
 }

@@ -34,9 +34,9 @@ pub struct Translucent {
     pub g: f64,
     /// Refractive index of the medium (the outside is vacuum, index 1).
     pub eta: f64,
-    /// R_d(r) per channel (any model behind [`RadialProfile`]); `None` for a material built for
-    /// the `random_walk` method, which uses none ([`TranslucentSpec::build`]).
-    pub profiles: Option<Profiles>,
+    /// R_d(r) per channel (any model behind [`RadialProfile`]); `None` for a material built
+    /// for a method that uses no profile ([`super::Method::uses_profiles`]).
+    pub bssrdf: Option<Profiles>,
     /// Whether the BSSRDF methods add the single-scattering term S⁽¹⁾ (off for profiles that
     /// already contain every scattering order, e.g. Monte Carlo ones).
     pub single_scattering: bool,
@@ -64,7 +64,8 @@ impl Translucent {
         for k in 0..3 {
             check_nonneg(&format!("{field}.sigma_a[{k}]"), sigma_a[k])?;
             check_nonneg(&format!("{field}.sigma_s[{k}]"), sigma_s[k])?;
-            let t = profiles.as_ref().map_or(0.0, |p| p[k].total());
+            let Some(p) = &profiles else { continue };
+            let t = p[k].total();
             if !(t.is_finite() && (0.0..=1.0 + 1e-9).contains(&t)) {
                 return Err(Error::param(format!("{field}.profile[{k}].total"), t, "in [0, 1]"));
             }
@@ -80,7 +81,7 @@ impl Translucent {
             sigma_s,
             g,
             eta,
-            profiles,
+            bssrdf: profiles,
             single_scattering,
             c_norm: 1.0 - diffuse_fresnel_reflectance(eta, false)?,
             phase: Phase::hg(g)?,
@@ -88,13 +89,13 @@ impl Translucent {
             stacks,
         })
     }
+}
 
-    /// The profile of channel `k`. Panics for a material built without profiles: the BSSRDF
-    /// methods are only prepared for scenes that have them (checked by `Renderer::new`).
-    #[inline]
-    pub fn profile(&self, k: usize) -> &dyn RadialProfile {
-        self.profiles.as_ref().expect("a BSSRDF method's materials have profiles (checked in Renderer::new)")[k]
-            .as_ref()
+impl Translucent {
+    /// The profiles per channel; only for materials built with them (the renderer checks
+    /// [`super::Method::uses_profiles`] methods get them).
+    pub fn profiles(&self) -> &Profiles {
+        self.bssrdf.as_ref().expect("a BSSRDF method's materials have profiles (checked by Renderer::new)")
     }
 }
 
@@ -118,8 +119,8 @@ pub struct TranslucentSpec {
     pub stacks: [Stack; 3],
     /// Settings of a `monte_carlo` profile.
     pub mc: crate::bssrdf::monte_carlo::McSettings,
-    /// The surface colour the material was made from, if any (see [`channel_profiles`]).
-    pub colour: Option<Rgb>,
+    /// The reflectance the material was made from, if any (see [`channel_profiles`]).
+    pub reflectance: Option<Rgb>,
     /// Whether the BSSRDF methods add S⁽¹⁾ (`None`: the model's default, see [`channel_profiles`]).
     pub single_scattering: Option<bool>,
 }
@@ -128,7 +129,7 @@ impl TranslucentSpec {
     /// Photons its profiles trace: 3 × `mc.photons` for `monte_carlo`, else 0 (the progress
     /// total of [`build`](Self::build)).
     pub fn photons(&self) -> u64 {
-        match crate::bssrdf::Model::from_name(&self.model) {
+        match crate::bssrdf::Model::from_name("model", &self.model) {
             Ok(crate::bssrdf::Model::MonteCarlo) => self.mc.photons.saturating_mul(3),
             _ => 0,
         }
@@ -140,15 +141,15 @@ impl TranslucentSpec {
     pub fn build(&self, profiles: bool, cancel: &AtomicBool, progress: &AtomicU64) -> Result<Option<Translucent>> {
         let within = |e: Error| Error::Invalid(format!("{}: {e}", self.field));
         let (profs, ss_default) = if profiles {
-            match channel_profiles(&self.model, &self.stacks, &self.mc, self.colour.as_ref(), cancel, progress)
+            match channel_profiles(&self.model, &self.stacks, &self.mc, self.reflectance.as_ref(), cancel, progress)
                 .map_err(within)?
             {
                 Some((p, ss)) => (Some(p), ss),
                 None => return Ok(None),
             }
         } else {
-            crate::bssrdf::Model::from_name(&self.model).map_err(within)?;
-            (None, false)
+            let m = crate::bssrdf::Model::from_name(&format!("{}.model", self.field), &self.model)?;
+            (None, m.adds_single_scattering())
         };
         let ss = self.single_scattering.unwrap_or(ss_default);
         Translucent::new(&self.field, self.sigma_a, self.sigma_s, self.g, self.eta, profs, ss).map(Some)
@@ -275,30 +276,29 @@ impl RadialProfile for RdTable {
 }
 
 /// The profiles of `model` (a [`crate::bssrdf::Model`] name) for one stack per channel, as
-/// the renderer uses them, and whether the BSSRDF methods must add S⁽¹⁾ (`None` when `cancel`
-/// stopped a Monte Carlo profile, which counts its photons in `progress`):
+/// the renderer uses them, and whether the BSSRDF methods must add S⁽¹⁾:
 /// - R_d is looked up in an [`RdTable`] (which also applies the scale below);
 /// - profiles are per unit power *entering* the medium (the renderer applies F_t at entry):
 ///   `monte_carlo` profiles, simulated for a pencil beam of unit *incident* power, are divided
 ///   by the normal-incidence transmittance 1 − R_sp of the top interface;
-/// - S⁽¹⁾ is added for the pure diffusion models (dipole, better dipole, multipole) only:
-///   photon beam diffusion and Monte Carlo include single scattering in R_d, and normalized
-///   diffusion is a fit to every order (Christensen & Burley 2015);
-/// - a material made from a surface `colour` (per channel, [`crate::bssrdf::inverse`]) gives
-///   normalized diffusion that colour as its surface albedo
-///   ([`crate::bssrdf::normalized_diffusion::from_colour`]); the other models' materials were
-///   inverted under their own totals, which already give the colour.
+/// - S⁽¹⁾ is added where [`crate::bssrdf::Model::adds_single_scattering`] says so;
+/// - a material made from a `reflectance` (per channel and unit incident power,
+///   [`crate::bssrdf::inverse`]) gives normalized diffusion that reflectance as its surface
+///   albedo ([`crate::bssrdf::normalized_diffusion::from_reflectance`]); the other models'
+///   materials were inverted under their own totals, which already give the reflectance.
+///
+/// `None` when `cancel` stopped a Monte Carlo profile (which counts its photons in `progress`).
 pub fn channel_profiles(
     model: &str,
     stacks: &[Stack; 3],
     mc: &crate::bssrdf::monte_carlo::McSettings,
-    colour: Option<&Rgb>,
+    reflectance: Option<&Rgb>,
     cancel: &AtomicBool,
     progress: &AtomicU64,
 ) -> Result<Option<(Profiles, bool)>> {
     use crate::bssrdf::{normalized_diffusion, Medium, Model};
-    let m = Model::from_name(model)?;
-    let profs: Vec<Box<dyn RadialProfile>> = match (m, colour) {
+    let m = Model::from_name("model", model)?;
+    let profs: Vec<Box<dyn RadialProfile>> = match (m, reflectance) {
         (Model::NormalizedDiffusion, Some(c)) => stacks
             .iter()
             .zip(c)
@@ -306,7 +306,8 @@ pub fn channel_profiles(
             .map(|(k, (s, &a))| -> Result<Box<dyn RadialProfile>> {
                 let med = Medium::from_stack(s, model).map_err(|e| e.within(&format!("channels[{k}].")))?;
                 Ok(Box::new(
-                    normalized_diffusion::from_colour(&med, a).map_err(|e| e.within(&format!("channels[{k}].")))?,
+                    normalized_diffusion::from_reflectance(&med, a)
+                        .map_err(|e| e.within(&format!("channels[{k}].")))?,
                 ))
             })
             .collect::<Result<_>>()?,
@@ -317,15 +318,15 @@ pub fn channel_profiles(
     };
     let mut out: Vec<Arc<dyn RadialProfile>> = Vec::with_capacity(3);
     for (p, s) in profs.into_iter().zip(stacks) {
-        let k = if m == Model::MonteCarlo {
+        let k = if m.per_incident_power() {
             1.0 / (1.0 - crate::optics::fr_dielectric(1.0, s.n_above, s.layers[0].n))
         } else {
             1.0
         };
         out.push(Arc::new(RdTable::new(p, k)));
     }
-    let ss = matches!(m, Model::Dipole | Model::BetterDipole | Model::Multipole);
-    let arr: [Arc<dyn RadialProfile>; 3] = [out[0].clone(), out[1].clone(), out[2].clone()];
+    let ss = m.adds_single_scattering();
+    let arr: Profiles = [out[0].clone(), out[1].clone(), out[2].clone()];
     Ok(Some((arr, ss)))
 }
 

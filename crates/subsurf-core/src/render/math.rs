@@ -40,6 +40,12 @@ pub fn length(a: V3) -> f64 {
 pub fn normalize(a: V3) -> V3 {
     scale(a, 1.0 / length(a))
 }
+/// The unit vector along `a` for any finite non-zero `a` (scaled by its largest component
+/// first, so 1e300 or 1e-300 components neither overflow nor vanish); `None` otherwise.
+pub fn unit(a: V3) -> Option<V3> {
+    let m = a.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    (m > 0.0 && a.iter().all(|c| c.is_finite())).then(|| normalize(scale(a, 1.0 / m)))
+}
 #[inline(always)]
 pub fn neg(a: V3) -> V3 {
     [-a[0], -a[1], -a[2]]

@@ -10,6 +10,10 @@ use super::math::{cross, dot, length, sub, Rgb, V3};
 use crate::error::{Error, Result};
 use std::collections::HashMap;
 
+/// Largest |coordinate| of a vertex, mm: the BVH's single-precision boxes, their surface areas
+/// and the meshes' areas and volumes stay finite (a 1 000 km scene is 10⁹ mm).
+pub const MAX_COORDINATE: f64 = 1e15;
+
 /// A triangle mesh in world space.
 #[derive(Clone, Debug)]
 pub struct Mesh {
@@ -38,6 +42,9 @@ impl Mesh {
             if p.iter().any(|c| !c.is_finite()) {
                 return Err(Error::Invalid(format!("{name}: vertex {i} has a non-finite coordinate {p:?}")));
             }
+            if let Some(&c) = p.iter().find(|c| c.abs() > MAX_COORDINATE) {
+                return Err(Error::param(format!("{name}: vertex {i} coordinate"), c, "in [-1e15, 1e15] (mm)"));
+            }
         }
         let nv = positions.len();
         if let Some(t) = triangles.iter().find(|t| t.iter().any(|&k| k as usize >= nv)) {
@@ -57,7 +64,7 @@ impl Mesh {
             }
         }
         let area: f64 = triangles.iter().map(|t| tri_area(&positions, t)).sum();
-        if !(area > 0.0) {
+        if !(area > 0.0 && area.is_finite()) {
             return Err(Error::param(format!("{name}: mesh area"), area, "> 0 (the mesh has zero area)"));
         }
         let open_edges = count_open_edges(&triangles);

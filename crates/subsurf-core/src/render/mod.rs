@@ -35,7 +35,7 @@ mod tests;
 pub use camera::Camera;
 pub use driver::{with_threads, Control, Method, Renderer};
 pub use hierarchical::HierarchicalParams;
-pub use light::Light;
+pub use light::{Light, LightKind};
 pub use material::{Material, Translucent, TranslucentSpec};
 pub use mesh::Mesh;
 pub use scene::{Object, Scene};

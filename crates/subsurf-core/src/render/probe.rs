@@ -41,8 +41,8 @@ impl Probe {
         let r_max = (0..scene.objects.len())
             .map(|oi| match scene.material(oi).translucent() {
                 Some(m) => std::array::from_fn(|k| {
-                    if m.profile(k).total() > 0.0 {
-                        m.profile(k).radius_for_fraction(R_MAX_FRACTION)
+                    if m.profiles()[k].total() > 0.0 {
+                        m.profiles()[k].radius_for_fraction(R_MAX_FRACTION)
                     } else {
                         0.0
                     }
@@ -94,7 +94,7 @@ impl Translucency for Probe {
             2
         };
         let c = chans[((u_ch * chans.len() as f64) as usize).min(chans.len() - 1)];
-        let r = m.profile(c).sample_r(u_r);
+        let r = m.profiles()[c].sample_r(u_r);
         if !(r < max3(r_max)) {
             return s1;
         }
@@ -127,7 +127,7 @@ impl Translucency for Probe {
             let count = if j == ai { hits.len() } else { segment(hi.p, axj).len().max(1) };
             for &k in &chans {
                 if rp < big_r {
-                    let prof = m.profile(k);
+                    let prof = &m.profiles()[k];
                     pdf += probs[j] / chans.len() as f64 * prof.rd(rp) / prof.total() * dot(hi.n, axj).abs()
                         / count as f64;
                 }
@@ -137,7 +137,7 @@ impl Translucency for Probe {
             return s1;
         }
         let dist = length(dx);
-        let rd: Rgb = std::array::from_fn(|k| m.profile(k).rd(dist));
+        let rd: Rgb = std::array::from_fn(|k| m.profiles()[k].rd(dist));
         let e = direct_irradiance(scene, &hi, Some(m.eta), true, 1, rng);
         let w = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm * pdf);
         add(scale(mul(mul(rd, e), tint(scene, hit)), w), s1)

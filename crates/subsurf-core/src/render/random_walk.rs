@@ -280,7 +280,7 @@ impl RandomWalk {
                 Light::Point { position, intensity } => {
                     (facet_nee::point(scene, obj, m.eta, p, position), scale(intensity, 1.0 / q))
                 }
-                _ => {
+                Light::Sphere { .. } | Light::Rect { .. } => {
                     let Some((y, ny, le, pdf)) = light.sample_point(rng.uniform(), rng.uniform()) else { continue };
                     let Some(c) = facet_nee::point(scene, obj, m.eta, p, y) else { continue };
                     let cos_l = dot(ny, normalize(sub(c.hit.p, y)));

@@ -56,11 +56,7 @@ impl Scene {
                 )));
             }
         }
-        for (k, &e) in environment.iter().enumerate() {
-            if !(e.is_finite() && e >= 0.0) {
-                return Err(Error::param(format!("environment.radiance[{k}]"), e, "a finite number >= 0"));
-            }
-        }
+        super::light::check_power("environment", environment)?;
         let meshes: Vec<&Mesh> = objects.iter().map(|o| &o.mesh).collect();
         let accel = Accel::new(&meshes);
         let scene = Scene { objects, materials, lights, environment, camera, accel };
@@ -72,6 +68,23 @@ impl Scene {
             }
         }
         Ok(scene)
+    }
+
+    /// Warnings about lights that cannot light anything: a point, sphere or rectangle light inside
+    /// a closed object (its light never leaves it).
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = vec![];
+        for (i, l) in self.lights.iter().enumerate() {
+            let at = match *l {
+                Light::Point { position, .. } => position,
+                Light::Sphere { center, .. } | Light::Rect { center, .. } => center,
+                Light::Directional { .. } => continue,
+            };
+            if let Some(name) = self.enclosing_object(at) {
+                out.push(format!("lights[{i}] is inside the closed object {name}: it lights nothing outside it"));
+            }
+        }
+        out
     }
 
     /// The name of a closed object containing `p`, if any (majority of three parity counts).
@@ -109,21 +122,6 @@ impl Scene {
         for o in &self.objects {
             if matches!(self.materials[o.material], Material::Translucent(_)) {
                 o.mesh.require_closed(&o.name, method)?;
-            }
-        }
-        Ok(())
-    }
-
-    /// `Ok` if every translucent material has its radial profiles (`method` reads them).
-    pub fn require_profiles(&self, method: &str) -> Result<()> {
-        for o in &self.objects {
-            if let Material::Translucent(t) = &self.materials[o.material] {
-                if t.profiles.is_none() {
-                    return Err(Error::Invalid(format!(
-                        "{}: its material was prepared without profiles (for random_walk); method {method} needs them",
-                        o.name
-                    )));
-                }
             }
         }
         Ok(())

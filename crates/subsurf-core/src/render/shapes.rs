@@ -2,13 +2,25 @@
 //! from outside: icosphere, axis-aligned box, rectangle (plane) and torus.
 
 use super::math::{add, normalize, scale, V3};
-use super::mesh::Mesh;
+use super::mesh::{Mesh, MAX_COORDINATE};
+use crate::error::{Error, Result};
+
+/// Most subdivisions of an icosphere (20·4⁸ = 1.3 million triangles).
+pub const MAX_SUBDIVISIONS: u32 = 8;
+/// The allowed range of the icosphere's subdivisions, as errors state it.
+pub const SUBDIVISIONS_ALLOWED: &str = "an integer in [0, 8]";
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
 /// An icosphere: the icosahedron subdivided `level` times (20·4^level triangles), vertices
 /// projected onto the sphere of `radius` (mm) about `center`.
-pub fn icosphere(center: V3, radius: f64, level: u32) -> Mesh {
+pub fn icosphere(center: V3, radius: f64, level: u32) -> Result<Mesh> {
+    if !(1e-100..=MAX_COORDINATE).contains(&radius) {
+        return Err(Error::param("radius", radius, "a number in [1e-100, 1e15] (mm)"));
+    }
+    if level > MAX_SUBDIVISIONS {
+        return Err(Error::param_int("subdivisions", level as i128, SUBDIVISIONS_ALLOWED));
+    }
     let t = (1.0 + 5f64.sqrt()) / 2.0;
     let mut v: Vec<V3> = [
         [-1.0, t, 0.0],
@@ -65,11 +77,14 @@ pub fn icosphere(center: V3, radius: f64, level: u32) -> Mesh {
         f = nf;
     }
     let p = v.into_iter().map(|x| add(center, scale(x, radius))).collect();
-    Mesh::new("icosphere", p, f, None).expect("the icosphere is a valid mesh")
+    Mesh::new("sphere", p, f, None)
 }
 
 /// An axis-aligned box from corner `lo` to corner `hi` (mm), 12 triangles.
-pub fn cuboid(lo: V3, hi: V3) -> Mesh {
+pub fn cuboid(lo: V3, hi: V3) -> Result<Mesh> {
+    if let Some(k) = (0..3).find(|&k| !(hi[k] > lo[k])) {
+        return Err(Error::Invalid(format!("hi[{k}] = {:?}: every coordinate of hi must exceed lo's", hi[k])));
+    }
     let p: Vec<V3> = (0..8)
         .map(|i| {
             [
@@ -85,19 +100,33 @@ pub fn cuboid(lo: V3, hi: V3) -> Mesh {
         t.push([q[0], q[1], q[2]]);
         t.push([q[0], q[2], q[3]]);
     }
-    Mesh::new("box", p, t, None).expect("a box with lo < hi is a valid mesh")
+    Mesh::new("box", p, t, None)
 }
 
 /// A rectangle of size `sx` × `sy` (mm) in the plane z = `z`, centred on (cx, cy), normal +z.
-pub fn rectangle(cx: f64, cy: f64, z: f64, sx: f64, sy: f64) -> Mesh {
+pub fn rectangle(cx: f64, cy: f64, z: f64, sx: f64, sy: f64) -> Result<Mesh> {
+    for (k, s) in [sx, sy].into_iter().enumerate() {
+        if !(s > 0.0) {
+            return Err(Error::param(format!("size[{k}]"), s, "a number > 0 (mm)"));
+        }
+    }
     let (hx, hy) = (sx / 2.0, sy / 2.0);
     let p = vec![[cx - hx, cy - hy, z], [cx + hx, cy - hy, z], [cx + hx, cy + hy, z], [cx - hx, cy + hy, z]];
-    Mesh::new("plane", p, vec![[0, 1, 2], [0, 2, 3]], None).expect("a rectangle of positive size is a valid mesh")
+    Mesh::new("plane", p, vec![[0, 1, 2], [0, 2, 3]], None)
 }
 
 /// A torus about the z axis through `center`: major radius `r_major`, tube radius `r_minor`
 /// (mm), `nu` × `nv` quads.
-pub fn torus(center: V3, r_major: f64, r_minor: f64, nu: u32, nv: u32) -> Mesh {
+pub fn torus(center: V3, r_major: f64, r_minor: f64, nu: u32, nv: u32) -> Result<Mesh> {
+    if !(r_minor > 0.0) {
+        return Err(Error::param("minor", r_minor, "a number > 0 (mm)"));
+    }
+    if !(r_major > r_minor) {
+        return Err(Error::param("major", r_major, "a number > minor (mm)"));
+    }
+    if nu < 3 || nv < 3 || nu > 1 << 12 || nv > 1 << 12 {
+        return Err(Error::Invalid(format!("torus: nu = {nu}, nv = {nv}: each must be in [3, 4096]")));
+    }
     let mut p = Vec::with_capacity((nu * nv) as usize);
     for i in 0..nu {
         let u = 2.0 * PI * i as f64 / nu as f64;
@@ -116,7 +145,7 @@ pub fn torus(center: V3, r_major: f64, r_minor: f64, nu: u32, nv: u32) -> Mesh {
             t.push([a, c, d]);
         }
     }
-    Mesh::new("torus", p, t, None).expect("a torus with r_major > r_minor > 0 is a valid mesh")
+    Mesh::new("torus", p, t, None)
 }
 
 #[cfg(test)]
@@ -125,15 +154,25 @@ mod tests {
 
     #[test]
     fn shapes_are_closed_with_the_right_volume() {
-        let s = icosphere([1.0, 2.0, 3.0], 2.0, 5);
+        let s = icosphere([1.0, 2.0, 3.0], 2.0, 5).unwrap();
         assert!(s.closed && s.triangles.len() == 20 * 4usize.pow(5));
         let v = 4.0 / 3.0 * PI * 8.0;
         assert!((s.volume() / v - 1.0).abs() < 2e-3, "{}", s.volume() / v);
-        let b = cuboid([0.0; 3], [1.0, 2.0, 3.0]);
+        let b = cuboid([0.0; 3], [1.0, 2.0, 3.0]).unwrap();
         assert!(b.closed && (b.volume() - 6.0).abs() < 1e-12 && (b.total_area() - 22.0).abs() < 1e-12);
-        let t = torus([0.0; 3], 3.0, 1.0, 64, 32);
+        let t = torus([0.0; 3], 3.0, 1.0, 64, 32).unwrap();
         assert!(t.closed && (t.volume() / (2.0 * PI * PI * 3.0) - 1.0).abs() < 1e-2);
-        let r = rectangle(0.0, 0.0, 1.0, 2.0, 3.0);
+        let r = rectangle(0.0, 0.0, 1.0, 2.0, 3.0).unwrap();
         assert!(!r.closed && (r.total_area() - 6.0).abs() < 1e-12);
+    }
+
+    /// Sizes that overflow or vanish are refused, never a panic.
+    #[test]
+    fn extreme_sizes_are_errors() {
+        for r in [f64::INFINITY, 1e300, 1e-300, f64::NAN] {
+            assert!(icosphere([0.0; 3], r, 2).is_err(), "radius {r}");
+        }
+        assert!(rectangle(0.0, 0.0, 0.0, 1e300, 1e300).is_err());
+        assert!(cuboid([0.0; 3], [1e20, 1.0, 1.0]).unwrap_err().to_string().contains("[-1e15, 1e15]"));
     }
 }

@@ -66,7 +66,7 @@ fn flat_slab_hierarchical_and_probe_match_the_profile_total() {
     let eta = 1.4;
     let total = [0.7, 0.5, 0.3];
     let m = test_material(total, 2.0, [0.01; 3], [1.0; 3], 0.0, eta, false);
-    let slab = cuboid([-15.0, -15.0, -10.0], [15.0, 15.0, 0.0]);
+    let slab = cuboid([-15.0, -15.0, -10.0], [15.0, 15.0, 0.0]).unwrap();
     let sun = Light::directional("sun", [0.0, 0.0, 1.0], [1.0; 3]).unwrap();
     let s = scene(vec![slab], m, vec![sun], [0.0; 3], Some(down_camera(3)));
     let Material::Translucent(t) = &s.materials[0] else { unreachable!() };
@@ -92,7 +92,7 @@ fn flat_slab_hierarchical_and_probe_match_the_profile_total() {
 fn hierarchical_matches_all_pairs() {
     let m = test_material([0.8, 0.6, 0.4], 3.0, [0.01; 3], [1.0; 3], 0.0, 1.3, false);
     let light = Light::rect("l", [0.0, 0.0, 30.0], [5.0, 0.0, 0.0], [0.0, -5.0, 0.0], [2000.0; 3]).unwrap();
-    let s = scene(vec![icosphere([0.0; 3], 10.0, 4)], m, vec![light], [0.05; 3], None);
+    let s = scene(vec![icosphere([0.0; 3], 10.0, 4).unwrap()], m, vec![light], [0.05; 3], None);
     let h = Hierarchical::new(&s, &HierarchicalParams::default(), 3).unwrap();
     let tree = h.trees[0].as_ref().unwrap();
     let mat = s.materials[0].translucent().unwrap();
@@ -115,7 +115,7 @@ fn lit_sphere(level: u32, method_camera: usize) -> Arc<Scene> {
     let m = test_material([0.8, 0.6, 0.4], 0.7, [0.01; 3], [1.0; 3], 0.0, 1.3, true);
     let light = Light::sphere("l", [20.0, 10.0, 30.0], 4.0, [5000.0; 3]).unwrap();
     let cam = Camera::new([0.0, -60.0, 10.0], [0.0; 3], [0.0, 0.0, 1.0], 22.0, method_camera, method_camera).unwrap();
-    scene(vec![icosphere([0.0; 3], 10.0, level)], m, vec![light], [0.1, 0.1, 0.12], Some(cam))
+    scene(vec![icosphere([0.0; 3], 10.0, level).unwrap()], m, vec![light], [0.1, 0.1, 0.12], Some(cam))
 }
 
 /// probe converges to the hierarchical image on a lit sphere: at a few pixels, within 4σ of
@@ -168,7 +168,7 @@ fn furnace_random_walk() {
     for (sigma_s, exact) in [([2.0; 3], true), ([0.5, 2.0, 6.0], false)] {
         let m = test_material([0.5; 3], 1.0, [0.0; 3], sigma_s, 0.7, 1.4, false);
         let cam = Camera::new([0.0, -30.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 25.0, 8, 8).unwrap();
-        let s = scene(vec![icosphere([0.0; 3], 5.0, 3)], m, vec![], [0.25; 3], Some(cam));
+        let s = scene(vec![icosphere([0.0; 3], 5.0, 3).unwrap()], m, vec![], [0.25; 3], Some(cam));
         let r = Renderer::new(s.clone(), Method::RandomWalk, 1, &HierarchicalParams::default()).unwrap();
         if exact {
             for y in 0..8 {
@@ -199,7 +199,7 @@ fn walk_simulation_matches_the_engine_on_a_slab() {
     use crate::medium::{Layer, Stack};
     let (mua, mus, g, n) = (0.1, 10.0, 0.8, 1.4);
     let m = test_material([0.5; 3], 1.0, [mua; 3], [mus; 3], g, n, false);
-    let slab = cuboid([-40.0, -40.0, -30.0], [40.0, 40.0, 0.0]);
+    let slab = cuboid([-40.0, -40.0, -30.0], [40.0, 40.0, 0.0]).unwrap();
     let s = scene(vec![slab], m, vec![], [0.0; 3], None);
     let grid = VoxelGrid { lo: [-5.0, -5.0, -5.0], hi: [5.0, 5.0, 0.0], n: [10, 10, 10] };
     let cfg = WalkConfig {
@@ -243,7 +243,7 @@ fn same_seed_same_image_any_thread_count() {
 fn bad_scenes_are_refused() {
     let m = test_material([0.5; 3], 1.0, [0.1; 3], [1.0; 3], 0.0, 1.3, false);
     let inside = Camera::new([0.0, 0.0, 0.5], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], 40.0, 4, 4).unwrap();
-    let objects = vec![Object { name: "objects[0]".into(), mesh: icosphere([0.0; 3], 2.0, 2), material: 0 }];
+    let objects = vec![Object { name: "objects[0]".into(), mesh: icosphere([0.0; 3], 2.0, 2).unwrap(), material: 0 }];
     let e = Scene::new(objects, vec![m.clone()], vec![], [1.0; 3], Some(inside)).err().unwrap().to_string();
     assert!(e.contains("camera.position") && e.contains("inside objects[0]"), "{e}");
     let open =
@@ -251,8 +251,45 @@ fn bad_scenes_are_refused() {
     let s = scene(vec![open], m, vec![], [1.0; 3], Some(down_camera(2)));
     let e = Renderer::new(s.clone(), Method::RandomWalk, 0, &HierarchicalParams::default()).err().unwrap().to_string();
     assert!(e.contains("not watertight"), "{e}");
-    assert!(Method::from_name("photon_map").unwrap_err().to_string().contains("random_walk"));
+    assert!(Method::from_name("method", "photon_map").unwrap_err().to_string().contains("random_walk"));
     let _: V3 = [0.0; 3];
+}
+
+/// Hostile input refused by the core, never a panic, an abort or a dropped light: huge images
+/// (memory checked first), far cameras, overflowing light power, spp and thread counts, a walk
+/// starting inside an object; a light inside a closed object is reported.
+#[test]
+fn extreme_inputs_are_refused_or_reported() {
+    let cam = Camera::new([0.0, -30.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 30.0, 32768, 32768).unwrap();
+    let e = cam.check_memory(Some(1 << 30)).unwrap_err().to_string();
+    assert!(e.contains("32768 × 32768") && e.contains("103.079 GB"), "{e}");
+    assert!(cam.check_memory(Some(u64::MAX)).is_ok());
+    let e = Camera::new([0.0, -1e200, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 30.0, 4, 4).unwrap_err().to_string();
+    assert!(e.starts_with("camera.position = -1e+200 is out of range"), "{e}");
+    let e = Light::point("lights[0]", [0.0; 3], [1e308; 3]).unwrap_err().to_string();
+    assert!(e.starts_with("lights[0].power[0] = 1e+308 is out of range"), "{e}");
+    let Light::Directional { to_light, .. } = Light::directional("l", [1e300; 3], [1.0; 3]).unwrap() else {
+        unreachable!()
+    };
+    assert!(to_light.iter().all(|&c| (c - 1.0 / 3f64.sqrt()).abs() < 1e-15), "{to_light:?}");
+    assert!(Light::directional("l", [f64::NAN, 0.0, 1.0], [1.0; 3]).is_err());
+    assert!(super::driver::check_spp(0).is_err() && super::driver::check_spp(1 << 32).is_err());
+    assert_eq!(super::driver::check_spp(7).unwrap(), 7);
+    let e = with_threads(Some(20_000), || ()).unwrap_err().to_string();
+    assert!(e.starts_with("threads = 20000 is out of range: must be an integer in [1, 1024]"), "{e}");
+    let m = test_material([0.5; 3], 1.0, [0.1; 3], [1.0; 3], 0.0, 1.3, false);
+    let inside = Light::point("lights[0]", [0.0; 3], [1.0; 3]).unwrap();
+    let s = scene(vec![icosphere([0.0; 3], 2.0, 2).unwrap()], m, vec![inside], [0.0; 3], None);
+    assert_eq!(s.warnings(), ["lights[0] is inside the closed object objects[0]: it lights nothing outside it"]);
+    let cfg = WalkConfig {
+        source: BeamSource::Pencil { origin: [0.0; 3], direction: [0.0, 0.0, -1.0] },
+        photons: 10,
+        seed: 0,
+        channel: 0,
+        voxels: None,
+    };
+    let e = simulate(&s, &cfg, &AtomicBool::new(false), &AtomicU64::new(0)).err().unwrap().to_string();
+    assert!(e.contains("source.origin: the pencil beam starts inside objects[0]"), "{e}");
 }
 
 /// Sum over all pixels of sample s, for s in 0..n: (mean, standard error) per channel.
@@ -284,7 +321,7 @@ fn random_walk_nee_through_facets_is_unbiased() {
     let rect = Light::rect("l", [0.0, -8.0, 14.0], [6.0, 0.0, 0.0], [0.0, -4.0, 4.0], [3000.0; 3]).unwrap();
     let ball = Light::sphere("b", [12.0, -6.0, 4.0], 3.0, [2000.0; 3]).unwrap();
     let cam = Camera::new([0.0, -30.0, 5.0], [0.0; 3], [0.0, 0.0, 1.0], 22.0, 10, 10).unwrap();
-    let s = scene(vec![icosphere([0.0; 3], 5.0, 3)], m, vec![rect, ball], [0.0; 3], Some(cam));
+    let s = scene(vec![icosphere([0.0; 3], 5.0, 3).unwrap()], m, vec![rect, ball], [0.0; 3], Some(cam));
     let with = Renderer::from_parts(s.clone(), Box::new(RandomWalk { nee: true }), 3);
     let without = Renderer::from_parts(s.clone(), Box::new(RandomWalk { nee: false }), 4);
     let (a, sa) = image_sum_stats(&with, 300);
@@ -302,7 +339,7 @@ fn random_walk_point_light_far_away_is_a_directional_light() {
     let m = test_material([0.5; 3], 1.0, [0.1; 3], [10.0; 3], 0.8, 1.4, false);
     let h = 2000.0;
     let cam = || Some(Camera::new([0.0, 0.0, 50.0], [0.0; 3], [0.0, 1.0, 0.0], 0.5, 4, 4).unwrap());
-    let slab = || cuboid([-40.0, -40.0, -30.0], [40.0, 40.0, 0.0]);
+    let slab = || cuboid([-40.0, -40.0, -30.0], [40.0, 40.0, 0.0]).unwrap();
     let pt = Light::point("p", [0.0, 0.0, h], [4.0 * PI * h * h; 3]).unwrap();
     let dir = Light::directional("d", [0.0, 0.0, 1.0], [1.0; 3]).unwrap();
     let sp = scene(vec![slab()], m.clone(), vec![pt], [0.0; 3], cam());
@@ -331,39 +368,39 @@ fn mc_spec(photons: u64) -> super::TranslucentSpec {
         model: "monte_carlo".into(),
         stacks: [stack.clone(), stack.clone(), stack],
         mc: crate::bssrdf::monte_carlo::McSettings { photons, ..Default::default() },
-        colour: None,
+        reflectance: None,
         single_scattering: None,
     }
 }
 
-/// Issue 21 item 4: a material for `random_walk` computes no profile (u64::MAX photons would
+/// A material for `random_walk` computes no profile (u64::MAX photons would
 /// never end), and a Monte Carlo profile stops when its cancel flag is set.
 #[test]
 fn material_set_up_skips_unused_profiles_and_stops_when_cancelled() {
     let (never, done) = (AtomicBool::new(false), AtomicU64::new(0));
     let t = mc_spec(u64::MAX).build(false, &never, &done).unwrap().unwrap();
-    assert!(t.profiles.is_none() && done.into_inner() == 0);
+    assert!(t.bssrdf.is_none() && done.into_inner() == 0);
     let (cancel, done) = (AtomicBool::new(true), AtomicU64::new(0));
     assert!(mc_spec(u64::MAX).build(true, &cancel, &done).unwrap().is_none());
     let t = mc_spec(2000).build(true, &never, &done).unwrap().unwrap();
-    assert!(t.profiles.is_some() && done.into_inner() == 6000);
+    assert!(t.bssrdf.is_some() && done.into_inner() == 6000);
     // the BSSRDF methods refuse a material prepared without profiles
     let m = Material::Translucent(Box::new(mc_spec(1).build(false, &never, &AtomicU64::new(0)).unwrap().unwrap()));
-    let s = scene(vec![icosphere([0.0; 3], 5.0, 2)], m, vec![], [1.0; 3], Some(down_camera(2)));
+    let s = scene(vec![icosphere([0.0; 3], 5.0, 2).unwrap()], m, vec![], [1.0; 3], Some(down_camera(2)));
     for method in [Method::Hierarchical, Method::Probe] {
         let e = Renderer::new(s.clone(), method, 0, &HierarchicalParams::default()).err().unwrap();
-        assert!(e.to_string().contains("without profiles"), "{e}");
+        assert!(e.to_string().contains("has no profiles"), "{e}");
     }
     assert!(Renderer::new(s, Method::RandomWalk, 0, &HierarchicalParams::default()).is_ok());
 }
 
-/// Issue 21 item 4: the hierarchical set-up of a dense medium (millions of irradiance samples)
+/// The hierarchical set-up of a dense medium (millions of irradiance samples)
 /// counts its samples and stops at once when cancelled.
 #[test]
 fn hierarchical_set_up_counts_and_stops_when_cancelled() {
     let m = test_material([0.5; 3], 1e5, [1e4; 3], [1e6; 3], 0.0, 1.3, false);
     let sun = Light::directional("sun", [0.0, 0.0, 1.0], [1.0; 3]).unwrap();
-    let s = scene(vec![icosphere([0.0; 3], 5.0, 3)], m, vec![sun], [0.0; 3], Some(down_camera(2)));
+    let s = scene(vec![icosphere([0.0; 3], 5.0, 3).unwrap()], m, vec![sun], [0.0; 3], Some(down_camera(2)));
     let ctl = super::Control::default();
     ctl.cancel.store(true, std::sync::atomic::Ordering::Relaxed);
     let hp = HierarchicalParams { max_samples: 50_000, ..Default::default() };

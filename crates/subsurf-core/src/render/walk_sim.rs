@@ -1,8 +1,17 @@
 //! The random walk as a simulation for tissue optics: photon packets from a pencil beam or a
 //! uniform collimated illumination enter the closed meshes of a scene and are traced with
-//! the same boundary physics as `random_walk` ([`cross_boundary`], nested media) and the
-//! Monte Carlo engine's rules (MCML: implicit capture, HG scattering, Russian roulette with
-//! its control term deposited so that the energy balance is exact; see `mc::kernel`).
+//! the same boundary physics as `random_walk` ([`cross_boundary`], nested media: every crossing,
+//! the entry included, is all-or-none Fresnel), implicit capture (weight × σa/σt deposited at
+//! each collision) and HG scattering. Its Russian roulette is its own, not the engine's
+//! (`mc::kernel` step 5): it uses the engine's constants ([`ROULETTE_THRESHOLD`], [`ROULETTE_M`])
+//! on the absolute weight (a packet enters with weight 1, where the engine's threshold is
+//! relative to 1 − R_sp), and it deposits the zero-mean control term (+w for a killed packet,
+//! −(m − 1)w for a survivor) as absorption, in `absorbed` *and* in the voxel grid (which can
+//! therefore hold negative values), where the engine books it apart (`Tally::roulette`) and keeps
+//! its absorption histograms physical. A fresh free path is drawn after every boundary hit (the
+//! engine carries the remaining optical depth; the same law in homogeneous media), and a packet
+//! still alive after `random_walk::MAX_EVENTS` events is deposited where it stands. Energy
+//! balance is exact to rounding in every run.
 //!
 //! Tallies: the specular reflection, the weight leaving through each triangle (exitance per
 //! triangle), the absorbed weight on a voxel grid, and the weight lost (beam missing the
@@ -12,7 +21,8 @@
 //! bit-identical for any thread count.
 
 use super::material::Material;
-use super::math::{dot, length, madd, normalize, Frame, V3};
+use super::math::{dot, madd, unit, Frame, V3};
+use super::mesh::MAX_COORDINATE;
 use super::random_walk::{cross_boundary, Crossing, Media};
 use super::scene::Scene;
 use crate::error::{Error, Result};
@@ -134,8 +144,18 @@ pub fn simulate(scene: &Scene, cfg: &WalkConfig, cancel: &AtomicBool, progress: 
     let dir = match cfg.source {
         BeamSource::Pencil { direction, .. } | BeamSource::Collimated { direction } => direction,
     };
-    if !(length(dir) > 0.0) {
-        return Err(Error::Invalid("source.direction: must be a non-zero vector".into()));
+    if unit(dir).is_none() {
+        return Err(Error::Invalid("source.direction: must be a finite non-zero vector".into()));
+    }
+    if let BeamSource::Pencil { origin, .. } = cfg.source {
+        if let Some(&c) = origin.iter().find(|c| !(c.abs() <= MAX_COORDINATE)) {
+            return Err(Error::param("source.origin", c, "coordinates in [-1e15, 1e15] (mm)"));
+        }
+        if let Some(name) = scene.enclosing_object(origin) {
+            return Err(Error::Invalid(format!(
+                "source.origin: the pencil beam starts inside {name}; it must start outside every object"
+            )));
+        }
     }
     let ntri = scene.accel.tris.len();
     let nvox = cfg.voxels.map_or(0, |g| g.len());
@@ -163,9 +183,9 @@ pub fn simulate(scene: &Scene, cfg: &WalkConfig, cancel: &AtomicBool, progress: 
 
 fn launch(scene: &Scene, src: BeamSource, rng: &mut PhotonRng) -> (V3, V3) {
     match src {
-        BeamSource::Pencil { origin, direction } => (origin, normalize(direction)),
+        BeamSource::Pencil { origin, direction } => (origin, unit(direction).expect("checked in simulate")),
         BeamSource::Collimated { direction } => {
-            let d = normalize(direction);
+            let d = unit(direction).expect("checked in simulate");
             let ext = scene.accel.extent;
             let c = scene.accel.center();
             let f = Frame::new(d);

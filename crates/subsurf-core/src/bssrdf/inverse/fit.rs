@@ -9,8 +9,12 @@
 //!   (diffusion, Donner & Jensen 2005, totals in closed form) or by Monte Carlo through a
 //!   [`SlabTable`] of engine runs on a grid of (albedo, optical thickness), interpolated — the
 //!   choice where diffusion fails (thin or absorbing slabs).
+//!
+//! Every fit is returned only when the data identify it ([`super::lm`]: data with signal, finite
+//! χ², finite covariance, relative uncertainties ≤ [`super::lm::MAX_RELATIVE_STDERR`]); otherwise
+//! it is an error naming what is not determined.
 
-use super::lm::{levenberg_marquardt, Fit};
+use super::lm::{check_signal, levenberg_marquardt, Fit};
 use crate::bssrdf::cdf::{hermite, pchip_slopes};
 use crate::bssrdf::multipole::{self, Slab};
 use crate::bssrdf::table::ProfileTable;
@@ -47,7 +51,11 @@ fn profile_values(
                 table.ok_or_else(|| Error::Invalid("model \"monte_carlo\" needs a ProfileTable for the fit".into()))?;
             Box::new(t.profile(p[0], sigma_s)?)
         }
-        m => medium_profile(m, &Medium::new(p[0], sigma_s, g, eta)?)?,
+        Model::Dipole
+        | Model::BetterDipole
+        | Model::Multipole
+        | Model::PhotonBeamDiffusion
+        | Model::NormalizedDiffusion => medium_profile(model, &Medium::new(p[0], sigma_s, g, eta)?)?,
     };
     Ok(r.iter().map(|&x| prof.rd(x)).collect())
 }
@@ -70,7 +78,22 @@ pub fn fit_profile(
     if rd.len() != r.len() {
         return Err(Error::Invalid(format!("fit: {} radii but {} R_d values", r.len(), rd.len())));
     }
-    levenberg_marquardt(&|p| profile_values(model, table, g, eta, r, p), rd, sigma, &initial)
+    check_data(rd, sigma, "rd")?;
+    levenberg_marquardt(&|p| profile_values(model, table, g, eta, r, p), rd, sigma, &initial)?
+        .identified(&["sigma_a", "sigma_s_prime"])
+}
+
+/// Finite data (named `what[i]`) with signal (lengths are checked by the fit).
+fn check_data(y: &[f64], sigma: &[f64], what: &str) -> Result<()> {
+    for (i, &v) in y.iter().enumerate() {
+        if !v.is_finite() {
+            return Err(Error::param(format!("{what}[{i}]"), v, "a finite number"));
+        }
+    }
+    if sigma.len() == y.len() && sigma.iter().all(|s| *s > 0.0 && s.is_finite()) {
+        check_signal(y, sigma, what)?; // (bad standard deviations are named by the fit)
+    }
+    Ok(())
 }
 
 /// Fit (μa, μs') of layer `layer` of `stack` (the others fixed) to R_d(r) data with the
@@ -95,7 +118,8 @@ pub fn fit_profile_layer(
         let prof = multipole::profile(&s)?;
         Ok(r.iter().map(|&x| prof.rd(x)).collect())
     };
-    levenberg_marquardt(&model, rd, sigma, &initial)
+    check_data(rd, sigma, "rd")?;
+    levenberg_marquardt(&model, rd, sigma, &initial)?.identified(&["mua", "mus_prime"])
 }
 
 /// Monte Carlo totals (Rd, Tt) of slabs on a grid of albedos × optical thicknesses, for one g,
@@ -323,6 +347,7 @@ pub fn fit_slab_totals(
     if !(thickness > 0.0 && thickness.is_finite()) {
         return Err(Error::param("thickness", thickness, "a finite number > 0 (mm)"));
     }
+    check_slab_totals(rd, tt, sigma)?;
     let rsp = fr_dielectric(1.0, n_above, n);
     let forward = |p: &[f64]| -> Result<Vec<f64>> {
         let mus = p[1] / (1.0 - g);
@@ -348,5 +373,22 @@ pub fn fit_slab_totals(
             ))),
         }
     };
-    levenberg_marquardt(&forward, &[rd, tt], &sigma, &initial)
+    levenberg_marquardt(&forward, &[rd, tt], &sigma, &initial)?.identified(&["mua", "mus_prime"])
+}
+
+/// Measured slab totals: fractions of the incident power, Rd, Tt ∈ [0, 1] with Rd + Tt ≤ 1, and
+/// some signal (see [`check_signal`]).
+fn check_slab_totals(rd: f64, tt: f64, sigma: [f64; 2]) -> Result<()> {
+    for (name, v) in [("rd", rd), ("tt", tt)] {
+        if !(0.0..=1.0).contains(&v) {
+            return Err(Error::param(name, v, "a fraction of the incident power in [0, 1]"));
+        }
+    }
+    if rd + tt > 1.0 {
+        return Err(Error::param("rd + tt", rd + tt, "at most 1 (fractions of the incident power)"));
+    }
+    if sigma.iter().all(|s| *s > 0.0 && s.is_finite()) {
+        check_signal(&[rd, tt], &sigma, "total (rd, tt)")?;
+    }
+    Ok(())
 }

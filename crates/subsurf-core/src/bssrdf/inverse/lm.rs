@@ -6,6 +6,13 @@
 //! (h = 1e-4 in q). At the minimum, with Gaussian noise of the stated σ, the covariance of q is
 //! (JᵀWJ)⁻¹ (W = diag 1/σ²), and that of p is cov_ij = p_i p_j cov(q)_ij (first-order
 //! propagation), which is what [`Fit::cov`] reports.
+//!
+//! A fit is reported only when the data identify it ([`check_signal`] before, [`Fit::identified`]
+//! after): some datum stands out of its noise, χ² is finite at the start and at the minimum, and
+//! the covariance is finite with every relative standard uncertainty σ_p/p ≤
+//! [`MAX_RELATIVE_STDERR`]. Otherwise the "best" parameters are wherever the iteration stopped
+//! (the start value on a flat or overflowing χ²), and their "uncertainties" are 0 or 1e85:
+//! numbers that look like a result and are not one.
 
 use crate::error::{Error, Result};
 
@@ -29,6 +36,49 @@ impl Fit {
     pub fn stderr(&self) -> Vec<f64> {
         let n = self.params.len();
         (0..n).map(|i| self.cov[i * n + i].max(0.0).sqrt()).collect()
+    }
+}
+
+/// Largest relative standard uncertainty σ_p/p (that of ln p, the fitted variable) of a fitted
+/// parameter: beyond it the data leave the parameter free over more than a factor e either way,
+/// which is not a measurement of it.
+pub const MAX_RELATIVE_STDERR: f64 = 1.0;
+
+/// Refuse data without signal: every |yᵢ| ≤ σᵢ (all zero, or all within their noise) determines
+/// no parameter; `what` names the data in the message.
+pub fn check_signal(y: &[f64], sigma: &[f64], what: &str) -> Result<()> {
+    if y.iter().zip(sigma).any(|(v, s)| v.abs() > *s) {
+        return Ok(());
+    }
+    Err(Error::Invalid(format!(
+        "fit: the data hold no signal (every {what} is within its standard deviation of 0); nothing can be fitted"
+    )))
+}
+
+impl Fit {
+    /// This fit if the data identify its parameters (see the module docs); otherwise an error
+    /// naming the first undetermined parameter of `names`.
+    pub fn identified(self, names: &[&str]) -> Result<Fit> {
+        if !self.chi2.is_finite() {
+            return Err(Error::Invalid(
+                "fit: χ² is not finite at the parameters reached (standard deviations far too small for the \
+                 data, or data the model cannot reach); nothing was fitted"
+                    .into(),
+            ));
+        }
+        for (k, (&p, se)) in self.params.iter().zip(self.stderr()).enumerate() {
+            let name = names.get(k).copied().unwrap_or("parameter");
+            let rel = se / p;
+            if !(rel.is_finite() && rel <= MAX_RELATIVE_STDERR && self.cov[k * self.params.len() + k] > 0.0) {
+                return Err(Error::Invalid(format!(
+                    "fit: the data do not determine {name} (best {}, relative standard uncertainty {rel:.2e} > {}); \
+                     measure more or less noisy data",
+                    crate::error::fmt_value(p),
+                    crate::error::fmt_value(MAX_RELATIVE_STDERR)
+                )));
+            }
+        }
+        Ok(self)
     }
 }
 
@@ -128,6 +178,13 @@ pub fn levenberg_marquardt(
     let mut q: Vec<f64> = p0.iter().map(|p| p.ln()).collect();
     let mut f = eval(&q)?;
     let mut c2 = chi2(&f, y, sigma);
+    if !c2.is_finite() {
+        return Err(Error::Invalid(format!(
+            "fit: χ² = {} at the initial parameters (standard deviations far too small for the data's scale, \
+             or initial values the model cannot evaluate); nothing was fitted",
+            crate::error::fmt_value(c2)
+        )));
+    }
     let mut lambda = 1e-3;
     let mut it = 0;
     let mut j = jac(&q)?;

@@ -5,7 +5,7 @@ pub mod appearance;
 pub mod fit;
 pub mod lm;
 
-pub use appearance::{albedo_from_reflectance, material_from_appearance};
+pub use appearance::{material_from_reflectance, Conventions, MeanFreePath, Power};
 pub use fit::{fit_profile, fit_slab_totals, SlabTable};
 pub use lm::{levenberg_marquardt, Fit};
 

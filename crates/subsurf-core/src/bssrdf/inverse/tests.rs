@@ -3,7 +3,8 @@
 use super::*;
 use crate::bssrdf::monte_carlo::{McSettings, MonteCarloProfile};
 use crate::bssrdf::table::{build_point, ProfileTable, TableSettings};
-use crate::bssrdf::{medium_profile, Medium, Model, RadialProfile};
+use crate::bssrdf::{medium_profile, normalized_diffusion, Medium, Model, RadialProfile};
+use crate::diffusion;
 use crate::mc::tally::totals::{Total, Totals};
 use crate::mc::{run, RunConfig, Source};
 use crate::medium::Stack;
@@ -26,18 +27,20 @@ fn small_table(g: f64, eta: f64, albedos: Vec<f64>, photons: u64) -> ProfileTabl
     ProfileTable::assemble(s, pts).unwrap()
 }
 
-/// A material built from an RGB colour with the Monte Carlo model (and normalized diffusion,
-/// which shares its material), simulated by the engine, reproduces the colour within 0.5 % per
-/// channel (table: 8 albedos in [0.9, 0.9995], 10⁵
-/// photons each; check: 3·10⁵ (0.6/colour)² photons per channel, whose 4σ is < 0.5 %).
+const INCIDENT_EXT: Conventions = Conventions { power: Power::Incident, mfp_kind: MeanFreePath::Extinction };
+
+/// A material built from an RGB reflectance (per incident power, mfp = 1/σt) with the Monte
+/// Carlo model, simulated by the engine, reproduces the reflectance within 0.5 % per channel
+/// (table: 8 albedos in [0.9, 0.9995], 10⁵ photons each; check: 3·10⁵ (0.6/R)² photons per
+/// channel, whose 4σ is < 0.5 %). Normalized diffusion shares its material.
 #[test]
-fn monte_carlo_appearance_reproduces_colour() {
+fn monte_carlo_reflectance_reproduced_by_the_engine() {
     let (g, eta) = (0.0, 1.33);
-    let albedos: Vec<f64> = (0..8).map(|i| 1.0 - 0.1 * (0.005f64).powf(i as f64 / 7.0)).collect();
-    let table = small_table(g, eta, albedos, 100_000);
+    let table = small_table(g, eta, table_albedos(), 100_000);
     let colour = [0.6, 0.5, 0.4];
     let mfp = [0.5, 1.0, 2.0];
-    let layers = material_from_appearance(&colour, &mfp, eta, g, Model::MonteCarlo, Some(&table)).unwrap();
+    let layers =
+        material_from_reflectance(&colour, &mfp, eta, g, Model::MonteCarlo, INCIDENT_EXT, Some(&table)).unwrap();
     for (i, l) in layers.iter().enumerate() {
         assert!((1.0 / l.sigma_t() - mfp[i]).abs() < 1e-12);
         let s = Stack::new(vec![*l], 1.0, 1.0).unwrap();
@@ -53,31 +56,121 @@ fn monte_carlo_appearance_reproduces_colour() {
         );
         assert!((rd / colour[i] - 1.0).abs() < 0.005, "channel {i}: simulated {rd} ± {se} vs requested {}", colour[i]);
     }
-    // Every model's own prediction of the colour is the colour: (1 − R_sp) × the closed-form
-    // totals (per unit power entering); normalized diffusion's material is the Monte Carlo one
-    // (so the engine reproduces it, above) and its renderer profile has total colour/(1 − R_sp)
-    // (before: Chiang et al.'s α(A) and photon beam diffusion's total: 0.018 for 0.30 at g = 0.8,
-    // η = 1.4).
+    let nd = material_from_reflectance(&colour, &mfp, eta, g, Model::NormalizedDiffusion, INCIDENT_EXT, Some(&table));
+    assert_eq!(nd.unwrap(), layers);
+}
+
+fn table_albedos() -> Vec<f64> {
+    (0..8).map(|i| 1.0 - 0.1 * (0.005f64).powf(i as f64 / 7.0)).collect()
+}
+
+/// The model's own forward total per unit power *entering* the medium of a layer, and the
+/// tolerance of the round trip, from the numerical method (one arm per model: a new model
+/// must say how it is checked).
+fn forward_total(model: Model, m: &Medium, table: &ProfileTable, refl_incident: f64) -> (f64, f64) {
+    let enter = appearance::entering_fraction(m.eta);
+    match model {
+        // α' by bisection to 1e-15, closed-form total: rounding only.
+        Model::Dipole | Model::BetterDipole => {
+            let kind = if model == Model::Dipole { diffusion::Model::Dipole } else { diffusion::Model::BetterDipole };
+            (kind.total_rd(m.sigma_s_prime() / (m.sigma_a + m.sigma_s_prime()), m.eta).unwrap(), 1e-12)
+        }
+        // The tabulated quadrature of R_d(r) (agrees with closed forms to ~1e-12, `Tabulated`);
+        // photon beam diffusion's root on α stops at |Δtotal| < 1e-13 or a bracket of 1e-11.
+        Model::Multipole | Model::PhotonBeamDiffusion => (medium_profile(model, m).unwrap().total(), 1e-10),
+        // ρ_eff of the table (per incident power), inverted by bisection to 1e-14 in ln(1 − α).
+        Model::MonteCarlo => (table.rho_eff(m.sigma_s / m.sigma_t()).unwrap() / enter, 1e-10),
+        // The renderer's profile for the material: its total is A = reflectance / (1 − R_sp).
+        Model::NormalizedDiffusion => {
+            (normalized_diffusion::from_reflectance(m, refl_incident).unwrap().total(), 1e-14)
+        }
+    }
+}
+
+/// The requested length of `kind` recomputed from the layer by independent code: 1/σt, 1/σt',
+/// 1/σtr of the model's diffusion object (`diffusion::Dipole` or `BetterDipole`), and the d of
+/// the renderer's normalized diffusion profile (`normalized_diffusion::with_albedo`).
+fn length(kind: MeanFreePath, model: Model, m: &Medium, a_enter: f64) -> f64 {
+    let (sa, ssp) = (m.sigma_a, m.sigma_s_prime());
+    let classical = || 1.0 / diffusion::Dipole::new(sa, ssp, m.eta).unwrap().sigma_tr;
+    match kind {
+        MeanFreePath::Extinction => 1.0 / m.sigma_t(),
+        MeanFreePath::Transport => 1.0 / (sa + ssp),
+        MeanFreePath::Diffuse => match model {
+            Model::Dipole | Model::Multipole | Model::NormalizedDiffusion | Model::MonteCarlo => classical(),
+            Model::BetterDipole | Model::PhotonBeamDiffusion => {
+                1.0 / diffusion::BetterDipole::new(sa, ssp, m.eta).unwrap().sigma_tr
+            }
+        },
+        MeanFreePath::BurleyD => normalized_diffusion::with_albedo(m, a_enter).unwrap().d,
+    }
+}
+
+/// Round trip reflectance → material → the model's own total, for every model, both power
+/// conventions and every kind of mean free path (g = 0.6, η = 1.4, two reflectances): the
+/// total reproduces the reflectance and the layer has the requested length, within the
+/// numerical method's tolerance (see [`forward_total`]; lengths are arithmetic: 1e-12).
+#[test]
+fn reflectance_round_trips_every_model_and_convention() {
+    let (g, eta) = (0.6, 1.4);
     let enter = appearance::entering_fraction(eta);
-    let nd = material_from_appearance(&colour, &mfp, eta, g, Model::NormalizedDiffusion, Some(&table)).unwrap();
-    assert_eq!(nd, layers);
-    for (k, l) in nd.iter().enumerate() {
-        let m = Medium::new(l.mua, l.mus, g, eta).unwrap();
-        let t = crate::bssrdf::normalized_diffusion::from_colour(&m, colour[k]).unwrap().total();
-        assert!((enter * t - colour[k]).abs() < 1e-12, "normalized_diffusion: {t}");
+    let table = small_table(g, eta, table_albedos(), 5_000);
+    let (lo, hi) = (table.rho_eff(table_albedos()[0]).unwrap(), table.rho_eff(table_albedos()[7]).unwrap());
+    let mut worst = [0.0f64; 6];
+    for (mi, &model) in Model::ALL.iter().enumerate() {
+        for power in [Power::Incident, Power::Entering] {
+            for kind in
+                [MeanFreePath::Extinction, MeanFreePath::Transport, MeanFreePath::Diffuse, MeanFreePath::BurleyD]
+            {
+                for t in [0.3, 0.7] {
+                    // per incident power, inside the table's range for the table models
+                    let inc = lo + t * (hi - lo);
+                    let r = if power == Power::Incident { inc } else { inc / enter };
+                    let conv = Conventions { power, mfp_kind: kind };
+                    let l = material_from_reflectance(&[r], &[1.7], eta, g, model, conv, Some(&table)).unwrap()[0];
+                    let m = Medium::new(l.mua, l.mus, g, eta).unwrap();
+                    let (total, tol) = forward_total(model, &m, &table, inc);
+                    let shown = if power == Power::Incident { total * enter } else { total };
+                    let err = (shown - r).abs() / r;
+                    worst[mi] = worst[mi].max(err);
+                    assert!(err < tol, "{model:?} {power:?} {kind:?}: total {shown} vs {r}");
+                    let len = length(kind, model, &m, inc / enter);
+                    assert!((len / 1.7 - 1.0).abs() < 1e-12, "{model:?} {power:?} {kind:?}: length {len} vs 1.7");
+                }
+            }
+        }
     }
-    for model in [Model::Dipole, Model::BetterDipole, Model::Multipole, Model::PhotonBeamDiffusion] {
-        let l = material_from_appearance(&[0.4], &[1.0], eta, 0.5, model, None).unwrap()[0];
-        let m = Medium::new(l.mua, l.mus, 0.5, eta).unwrap();
-        let t = medium_profile(model, &m).unwrap().total();
-        assert!((enter * t - 0.4).abs() < 1e-6, "{model:?}: {t}");
+    eprintln!(
+        "worst relative round-trip error per model {:?}: {worst:?}",
+        Model::ALL.iter().map(|m| m.name()).collect::<Vec<_>>()
+    );
+}
+
+/// Refusals: out of range per the chosen power, no table, a diffuse length without absorption.
+#[test]
+fn reflectance_refusals() {
+    let (g, eta) = (0.0, 1.33);
+    let table = small_table(g, eta, table_albedos(), 2_000);
+    let call = |r: f64, model, conv, t: Option<&ProfileTable>| {
+        material_from_reflectance(&[r], &[1.0], eta, g, model, conv, t).unwrap_err().to_string()
+    };
+    let e = call(0.99, Model::Dipole, INCIDENT_EXT, None);
+    assert!(e.starts_with("reflectance[0] = 0.99 is out of range: model \"dipole\" reaches at most 0.97"), "{e}");
+    assert!(e.contains("per incident power"), "{e}");
+    let entering = Conventions { power: Power::Entering, ..INCIDENT_EXT };
+    let e = call(1.2, Model::Dipole, entering, None);
+    assert!(e.starts_with("reflectance[0] = 1.2"), "{e}");
+    let e = call(0.99, Model::MonteCarlo, INCIDENT_EXT, Some(&table));
+    assert!(e.starts_with("reflectance[0] = 0.99 is out of range"), "{e}");
+    for model in [Model::MonteCarlo, Model::NormalizedDiffusion] {
+        assert!(call(0.5, model, INCIDENT_EXT, None).contains("needs a ProfileTable"));
     }
-    let e = material_from_appearance(&[0.99], &[1.0], eta, g, Model::Dipole, None).unwrap_err().to_string();
-    assert!(e.starts_with("albedo[0] = 0.99 is out of range: model \"dipole\" reaches at most 0.97"), "{e}");
-    let e = material_from_appearance(&[0.99], &[1.0], eta, g, Model::MonteCarlo, Some(&table)).unwrap_err();
-    assert!(e.to_string().starts_with("albedo[0] = 0.99 is out of range"), "{e}");
-    let e = material_from_appearance(&[1.2], &[1.0], eta, g, Model::Dipole, None).unwrap_err();
-    assert!(e.to_string().starts_with("albedo[0] = 1.2"), "{e}");
+    let e = call(1.0, Model::Dipole, Conventions { power: Power::Entering, mfp_kind: MeanFreePath::Diffuse }, None);
+    assert!(e.contains("no absorption"), "{e}");
+    let e = material_from_reflectance(&[0.5], &[0.0], eta, g, Model::Dipole, INCIDENT_EXT, None).unwrap_err();
+    assert!(e.to_string().starts_with("mfp[0] = 0"), "{e}");
+    assert!(Power::from_name("emitted").unwrap_err().to_string().contains("incident"));
+    assert!(MeanFreePath::from_name("free").unwrap_err().to_string().contains("burley_d"));
 }
 
 /// Fits of a noisy R_d(r) (20 radii, 3 % noise) recover (σa, σs') within the reported 2σ in at
@@ -200,4 +293,47 @@ fn slab_table_points_and_assembly() {
     let mut bad = pts.clone();
     bad[2][0] = f64::NAN;
     assert!(err(SlabTable::from_totals(0.0, 1.4, 1.0, 1.0, albedos, taus, &bad)).contains("point 2"));
+}
+
+/// Fits the data do not identify are refused, not reported with the start value "± 0" or
+/// uncertainties of 1e85: no signal, χ² overflowing, data out of range,
+/// and the covariance rules of [`lm::Fit::identified`].
+#[test]
+fn unidentifiable_fits_are_refused() {
+    let r: Vec<f64> = (1..=10).map(|i| 0.3 * i as f64).collect();
+    let fit = |rd: &[f64], s: &[f64]| {
+        fit::fit_profile(Model::Dipole, &r, rd, s, 0.0, 1.3, [0.05, 1.0], None).unwrap_err().to_string()
+    };
+    let e = fit(&[0.0; 10], &[1e-3; 10]);
+    assert!(e.contains("no signal") && e.contains("rd"), "{e}");
+    let e = fit(&[1e-300; 10], &[1e-302; 10]);
+    assert!(e.starts_with("fit: χ² = inf at the initial parameters"), "{e}");
+    let e = fit(&[1.0, f64::NAN, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0], &[0.1; 10]);
+    assert!(e.starts_with("rd[1] = nan"), "{e}");
+    // A signal barely out of the noise at two radii determines neither parameter.
+    let prof = medium_profile(Model::Dipole, &Medium::new(0.05, 1.0, 0.0, 1.3).unwrap()).unwrap();
+    let y = [prof.rd(1.0), prof.rd(1.1)];
+    let e = fit::fit_profile(Model::Dipole, &[1.0, 1.1], &y, &[y[0] / 1.5, y[1] / 1.5], 0.0, 1.3, [0.05, 1.0], None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("fit: the data do not determine sigma_"), "{e}");
+    let slab = |rd: f64, tt: f64| {
+        fit::fit_slab_totals(rd, tt, [0.01, 0.01], 1.0, 0.0, 1.4, 1.0, 1.0, Model::Multipole, None, [0.1, 1.0])
+            .unwrap_err()
+            .to_string()
+    };
+    assert!(slab(0.0, 0.0).contains("no signal"), "{}", slab(0.0, 0.0));
+    assert!(slab(-0.1, 0.3).starts_with("rd = -0.1"), "{}", slab(-0.1, 0.3));
+    assert!(slab(0.7, 0.6).starts_with("rd + tt = 1.2"), "{}", slab(0.7, 0.6));
+    // The rules themselves: a zero, a non-finite and a too large variance are refused.
+    let base = lm::Fit { params: vec![1.0, 2.0], cov: vec![0.01, 0.0, 0.0, 0.04], chi2: 3.0, dof: 8, iterations: 5 };
+    assert!(base.clone().identified(&["a", "b"]).is_ok());
+    for (k, v) in [(0, 0.0), (3, f64::INFINITY), (3, 4.0 * 1.0001), (0, f64::NAN)] {
+        let mut f = base.clone();
+        f.cov[k] = v;
+        let e = f.identified(&["a", "b"]).unwrap_err().to_string();
+        assert!(e.starts_with(&format!("fit: the data do not determine {}", if k == 0 { "a" } else { "b" })), "{e}");
+    }
+    let e = lm::Fit { chi2: f64::INFINITY, ..base }.identified(&["a", "b"]).unwrap_err().to_string();
+    assert!(e.contains("χ² is not finite"), "{e}");
 }

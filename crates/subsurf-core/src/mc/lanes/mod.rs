@@ -42,9 +42,8 @@
 //! direction update uses ρ² = ux² + uy² instead of 1 − uz² for the same reason near the
 //! pole, and one Newton step u ← u(3 − |u|²)/2 renormalises it: |u| stays within 1.3·10⁻⁷
 //! of 1 over 10⁶ successive scatterings (MCML's update renormalises nothing, and f32
-//! rounding would random-walk |u| over a 10⁴-event history). Dividing by √|u|² instead
-//! (1.2·10⁻⁷) measured the same speed on case c and 4 % slower on case d (medians of 7 A/B
-//! pairs), so the Newton step stays. The
+//! rounding would random-walk |u| over a 10⁴-event history); dividing by √|u|² instead is no
+//! faster (measurements: `docs/architecture.md`, "Engine speed measurements"). The
 //! uniforms of the polar angle are (k + ½)·2⁻²³ from the top 23 bits of a word
 //! ([`math::open01_f32`]); the optical depth's uses 31 bits ([`math::open01_f32_fine`],
 //! relative spacing ≤ 2⁻²³ down to 2⁻³²): an optical depth is at most −ln 2⁻³² = 22.2, the
@@ -52,17 +51,10 @@
 //! exponential; 23 bits would cut at 16.6 and lose 6·10⁻⁸). The roulette ξ is compared as
 //! an integer (exact). The random words stay 32-bit (xoshiro128++ as in [`crate::rng`]).
 //!
-//! Speed (2026-12-01, shared 2-core AVX-512 Xeon, `examples/mc_speed`, 1 thread, medians of
-//! 7 interleaved A/B pairs against the 8-lane all-f64 kernel): 16 f32 lanes in the mixed
-//! f32/f64 loop gave totals 1.07–1.21× (case a), 1.30–1.32× (c), 1.23–1.37× (d), MCML's tally
-//! set 1.03–1.14×; but LLVM vectorised that loop 8 wide (f32 in half registers). The f32
-//! sampling in a loop of its own (`kernel::sample`) runs 16 wide: a further 1.35×, 1.14×,
-//! 1.20× on the totals. With the tally changes of the same day, the kernel and tallies as a
-//! whole against the 8-lane f64 kernel: totals 1.29× (a), 1.53× (c), 1.61× (d); MCML's tally
-//! set 1.12×, 1.40×, 1.57×. The per-photon path (2026-12-02: totals read with volatile loads
-//! in blocks of 8 slots, branch-free bounds, a packet built only where a fate needs it, no
-//! memset per photon) gave case a's totals a further 1.19× (median of 9 A/B pairs; −15 %
-//! instructions under AVX2), c and d unchanged.
+//! The f32 sampling runs in a loop of its own (`kernel::sample`): in the mixed f32/f64 loop
+//! LLVM vectorised it 8 wide (f32 in half registers), alone it runs 16 wide. (The speed of
+//! these choices against the 8-lane all-f64 kernel is recorded in `docs/architecture.md`,
+//! "Engine speed measurements".)
 //! The results are not those of the all-f64 kernel bit for bit, but nearly: the same words
 //! drive the same choices, so the published tables moved in their last digit only.
 //!

@@ -204,8 +204,7 @@ pub use super::totals::mean_stderr;
 /// writes the bin into the slot past the end and advances the length by the condition. Whether
 /// a deposit is the first into its bin (the lists above) is a coin flip in a sparse grid: as a
 /// branch it mispredicted 2.0 times per photon in case a with MCML's tally set (60 % of the
-/// run's mispredictions, callgrind's branch simulation); without it the run was 1.22× faster
-/// (median of 9 A/B pairs).
+/// run's mispredictions, callgrind's branch simulation).
 #[derive(Clone, Debug, Default)]
 struct List {
     /// Slots; those at `len` and beyond are scratch.

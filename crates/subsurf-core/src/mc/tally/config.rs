@@ -110,50 +110,126 @@ fn check_product(what: &str, dims: &[usize]) -> Result<()> {
     }
 }
 
+/// A field of [`TallyConfig`] with its value ([`TallyConfig::fields`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TallyValue {
+    /// A bin count.
+    Count(usize),
+    /// A bin width (mm or ps).
+    Width(f64),
+    /// An optional pair of bin counts (`brdf`).
+    Pair(Option<(usize, usize)>),
+    /// An optional scattering order (`max_order`).
+    Order(Option<u32>),
+    /// A switch.
+    Flag(bool),
+}
+
+impl TallyValue {
+    /// The kind's name, as the Python side reads it: "count", "length", "pair", "order", "bool".
+    pub fn kind(&self) -> &'static str {
+        match self {
+            TallyValue::Count(_) => "count",
+            TallyValue::Width(_) => "length",
+            TallyValue::Pair(_) => "pair",
+            TallyValue::Order(_) => "order",
+            TallyValue::Flag(_) => "bool",
+        }
+    }
+
+    /// This value as user input.
+    pub fn input(&self) -> TallyInput {
+        match *self {
+            TallyValue::Count(n) => TallyInput::Number(n as f64),
+            TallyValue::Width(w) => TallyInput::Number(w),
+            TallyValue::Pair(p) => TallyInput::Pair(p.map(|(a, b)| (a as f64, b as f64))),
+            TallyValue::Order(k) => TallyInput::Optional(k.map(f64::from)),
+            TallyValue::Flag(b) => TallyInput::Flag(b),
+        }
+    }
+}
+
+/// A field's value as a user gives it: numbers as f64, so that any input (negative, huge,
+/// fractional) gets the field's range in its message.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TallyInput {
+    Number(f64),
+    Pair(Option<(f64, f64)>),
+    Optional(Option<f64>),
+    Flag(bool),
+}
+
 impl TallyConfig {
-    /// A validated configuration from plain numbers as a user gives them (the fields of
-    /// `subsurf.Tallies`; counts as f64 so that any input — negative, huge — gets the range in
-    /// its message).
-    #[allow(clippy::too_many_arguments)]
-    pub fn from_numbers(
-        nr: f64,
-        dr: f64,
-        nz: f64,
-        dz: f64,
-        na: f64,
-        nt: f64,
-        dt: f64,
-        brdf: Option<(f64, f64)>,
-        max_order: Option<f64>,
-        spatial: bool,
-        angular: bool,
-        errors: bool,
-    ) -> Result<TallyConfig> {
-        let brdf = match brdf {
-            Some((c, p)) => Some((count_from("tallies.brdf[0]", c, 1)?, count_from("tallies.brdf[1]", p, 1)?)),
-            None => None,
-        };
-        let max_order = match max_order {
-            Some(k) if k == k.trunc() && (0.0..=MAX_ORDER as f64).contains(&k) => Some(k as u32),
-            Some(k) => return Err(Error::param_count("tallies.max_order", k, "an integer in [0, 10000] (or None)")),
-            None => None,
-        };
-        let c = TallyConfig {
-            nr: count_from("tallies.nr", nr, 1)?,
-            dr,
-            nz: count_from("tallies.nz", nz, 1)?,
-            dz,
-            na: count_from("tallies.na", na, 1)?,
-            nt: count_from("tallies.nt", nt, 0)?,
-            dt,
-            brdf,
-            max_order,
-            spatial,
-            angular,
-            errors,
-        };
+    /// Every field and its value, in declaration order: the one list of the fields, which the
+    /// binding, `subsurf.Tallies` and the `[tallies]` table of configuration files follow (the
+    /// destructuring is exhaustive: a new field does not compile until it is listed here).
+    pub fn fields(&self) -> [(&'static str, TallyValue); 12] {
+        use TallyValue::*;
+        let TallyConfig { nr, dr, nz, dz, na, nt, dt, brdf, max_order, spatial, angular, errors } = *self;
+        [
+            ("nr", Count(nr)),
+            ("dr", Width(dr)),
+            ("nz", Count(nz)),
+            ("dz", Width(dz)),
+            ("na", Count(na)),
+            ("nt", Count(nt)),
+            ("dt", Width(dt)),
+            ("brdf", Pair(brdf)),
+            ("max_order", Order(max_order)),
+            ("spatial", Flag(spatial)),
+            ("angular", Flag(angular)),
+            ("errors", Flag(errors)),
+        ]
+    }
+
+    /// A validated configuration from user input: the defaults with the given fields replaced
+    /// (names as in [`Self::fields`]; an unknown name or a value of the wrong kind is an error).
+    pub fn from_inputs<'a>(inputs: impl IntoIterator<Item = (&'a str, TallyInput)>) -> Result<TallyConfig> {
+        let mut c = TallyConfig::default();
+        for (name, v) in inputs {
+            c.set(name, v)?;
+        }
         c.validate()?;
         Ok(c)
+    }
+
+    fn set(&mut self, name: &str, v: TallyInput) -> Result<()> {
+        let field = format!("tallies.{name}");
+        let wrong = || {
+            let kind = Self::default().fields().iter().find(|f| f.0 == name).map_or("?", |f| f.1.kind());
+            Error::Invalid(format!("{field}: expected a value of kind {kind}, got {v:?}"))
+        };
+        match (name, v) {
+            ("nr", TallyInput::Number(x)) => self.nr = count_from(&field, x, 1)?,
+            ("dr", TallyInput::Number(x)) => self.dr = x,
+            ("nz", TallyInput::Number(x)) => self.nz = count_from(&field, x, 1)?,
+            ("dz", TallyInput::Number(x)) => self.dz = x,
+            ("na", TallyInput::Number(x)) => self.na = count_from(&field, x, 1)?,
+            ("nt", TallyInput::Number(x)) => self.nt = count_from(&field, x, 0)?,
+            ("dt", TallyInput::Number(x)) => self.dt = x,
+            ("brdf", TallyInput::Pair(p)) => {
+                self.brdf = match p {
+                    Some((c, q)) => Some((count_from("tallies.brdf[0]", c, 1)?, count_from("tallies.brdf[1]", q, 1)?)),
+                    None => None,
+                }
+            }
+            ("max_order", TallyInput::Optional(k)) => {
+                self.max_order = match k {
+                    Some(k) if k == k.trunc() && (0.0..=MAX_ORDER as f64).contains(&k) => Some(k as u32),
+                    Some(k) => return Err(Error::param_count(&field, k, "an integer in [0, 10000] (or None)")),
+                    None => None,
+                }
+            }
+            ("spatial", TallyInput::Flag(b)) => self.spatial = b,
+            ("angular", TallyInput::Flag(b)) => self.angular = b,
+            ("errors", TallyInput::Flag(b)) => self.errors = b,
+            _ if Self::default().fields().iter().any(|f| f.0 == name) => return Err(wrong()),
+            _ => {
+                let names: Vec<&str> = Self::default().fields().iter().map(|f| f.0).collect();
+                return Err(Error::Invalid(format!("tallies: unknown field {name:?} (known: {names:?})")));
+            }
+        }
+        Ok(())
     }
 
     /// Check every field (names as in `subsurf.Tallies`).
@@ -223,13 +299,46 @@ mod tests {
         })
         .contains("a_rz"));
         let num = |nr: f64, k: Option<f64>| {
-            TallyConfig::from_numbers(nr, 0.1, 1.0, 0.1, 1.0, 0.0, 1.0, None, k, true, true, true)
+            TallyConfig::from_inputs([("nr", TallyInput::Number(nr)), ("max_order", TallyInput::Optional(k))])
         };
         assert!(num(-1.0, None).unwrap_err().to_string().starts_with("tallies.nr = -1 is out of range"));
         assert!(num(1e20, None).unwrap_err().to_string().starts_with("tallies.nr = 100000000000000000000 is out"));
         assert!(num(2.5, None).is_err() && num(3.0, None).is_ok());
         assert!(num(3.0, Some(-1.0)).unwrap_err().to_string().starts_with("tallies.max_order = -1"));
+        let e = TallyConfig::from_inputs([("nr", TallyInput::Flag(true))]).unwrap_err().to_string();
+        assert!(e.starts_with("tallies.nr: expected a value of kind count"), "{e}");
+        let e = TallyConfig::from_inputs([("bins", TallyInput::Flag(true))]).unwrap_err().to_string();
+        assert!(e.contains("unknown field \"bins\"") && e.contains("errors"), "{e}");
         let ok = TallyConfig { nt: 0, brdf: Some((10, 1)), max_order: Some(0), ..Default::default() };
         assert!(ok.validate().is_ok());
+    }
+
+    /// Every field of [`TallyConfig::fields`] can be set by name: a configuration differing
+    /// from the defaults in every field round-trips through its inputs.
+    #[test]
+    fn every_field_round_trips_by_name() {
+        let c = TallyConfig {
+            nr: 7,
+            dr: 0.5,
+            nz: 8,
+            dz: 0.25,
+            na: 9,
+            nt: 3,
+            dt: 2.0,
+            brdf: Some((4, 5)),
+            max_order: Some(6),
+            spatial: false,
+            angular: false,
+            errors: false,
+        };
+        for ((_, a), (_, b)) in c.fields().iter().zip(TallyConfig::default().fields().iter()) {
+            assert_ne!(a, b, "the test configuration must differ from the defaults in every field");
+        }
+        let back = TallyConfig::from_inputs(c.fields().iter().map(|(n, v)| (*n, v.input()))).unwrap();
+        assert_eq!(back, c);
+        let debug = format!("{:?}", TallyConfig::default());
+        let names: Vec<&str> = debug.split([' ', '{', ',']).filter_map(|w| w.strip_suffix(':')).collect();
+        let listed: Vec<&str> = TallyConfig::default().fields().iter().map(|f| f.0).collect();
+        assert_eq!(names, listed, "fields() lists the struct's fields in order");
     }
 }

@@ -5,10 +5,9 @@
 //! latencies that, paid one escape at a time inside the lane kernel's loop, stalls it. Buffered,
 //! the radii and angle guesses of [`ESCAPES`] escapes are computed in one vectorised pass and the
 //! scores are then added in the order the escapes arrived, so every bin's f64 sum sees the same
-//! additions in the same order as unbuffered binning (the same bits). Measured with MCML's
-//! tally set: 1.06–1.08× faster runs in case a, 1.06× in c, 1.13× in d (medians of 5–13 A/B
-//! pairs); scoring each accumulator in a pass of its own over the buffer instead cost 1 % more
-//! instructions and was not faster.
+//! additions in the same order as unbuffered binning (the same bits). Scoring each accumulator
+//! in a pass of its own over the buffer instead was not faster (`docs/architecture.md`, "Engine
+//! speed measurements").
 
 use crate::mc::packet::{Packet, Side};
 

@@ -21,8 +21,7 @@
 //!
 //! Cost: a run drains every bin a chunk touched (case a of `make bench` with MCML's tally set:
 //! 2900 bins per 4096-photon chunk, 1.4 (S₁, Q) pairs per photon). With [`Fixed::add_f64`]'s
-//! 128-bit fast path the drain takes 37 instead of 62 instructions per value (callgrind), and
-//! the run was 1.11× faster (median of 9 A/B pairs; same bits).
+//! 128-bit fast path the drain takes 37 instead of 62 instructions per value (callgrind).
 
 /// Integer bits (including the sign bit) of every [`Fixed`].
 pub const INT_BITS: u32 = 80;

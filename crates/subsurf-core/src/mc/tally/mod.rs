@@ -68,7 +68,7 @@ impl Deposits<'_> {
 }
 
 pub use accum::Accum;
-pub use config::TallyConfig;
+pub use config::{TallyConfig, TallyInput, TallyValue};
 pub use histogram::HistogramOut;
 pub use set::TallySet;
 

@@ -273,7 +273,7 @@ impl Tally for Totals {
         // (escape, roulette), and one vector load (or a gather) over them cannot be forwarded
         // from the store buffer (perf put the stall at up to 10 % of case a's time). Volatile
         // loads are neither combined nor, as `black_box` was, routed through the stack (whose
-        // one slot serialised them: case a totals 1.16×, median of 11 A/B pairs).
+        // one slot serialised them).
         // SAFETY: `x` is a reference to an initialised f64.
         let slot = |x: &f64| unsafe { std::ptr::read_volatile(x) };
         let read = |b: &Block| -> [f64; W] { std::array::from_fn(|k| slot(&b[k])) };
