@@ -212,14 +212,14 @@ def test_random_walk_two_nested_layers_match_the_layered_engine_brdf():
         ],
         [R.DirectionalLight((0, 0, 1), 1.0)],
         (0, 0, 0),
-        R.Camera((0, 0, 50), look_at=(0, 0, 0), up=(0, 1, 0), fov=0.5, width=12, height=12),
+        R.Camera((0, 0, 50), look_at=(0, 0, 0), up=(0, 1, 0), fov=0.5, width=16, height=16),
     )
-    img = R.render(sc, "random_walk", spp=48, seed=7)
+    img = R.render(sc, "random_walk", spp=192, seed=7)
     px = img.array[..., 0].ravel()
     mean, se = px.mean(), px.std(ddof=1) / np.sqrt(px.size)
     stack = subsurf.Stack([subsurf.Layer(n, *top, thickness=d1), subsurf.Layer(n, *bottom)])
     res = subsurf.simulate(
-        stack, photons=400_000, seed=8, tallies=subsurf.Tallies(brdf=(50, 1), spatial=False, angular=False)
+        stack, photons=1_600_000, seed=8, tallies=subsurf.Tallies(brdf=(50, 1), spatial=False, angular=False)
     )
     f, fse = float(res.brdf.values[-1, 0]), float(res.brdf.stderr[-1, 0])
     sig = np.hypot(se, fse)

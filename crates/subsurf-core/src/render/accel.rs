@@ -65,7 +65,8 @@ pub struct Accel {
     /// Bounding box of all triangles, mm.
     pub lo: V3,
     pub hi: V3,
-    /// A conservative distance-to-surface bound (None: every collision casts its ray).
+    /// A conservative distance-to-surface bound over the translucent objects (set by
+    /// [`super::scene::Scene::new`]; None: every collision casts its ray).
     pub distance: Option<DistanceGrid>,
 }
 
@@ -105,8 +106,7 @@ impl Accel {
             })
             .collect();
         let bvh = build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
-        let distance = Some(DistanceGrid::new(&tris, lo, hi));
-        Accel { tris, bvh, extent, lo, hi, distance }
+        Accel { tris, bvh, extent, lo, hi, distance: None }
     }
 
     /// Möller–Trumbore in f64: (t, b1, b2) for a hit with t in (tmin, tmax), else None.

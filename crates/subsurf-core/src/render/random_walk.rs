@@ -4,7 +4,7 @@
 //! The camera path refracts into the object at x_o (Fresnel on the triangle's normal; the
 //! reflected part is traced by [`super::shade::trace`]) and walks with the shared transport core
 //! [`super::walk`] (the engine's physics, nested media). What this method carries is
-//! [`Radiance`]:
+//! `Radiance`:
 //! - free paths with spectral MIS (one-sample balance heuristic over the RGB channels, with
 //!   the channel chosen in proportion to the path throughput β, as Cycles' random walk and
 //!   Chiang, Kutz & Burley 2016 §4): with w_k = β_k/Σβ a channel c ~ w is chosen,
@@ -168,7 +168,10 @@ impl RandomWalk {
     /// over channels and lights, of the straight line to the outer boundary towards the light,
     /// through index-matched interfaces; or σt,min × the distance to the first boundary where
     /// that line meets a mismatched one), so deep collisions, whose connections are attenuated
-    /// by e^{−τ}, mostly skip the rays. Area lights are not reweighted: a collision without
+    /// by e^{−τ}, mostly skip the rays. (Measured and not kept: q from the distance bound r
+    /// alone, 20 e^{−σt,min r} when < 1, saves these rays but, being larger, makes more
+    /// connections: +14 % instructions in next-event estimation on a marble sphere, and the
+    /// walk gained 8 % instead of the 18 % of the free-path skip alone.) Area lights are not reweighted: a collision without
     /// connections leaves its exits to count them (`covered` false), so each path is counted by
     /// exactly one estimator. Delta lights, which no exit can reach, are weighted by 1/q. Both
     /// are unbiased.

@@ -1,7 +1,7 @@
 //! The random walk as a simulation for tissue optics: photon packets from a pencil beam or a
 //! uniform collimated illumination enter the closed meshes of a scene and are traced by the
 //! same transport core as `random_walk` ([`super::walk`]: free paths, HG scattering, smooth
-//! boundaries, nested media) with the Monte Carlo engine's weight rules ([`Packet`]; MCML, see
+//! boundaries, nested media) with the Monte Carlo engine's weight rules (`Packet`; MCML, see
 //! `mc::kernel`): implicit capture (w′ = w σs/σt, the exact difference w − w′ deposited), and
 //! Russian roulette relative to the entering weight (below 10⁻⁴ of it a packet survives with
 //! probability 1/10 at ten times its weight) whose zero-mean control term is booked apart in

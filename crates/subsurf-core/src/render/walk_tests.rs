@@ -212,6 +212,6 @@ fn distance_bound_changes_no_number() {
 fn marble_workload() {
     let grid = std::env::var_os("SUBSURF_WALK_NO_GRID").is_none();
     let r = Renderer::from_parts(marble(grid), Box::new(RandomWalk { nee: true }), 9);
-    let (m, s) = image_sum_stats(&r, 2);
+    let (m, s) = image_sum_stats(&r, 8);
     println!("grid {grid}: {m:?} ± {s:?}");
 }
