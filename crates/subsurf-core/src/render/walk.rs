@@ -18,6 +18,14 @@
 //! and the engine's Russian roulette (its control term booked apart) for the simulation. The
 //! loop is generic over it (static dispatch: one monomorphised loop per carrier).
 //!
+//! The layered-slab engine keeps its own loop (`mc::kernel`, the scalar reference of the SIMD
+//! lanes in `mc::lanes`): its geometry is analytic (planes z = const, no ray casts), it carries
+//! the unused optical depth across interfaces and samples clear-layer bounces in closed form,
+//! and its lanes hold f32 directions for many photons at once; putting it behind this loop's
+//! per-event ray casts and dynamic media stack would cost the lanes their speed. Both loops
+//! share the physics functions ([`crate::optics`]: Fresnel, refraction, HG sampling, `spin`)
+//! and the roulette constants ([`crate::mc::config`]).
+//!
 //! A collision closer to its start than every surface, by the conservative bound of
 //! [`super::distance`], is taken without casting the ray (the ray could only confirm it).
 //!
