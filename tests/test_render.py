@@ -144,7 +144,8 @@ def test_walk_simulation_matches_the_engine():
     sig = np.hypot(w["exitance_stderr"], res.diffuse_reflectance_stderr)
     assert abs(w["exitance"] - res.diffuse_reflectance) < 4 * sig
     assert abs(w["specular"] + w["exitance"] + w["absorbed"] + w["lost"] - 1) < 1e-9
-    assert w["voxels"].shape == (5, 5, 5) and 0 < w["voxels"].sum() <= w["absorbed"]
+    physical = w["absorbed"] - w["roulette"]  # the roulette term is booked apart, as in the engine
+    assert w["voxels"].shape == (5, 5, 5) and w["voxels"].min() >= 0 and 0 < w["voxels"].sum() <= physical + 1e-12
     assert abs(sum(a.sum() for a in w["exitance_per_triangle"]) - w["exitance"]) < 1e-9
 
 
@@ -226,6 +227,38 @@ def test_random_walk_render_matches_the_engine_brdf():
     f, fse = float(res.brdf.values[-1, 0]), float(res.brdf.stderr[-1, 0])
     assert res.brdf.edges[0][-2] >= 0.97  # top bin: cos θ in [0.98, 1]
     assert abs(mean - f) < 4 * np.hypot(se, fse), (mean, se, f, fse)
+
+
+def test_random_walk_two_nested_layers_match_the_layered_engine_brdf():
+    """A two-layer object as nested meshes (a 0.3 mm top layer over a thick second medium of the
+    same η: index-matched, so next-event estimation connects straight through the inner
+    interface) at normal view under a normal directional light: the radiance is E·f_r(0, 0) of
+    the two-layer stack, against the MC engine's BRDF tally in its top cos θ bin, within 4σ.
+    Power: the band 4σ is asserted below 5 % of f_r; before collisions in the inner medium
+    connected to lights the image lost most of the directional light (issue 19: −72 %)."""
+    top, bottom, n, d1 = (0.4, 12.0, 0.8), (0.05, 6.0, 0.7), 1.4, 0.3
+    m1 = R.Translucent([top[0]] * 3, [top[1]] * 3, g=top[2], eta=n)
+    m2 = R.Translucent([bottom[0]] * 3, [bottom[1]] * 3, g=bottom[2], eta=n)
+    sc = R.Scene(
+        [
+            R.Object.box(m1, lo=(-40, -40, -30), hi=(40, 40, 0)),
+            R.Object.box(m2, lo=(-39.9, -39.9, -29.9), hi=(39.9, 39.9, -d1)),
+        ],
+        [R.DirectionalLight((0, 0, 1), 1.0)],
+        (0, 0, 0),
+        R.Camera((0, 0, 50), look_at=(0, 0, 0), up=(0, 1, 0), fov=0.5, width=16, height=16),
+    )
+    img = R.render(sc, "random_walk", spp=192, seed=7)
+    px = img.array[..., 0].ravel()
+    mean, se = px.mean(), px.std(ddof=1) / np.sqrt(px.size)
+    stack = subsurf.Stack([subsurf.Layer(n, *top, thickness=d1), subsurf.Layer(n, *bottom)])
+    res = subsurf.simulate(
+        stack, photons=1_600_000, seed=8, tallies=subsurf.Tallies(brdf=(50, 1), spatial=False, angular=False)
+    )
+    f, fse = float(res.brdf.values[-1, 0]), float(res.brdf.stderr[-1, 0])
+    sig = np.hypot(se, fse)
+    assert 4 * sig < 0.05 * f, (sig, f)
+    assert abs(mean - f) < 4 * sig, (mean, se, f, fse)
 
 
 @pytest.fixture(scope="module")

@@ -565,7 +565,9 @@ fn render_walk_simulate<'py>(
     out.set_item("exitance", rd)?;
     out.set_item("exitance_stderr", se)?;
     out.set_item("specular", t.specular / n)?;
-    out.set_item("absorbed", t.absorbed / n)?;
+    // As the engine's totals: `absorbed` = physical deposits + the roulette term.
+    out.set_item("absorbed", (t.absorbed + t.roulette) / n)?;
+    out.set_item("roulette", t.roulette / n)?;
     out.set_item("lost", t.lost / n)?;
     out.set_item("voxels", t.voxels.iter().map(|v| v / n).collect::<Vec<f64>>().to_pyarray(py))?;
     out.set_item("photons", t.photons)?;

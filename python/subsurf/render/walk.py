@@ -27,8 +27,10 @@ def simulate_walk(
     the scene along ``direction``). ``voxels`` = (lo, hi, (nx, ny, nz)) in mm scores absorption.
     Returns a dict: ``exitance`` (total fraction) and ``exitance_stderr``,
     ``exitance_per_triangle`` (one array per object, fraction per triangle), ``specular``,
-    ``absorbed``, ``lost``, ``voxels`` (absorbed fraction per voxel, shape (nx, ny, nz), or
-    None), ``photons``."""
+    ``absorbed`` (physical deposits + ``roulette``, as :func:`subsurf.simulate` counts them),
+    ``roulette`` (the zero-mean control term of Russian roulette, booked apart as the engine
+    does), ``lost``, ``voxels`` (physical absorbed fraction per voxel, never negative, shape
+    (nx, ny, nz), or None), ``photons``. specular + exitance + absorbed + lost = 1 to rounding."""
     if source not in ("pencil", "collimated"):
         raise _core.ParameterError(f"source = {source!r}: must be 'pencil' or 'collimated'")
     if source == "pencil" and origin is None:

@@ -7,6 +7,7 @@
 //! (Möller & Trumbore 1997) on padded boxes, so the hit points the physics sees are f64 exact
 //! to rounding and a ray cannot slip between the f32 boxes of neighbouring triangles.
 
+use super::distance::DistanceGrid;
 use super::math::{add, cross, dot, length, madd, normalize, scale, sub, V3};
 use super::mesh::Mesh;
 use glam::Vec3A;
@@ -64,6 +65,9 @@ pub struct Accel {
     /// Bounding box of all triangles, mm.
     pub lo: V3,
     pub hi: V3,
+    /// A conservative distance-to-surface bound over the translucent objects (set by
+    /// [`super::scene::Scene::new`]; None: every collision casts its ray).
+    pub distance: Option<DistanceGrid>,
 }
 
 impl Accel {
@@ -102,7 +106,7 @@ impl Accel {
             })
             .collect();
         let bvh = build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
-        Accel { tris, bvh, extent, lo, hi }
+        Accel { tris, bvh, extent, lo, hi, distance: None }
     }
 
     /// Möller–Trumbore in f64: (t, b1, b2) for a hit with t in (tmin, tmax), else None.
@@ -188,6 +192,12 @@ impl Accel {
     /// Area of global triangle `i`, mm².
     pub fn area(&self, i: usize) -> f64 {
         0.5 * length(cross(self.tris[i].e1, self.tris[i].e2))
+    }
+
+    /// A distance (mm) from `p` within which no triangle lies (0 when unknown).
+    #[inline]
+    pub fn clear_radius(&self, p: V3) -> f64 {
+        self.distance.as_ref().map_or(0.0, |g| g.bound(p))
     }
 
     /// Offset a surface point by a few ulps of the scene extent along `n` (`side` = ±1).

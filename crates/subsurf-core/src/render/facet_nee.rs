@@ -1,7 +1,10 @@
-//! Next-event estimation through one flat facet of a smooth dielectric boundary, for the
-//! random walk: from a collision point v inside the outermost object to a light outside.
+//! Next-event estimation through a smooth dielectric boundary, for the random walk: from a
+//! collision point v inside the objects (at any depth of the media stack) to a light outside.
 //!
-//! A smooth boundary makes the connection v → p → light specular at p, so a random direction
+//! The connection runs straight from v through index-matched inner interfaces (the same η on
+//! both sides: no refraction, no Fresnel loss; each medium's σt attenuates its own segment) and
+//! refracts once, at one flat facet of the boundary that leaves every object ([`chain`]). A
+//! smooth boundary makes the connection v → p → light specular at p, so a random direction
 //! never finds it; on a flat triangle it can be solved exactly:
 //! - directional light: the refracted beam direction is fixed by the facet normal;
 //! - point y (a point light, or a point sampled on an area light): p minimises the optical
@@ -9,64 +12,97 @@
 //!   condition). The minimiser lies on the line of the plane of incidence; the derivative of
 //!   the path length along it is monotone, so bisection finds it.
 //!
-//! The facet is not known in advance: the straight segment v → light gives a first guess, and
+//! The facet is not known in advance: the straight line v → light gives a first guess, and
 //! the facet the refracted connection actually crosses replaces it (at most four steps).
+//! Exact for index-matched chains; a line that meets an inner interface whose indices differ
+//! (it would refract there too) or an opaque object makes no connection (see
+//! [`super::random_walk`] for what that leaves out).
 //!
 //! Geometry factor of a point source through a flat interface (ray-tube widths, sagittal and
 //! tangential): with d₁ = ‖y − p‖ outside, d₂ = ‖p − v‖ inside and the angles θ₁, θ₂ to the
 //! normal, the irradiance at v normal to the ray from a source of intensity I is
 //! E = I T(θ₁) / [(d₁ + d₂/η)(d₁ cos θ₂/cos θ₁ + d₂ cos θ₁/(η cos θ₂))]
 //! (η = 1 gives the inverse-square law 1/(d₁ + d₂)²). For a collimated beam of irradiance E₀
-//! the irradiance inside is T(θ₁) E₀ cos θ₁/cos θ₂.
+//! the irradiance inside is T(θ₁) E₀ cos θ₁/cos θ₂. Index-matched interfaces leave both as
+//! they are.
 
 use super::accel::Hit;
-use super::math::{dot, madd, neg, normalize, scale, sub, V3};
+use super::math::{dot, madd, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
+use super::walk::Media;
 use crate::optics::{fr_dielectric, refract};
 
+/// Most interfaces one straight connection may cross.
+const MAX_CHAIN: usize = 16;
+
 /// A solved connection: the facet point, the propagation direction inside (from p to v), the
-/// distance inside and the irradiance factor (per unit E₀ for a directional light, per unit
-/// intensity for a point).
+/// optical depth inside per channel (Σ σt ℓ over the media crossed) and the irradiance factor
+/// (per unit E₀ for a directional light, per unit intensity for a point).
 pub struct Connection {
     pub hit: Hit,
     pub d_in: V3,
-    pub dist_in: f64,
+    pub tau: Rgb,
     pub factor: f64,
 }
 
-/// The connection from `v` (inside object `obj`, index `eta`) to a directional light.
-pub fn directional(scene: &Scene, obj: usize, eta: f64, v: V3, to_light: V3) -> Option<Connection> {
-    let mut h = scene.accel.intersect(v, to_light, f64::INFINITY, u32::MAX)?;
-    for _ in 0..4 {
-        if h.object != obj {
+/// The straight line from `v` (inside `media`) along the unit `dir` to the boundary that leaves
+/// every object: where it leaves (`hit`, with `hit.t` the distance from the last interface) and
+/// the optical depth per channel on the way.
+pub struct Chain {
+    pub hit: Hit,
+    pub tau: Rgb,
+}
+
+/// Follow the line from `v` along `dir` through index-matched interfaces to the outer boundary;
+/// `None` where it meets an interface whose indices differ, an opaque object, or no surface.
+pub fn chain(scene: &Scene, media: &Media, v: V3, dir: V3) -> Option<Chain> {
+    let (mut med, mut o, mut skip, mut tau) = (*media, v, u32::MAX, [0.0; 3]);
+    for _ in 0..MAX_CHAIN {
+        let m = med.medium(scene)?;
+        let h = scene.accel.intersect(o, dir, f64::INFINITY, skip)?;
+        tau = std::array::from_fn(|k| tau[k] + m.sigma_t[k] * h.t);
+        let (after, n1, n2) = med.across(scene, &h, dir)?;
+        if after.is_empty() {
+            return Some(Chain { hit: h, tau });
+        }
+        if n1 != n2 {
             return None;
         }
+        (med, o, skip) = (after, h.p, h.tri);
+    }
+    None
+}
+
+/// The connection from `v` (inside `media`) to a directional light.
+pub fn directional(scene: &Scene, media: &Media, v: V3, to_light: V3) -> Option<Connection> {
+    let eta = media.index(scene);
+    let mut h = chain(scene, media, v, to_light)?.hit;
+    for _ in 0..4 {
         let cos_i = dot(to_light, h.n);
         if cos_i <= 0.0 {
             return None;
         }
         let d_in = refract(neg(to_light), h.n, 1.0, eta)?;
-        let h2 = scene.accel.intersect(v, neg(d_in), f64::INFINITY, u32::MAX)?;
-        if h2.tri == h.tri {
+        let c2 = chain(scene, media, v, neg(d_in))?;
+        if c2.hit.tri == h.tri {
+            let h2 = c2.hit;
             let cos_t = -dot(d_in, h2.n);
             if cos_t <= 0.0 || blocked(scene, &h2, to_light, f64::INFINITY) {
                 return None;
             }
             let factor = (1.0 - fr_dielectric(cos_i, 1.0, eta)) * cos_i / cos_t;
-            return Some(Connection { hit: h2, d_in, dist_in: h2.t, factor });
+            return Some(Connection { hit: h2, d_in, tau: c2.tau, factor });
         }
-        h = h2;
+        h = c2.hit;
     }
     None
 }
 
-/// The connection from `v` (inside object `obj`, index `eta`) to the point `y` outside.
-pub fn point(scene: &Scene, obj: usize, eta: f64, v: V3, y: V3) -> Option<Connection> {
-    let mut h = scene.accel.intersect(v, normalize(sub(y, v)), f64::INFINITY, u32::MAX)?;
+/// The connection from `v` (inside `media`) to the point `y` outside.
+pub fn point(scene: &Scene, media: &Media, v: V3, y: V3) -> Option<Connection> {
+    let eta = media.index(scene);
+    let mut h = chain(scene, media, v, normalize(sub(y, v)))?.hit;
     for _ in 0..4 {
-        if h.object != obj {
-            return None;
-        }
         let n = h.n;
         let q = scene.accel.tris[h.tri as usize].v0;
         let (hv, hy) = (dot(sub(q, v), n), dot(sub(y, q), n));
@@ -80,8 +116,9 @@ pub fn point(scene: &Scene, obj: usize, eta: f64, v: V3, y: V3) -> Option<Connec
         let p = if big_d > 1e-300 { madd(pv, dd, t / big_d) } else { pv };
         let to_p = sub(p, v);
         let d2 = dot(to_p, to_p).sqrt();
-        let h2 = scene.accel.intersect(v, scale(to_p, 1.0 / d2), f64::INFINITY, u32::MAX)?;
-        if h2.tri == h.tri {
+        let c2 = chain(scene, media, v, scale(to_p, 1.0 / d2))?;
+        if c2.hit.tri == h.tri {
+            let h2 = c2.hit;
             let d1 = ((big_d - t).powi(2) + hy * hy).sqrt();
             let (cos1, cos2) = (hy / d1, hv / d2);
             let out = scale(sub(y, h2.p), 1.0 / d1);
@@ -89,9 +126,9 @@ pub fn point(scene: &Scene, obj: usize, eta: f64, v: V3, y: V3) -> Option<Connec
                 return None;
             }
             let factor = (1.0 - fr_dielectric(cos1, 1.0, eta)) * point_geometry(eta, d1, d2, cos1, cos2);
-            return Some(Connection { hit: h2, d_in: scale(to_p, -1.0 / d2), dist_in: h2.t, factor });
+            return Some(Connection { hit: h2, d_in: scale(to_p, -1.0 / d2), tau: c2.tau, factor });
         }
-        h = h2;
+        h = c2.hit;
     }
     None
 }

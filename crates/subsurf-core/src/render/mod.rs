@@ -10,11 +10,13 @@
 //! channel ([`material`]). Scenes ([`scene`]) hold meshes ([`mesh`], [`shapes`]), lights
 //! ([`light`]), a constant environment and a pinhole [`camera`]; rays are traced with a BVH
 //! ([`accel`]). [`driver`] renders progressively, reproducibly for any thread count;
-//! [`walk_sim`] exposes the random walk as a simulation (pencil beam or illumination on a
-//! mesh, exitance per triangle, absorption on a voxel grid).
+//! [`walk`] is the one random-walk transport core inside closed meshes, used by
+//! [`random_walk`] and by [`walk_sim`], the random walk as a simulation (pencil beam or
+//! illumination on a mesh, exitance per triangle, absorption on a voxel grid).
 
 pub mod accel;
 pub mod camera;
+pub mod distance;
 pub mod driver;
 pub mod facet_nee;
 pub mod hierarchical;
@@ -27,10 +29,13 @@ pub mod random_walk;
 pub mod scene;
 pub mod shade;
 pub mod shapes;
+pub mod walk;
 pub mod walk_sim;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod walk_tests;
 
 pub use camera::Camera;
 pub use driver::{with_threads, Control, Method, Renderer};

@@ -3,6 +3,7 @@
 
 use super::accel::Accel;
 use super::camera::Camera;
+use super::distance::DistanceGrid;
 use super::light::Light;
 use super::material::Material;
 use super::math::{dot, Rgb, V3};
@@ -58,7 +59,17 @@ impl Scene {
         }
         super::light::check_power("environment", environment)?;
         let meshes: Vec<&Mesh> = objects.iter().map(|o| &o.mesh).collect();
-        let accel = Accel::new(&meshes);
+        let mut accel = Accel::new(&meshes);
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for o in objects.iter().filter(|o| matches!(materials[o.material], Material::Translucent(_))) {
+            for p in &o.mesh.positions {
+                lo = std::array::from_fn(|k| lo[k].min(p[k]));
+                hi = std::array::from_fn(|k| hi[k].max(p[k]));
+            }
+        }
+        if lo[0] <= hi[0] {
+            accel.distance = Some(DistanceGrid::new(&accel.tris, lo, hi));
+        }
         let scene = Scene { objects, materials, lights, environment, camera, accel };
         if let Some(cam) = &scene.camera {
             if let Some(name) = scene.enclosing_object(cam.position) {

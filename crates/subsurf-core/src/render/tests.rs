@@ -221,7 +221,7 @@ fn walk_simulation_matches_the_engine_on_a_slab() {
         t.specular / t.photons as f64
     );
     assert!((rd - mc).abs() < 4.0 * (se * se + mc_se * mc_se).sqrt());
-    let bal = (t.specular + t.exit_sum + t.absorbed + t.lost) / t.photons as f64;
+    let bal = (t.specular + t.exit_sum + t.absorbed + t.roulette + t.lost) / t.photons as f64;
     assert!((bal - 1.0).abs() < 1e-9, "energy balance {bal}");
     assert!(t.voxels.iter().sum::<f64>() <= t.absorbed + 1e-9 && t.voxels.iter().sum::<f64>() > 0.5 * t.absorbed);
 }

@@ -1,33 +1,31 @@
 //! The random walk as a simulation for tissue optics: photon packets from a pencil beam or a
-//! uniform collimated illumination enter the closed meshes of a scene and are traced with
-//! the same boundary physics as `random_walk` ([`cross_boundary`], nested media: every crossing,
-//! the entry included, is all-or-none Fresnel), implicit capture (weight × σa/σt deposited at
-//! each collision) and HG scattering. Its Russian roulette is its own, not the engine's
-//! (`mc::kernel` step 5): it uses the engine's constants ([`ROULETTE_THRESHOLD`], [`ROULETTE_M`])
-//! on the absolute weight (a packet enters with weight 1, where the engine's threshold is
-//! relative to 1 − R_sp), and it deposits the zero-mean control term (+w for a killed packet,
-//! −(m − 1)w for a survivor) as absorption, in `absorbed` *and* in the voxel grid (which can
-//! therefore hold negative values), where the engine books it apart (`Tally::roulette`) and keeps
-//! its absorption histograms physical. A fresh free path is drawn after every boundary hit (the
-//! engine carries the remaining optical depth; the same law in homogeneous media), and a packet
-//! still alive after `random_walk::MAX_EVENTS` events is deposited where it stands. Energy
-//! balance is exact to rounding in every run.
+//! uniform collimated illumination enter the closed meshes of a scene and are traced by the
+//! same transport core as `random_walk` ([`super::walk`]: free paths, HG scattering, smooth
+//! boundaries, nested media) with the Monte Carlo engine's weight rules (`Packet`; MCML, see
+//! `mc::kernel`): implicit capture (w′ = w σs/σt, the exact difference w − w′ deposited), and
+//! Russian roulette relative to the entering weight (below 10⁻⁴ of it a packet survives with
+//! probability 1/10 at ten times its weight) whose zero-mean control term is booked apart in
+//! `roulette` (a killed packet +w, a survivor −9w), not as absorption, so the absorbed
+//! deposits and the voxels are never negative and the energy balance is exact:
+//! specular + exitance + absorbed + roulette + lost = 1 to rounding.
 //!
 //! Tallies: the specular reflection, the weight leaving through each triangle (exitance per
-//! triangle), the absorbed weight on a voxel grid, and the weight lost (beam missing the
-//! objects, paths ending on an opaque surface, numerical leaks). One colour channel
+//! triangle), the absorbed weight (physical deposits; also on a voxel grid), the roulette
+//! term (also a walk stopped by the event cap, as the engine books a trapped packet), and the
+//! weight lost (beam missing the objects, paths ending on an opaque surface, numerical leaks).
+//! One colour channel
 //! (`channel`) of the translucent materials is simulated. Photon i uses the stream
 //! `PhotonRng::new(seed, i)`; photons run in fixed chunks merged in order, so results are
 //! bit-identical for any thread count.
 
-use super::material::Material;
+use super::accel::Hit;
+use super::material::{Material, Translucent};
 use super::math::{dot, madd, unit, Frame, V3};
 use super::mesh::MAX_COORDINATE;
-use super::random_walk::{cross_boundary, Crossing, Media};
 use super::scene::Scene;
+use super::walk::{cross_boundary, walk, Carrier, Crossing, Media};
 use crate::error::{Error, Result};
 use crate::mc::config::{ROULETTE_M, ROULETTE_THRESHOLD};
-use crate::optics::spin;
 use crate::rng::PhotonRng;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -95,8 +93,12 @@ pub struct WalkTally {
     pub specular: f64,
     /// Weight leaving through each global triangle (BVH order: see `exit_object/exit_local`).
     pub exit: Vec<f64>,
+    /// Physical deposits (implicit capture), never negative; also per voxel in `voxels`.
     pub absorbed: f64,
     pub voxels: Vec<f64>,
+    /// The zero-mean control term of Russian roulette and the weight of capped walks (the
+    /// engine's `roulette`; its totals count it in `absorbed`).
+    pub roulette: f64,
     pub lost: f64,
     /// Σ and Σ² of each photon's exiting weight (for the standard error of the total).
     pub exit_sum: f64,
@@ -111,6 +113,7 @@ impl WalkTally {
     fn merge(&mut self, o: &WalkTally) {
         self.specular += o.specular;
         self.absorbed += o.absorbed;
+        self.roulette += o.roulette;
         self.lost += o.lost;
         self.exit_sum += o.exit_sum;
         self.exit_sum2 += o.exit_sum2;
@@ -197,18 +200,75 @@ fn launch(scene: &Scene, src: BeamSource, rng: &mut PhotonRng) -> (V3, V3) {
     }
 }
 
+/// The simulation's carrier: one channel's weight, the tallies and the voxel grid.
+struct Packet<'a> {
+    cfg: &'a WalkConfig,
+    t: &'a mut WalkTally,
+    w: f64,
+    /// The roulette threshold (relative to the entering weight, as in the engine).
+    w_min: f64,
+}
+
+impl Carrier for Packet<'_> {
+    fn channel(&mut self, _rng: &mut PhotonRng) -> Option<usize> {
+        Some(self.cfg.channel)
+    }
+
+    fn collide(&mut self, _: &Scene, m: &Translucent, _: &Media, _: f64, p: V3, _: V3, _: &mut PhotonRng) -> bool {
+        // The engine's implicit capture: w′ = w σs/σt and the exact difference w − w′ (exact
+        // for w′ ≥ w/2) deposited, so the balance closes to rounding of the tallies' sums.
+        let c = self.cfg.channel;
+        let w_new = self.w * (m.sigma_s[c] / m.sigma_t[c]);
+        let dw = self.w - w_new;
+        self.w = w_new;
+        self.t.absorbed += dw;
+        if let (Some(g), true) = (&self.cfg.voxels, dw != 0.0) {
+            if let Some(k) = g.index(p) {
+                self.t.voxels[k] += dw;
+            }
+        }
+        self.w > 0.0
+    }
+
+    fn roulette(&mut self, _p: V3, rng: &mut PhotonRng) -> bool {
+        if self.w < self.w_min {
+            if rng.uniform() * ROULETTE_M <= 1.0 {
+                self.t.roulette -= (ROULETTE_M - 1.0) * self.w;
+                self.w *= ROULETTE_M;
+            } else {
+                self.t.roulette += self.w;
+                return false;
+            }
+        }
+        true
+    }
+
+    fn reach(&mut self, _: &Translucent, _: f64) -> bool {
+        true
+    }
+
+    fn bounced(&mut self, _: &Crossing) {}
+
+    fn exit(&mut self, _: &Scene, h: &Hit, _: V3, _: &mut PhotonRng) {
+        let w = self.w;
+        self.t.exit[h.tri as usize] += w;
+        self.t.exit_sum += w;
+        self.t.exit_sum2 += w * w;
+    }
+
+    fn lost(&mut self, _p: V3, capped: bool) {
+        if capped {
+            self.t.roulette += self.w; // as the engine books a trapped packet
+        } else {
+            self.t.lost += self.w;
+        }
+    }
+}
+
 fn trace_photon(scene: &Scene, cfg: &WalkConfig, i: u64, t: &mut WalkTally) {
     let mut rng = PhotonRng::new(cfg.seed, i);
     t.photons += 1;
     let (o, d0) = launch(scene, cfg.source, &mut rng);
-    let deposit = |t: &mut WalkTally, p: V3, w: f64| {
-        t.absorbed += w;
-        if let (Some(g), true) = (&cfg.voxels, w != 0.0) {
-            if let Some(k) = g.index(p) {
-                t.voxels[k] += w;
-            }
-        }
-    };
     let Some(h0) = scene.accel.intersect(o, d0, f64::INFINITY, u32::MAX) else {
         t.lost += 1.0;
         return;
@@ -219,61 +279,13 @@ fn trace_photon(scene: &Scene, cfg: &WalkConfig, i: u64, t: &mut WalkTally) {
     }
     // Enter through the first boundary with the shared crossing rule (all-or-none Fresnel).
     let mut media = Media::empty();
-    let mut d = match cross_boundary(scene, &mut media, &h0, d0, rng.uniform()) {
-        Crossing::Transmitted(d) => d,
+    let d = match cross_boundary(scene, &mut media, &h0, d0, &mut rng) {
+        Crossing::Transmitted { d, .. } => d,
         _ => {
             t.specular += 1.0;
             return;
         }
     };
-    let (mut p, mut skip, mut w) = (h0.p, h0.tri, 1.0f64);
-    for _ in 0..super::random_walk::MAX_EVENTS {
-        let Some(top) = media.top() else { break };
-        let Some(m) = scene.material(top).translucent() else { break };
-        let Some(h) = scene.accel.intersect(p, d, f64::INFINITY, skip) else {
-            t.lost += w;
-            return;
-        };
-        let (st, sa) = (m.sigma_t[cfg.channel], m.sigma_a[cfg.channel]);
-        let s = if st > 0.0 { -(-rng.uniform()).ln_1p() / st } else { f64::INFINITY };
-        if s < h.t {
-            p = madd(p, d, s);
-            skip = u32::MAX;
-            let dw = w * sa / st;
-            deposit(t, p, dw);
-            w -= dw;
-            let cos = m.phase.sample(rng.uniform());
-            let phi = 2.0 * std::f64::consts::PI * rng.uniform();
-            d = spin(d, cos, phi.cos(), phi.sin());
-            if w < ROULETTE_THRESHOLD {
-                if rng.uniform() * ROULETTE_M <= 1.0 {
-                    deposit(t, p, -(ROULETTE_M - 1.0) * w);
-                    w *= ROULETTE_M;
-                } else {
-                    deposit(t, p, w);
-                    return;
-                }
-            }
-        } else {
-            p = h.p;
-            skip = h.tri;
-            match cross_boundary(scene, &mut media, &h, d, rng.uniform()) {
-                Crossing::Opaque => {
-                    t.lost += w;
-                    return;
-                }
-                Crossing::Reflected(r) => d = r,
-                Crossing::Transmitted(tr) => {
-                    d = tr;
-                    if media.is_empty() {
-                        t.exit[h.tri as usize] += w;
-                        t.exit_sum += w;
-                        t.exit_sum2 += w * w;
-                        return;
-                    }
-                }
-            }
-        }
-    }
-    deposit(t, p, w);
+    let mut packet = Packet { cfg, t, w: 1.0, w_min: ROULETTE_THRESHOLD };
+    walk(scene, media, h0.p, d, h0.tri, &mut packet, &mut rng);
 }

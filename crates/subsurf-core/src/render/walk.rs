@@ -1,0 +1,236 @@
+//! The one random-walk transport core inside closed meshes, shared by the `random_walk`
+//! integrator ([`super::random_walk`]) and the tissue-optics simulation ([`super::walk_sim`]).
+//!
+//! Physics (the Monte Carlo engine's, `mc::kernel`, on meshes instead of slabs):
+//! - free paths s ~ σt,c e^{−σt,c s} in the medium on top of the media stack, with the colour
+//!   channel c chosen by the [`Carrier`];
+//! - Henyey–Greenstein scattering from [`crate::optics::Phase`] and MCML's direction update
+//!   [`crate::optics::spin`], random numbers from [`crate::rng::PhotonRng`];
+//! - smooth-dielectric boundaries on the triangle's geometric normal: all-or-none Fresnel
+//!   ([`crate::optics::fr_dielectric`]; reflect if ξ < R, else refract by
+//!   [`crate::optics::refract`]); an index-matched interface (the same η on both sides) is
+//!   crossed straight and without a draw, as the engine does;
+//! - nested closed objects are separate media ([`Media`]: the objects containing the point,
+//!   innermost last), so layered materials are nested meshes.
+//!
+//! What the walk carries and scores is the [`Carrier`]'s: RGB throughput with spectral MIS and
+//! next-event estimation for the renderer, one channel's weight with implicit capture, deposits
+//! and the engine's Russian roulette (its control term booked apart) for the simulation. The
+//! loop is generic over it (static dispatch: one monomorphised loop per carrier).
+//!
+//! The layered-slab engine keeps its own loop (`mc::kernel`, the scalar reference of the SIMD
+//! lanes in `mc::lanes`): its geometry is analytic (planes z = const, no ray casts), it carries
+//! the unused optical depth across interfaces and samples clear-layer bounces in closed form,
+//! and its lanes hold f32 directions for many photons at once; putting it behind this loop's
+//! per-event ray casts and dynamic media stack would cost the lanes their speed. Both loops
+//! share the physics functions ([`crate::optics`]: Fresnel, refraction, HG sampling, `spin`)
+//! and the roulette constants ([`crate::mc::config`]).
+//!
+//! A collision closer to its start than every surface, by the conservative bound of
+//! [`super::distance`], is taken without casting the ray (the ray could only confirm it).
+//!
+//! Random-number order per event: the carrier's channel draw (renderer only), the free path,
+//! then at a collision the carrier's draws (next-event estimation), the phase ξ, the azimuth
+//! ξ and the carrier's roulette ξ; at a boundary with a mismatched index the Fresnel ξ.
+
+use super::accel::Hit;
+use super::material::Translucent;
+use super::math::{dot, madd, V3};
+use super::scene::Scene;
+use crate::optics::{fr_dielectric, reflect, refract, spin};
+use crate::rng::PhotonRng;
+
+/// Safety net: most events (collisions and boundary hits) in one walk.
+pub const MAX_EVENTS: u32 = 1_000_000;
+
+/// The objects containing the current point, innermost last (at most 8 levels of nesting).
+#[derive(Clone, Copy, Debug)]
+pub struct Media {
+    ids: [u32; 8],
+    len: usize,
+}
+
+impl Media {
+    /// Outside every object.
+    pub fn empty() -> Media {
+        Media { ids: [0; 8], len: 0 }
+    }
+    /// Inside `object` only.
+    pub fn inside(object: usize) -> Media {
+        let mut m = Media::empty();
+        m.push(object);
+        m
+    }
+    pub fn top(&self) -> Option<usize> {
+        (self.len > 0).then(|| self.ids[self.len - 1] as usize)
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+    pub fn depth(&self) -> usize {
+        self.len
+    }
+    fn push(&mut self, o: usize) {
+        if self.len < self.ids.len() {
+            self.ids[self.len] = o as u32;
+            self.len += 1;
+        }
+    }
+    fn remove(&mut self, o: usize) {
+        if let Some(i) = self.ids[..self.len].iter().rposition(|&x| x as usize == o) {
+            self.ids.copy_within(i + 1..self.len, i);
+            self.len -= 1;
+        }
+    }
+    /// Refractive index of the innermost medium (1 outside every object).
+    pub fn index(&self, scene: &Scene) -> f64 {
+        self.top().and_then(|o| scene.material(o).translucent()).map_or(1.0, |m| m.eta)
+    }
+    /// The medium on top of the stack (None outside every object or on an opaque one).
+    pub fn medium<'a>(&self, scene: &'a Scene) -> Option<&'a Translucent> {
+        self.top().and_then(|o| scene.material(o).translucent())
+    }
+    /// The stack after the path crosses the boundary of `hit` travelling along `d`, and the
+    /// indices (n₁, n₂) on either side; None for an opaque object.
+    pub fn across(&self, scene: &Scene, hit: &Hit, d: V3) -> Option<(Media, f64, f64)> {
+        let m = scene.material(hit.object).translucent()?;
+        let entering = dot(d, hit.n) < 0.0;
+        let mut after = *self;
+        if entering {
+            after.push(hit.object);
+        } else {
+            after.remove(hit.object);
+        }
+        let n2 = if entering { m.eta } else { after.index(scene) };
+        Some((after, self.index(scene), n2))
+    }
+}
+
+/// What happened at a boundary.
+pub enum Crossing {
+    Reflected(V3),
+    /// Refracted into the next medium (`matched`: the same η on both sides, so the direction is
+    /// unchanged and no Fresnel draw was made).
+    Transmitted {
+        d: V3,
+        matched: bool,
+    },
+    /// The path met an opaque surface from inside a medium: it ends there.
+    Opaque,
+}
+
+/// Fresnel reflection or refraction at `hit` for a path travelling along `d` with the media
+/// `media` (updated on transmission); a Fresnel ξ is drawn only where the indices differ.
+pub fn cross_boundary(scene: &Scene, media: &mut Media, hit: &Hit, d: V3, rng: &mut PhotonRng) -> Crossing {
+    let Some((after, n1, n2)) = media.across(scene, hit, d) else { return Crossing::Opaque };
+    if n1 == n2 {
+        *media = after;
+        return Crossing::Transmitted { d, matched: true };
+    }
+    let f = fr_dielectric(dot(d, hit.n).abs(), n1, n2);
+    if rng.uniform() < f {
+        return Crossing::Reflected(reflect(d, hit.n));
+    }
+    match refract(d, hit.n, n1, n2) {
+        Some(t) => {
+            *media = after;
+            Crossing::Transmitted { d: t, matched: false }
+        }
+        None => Crossing::Reflected(reflect(d, hit.n)),
+    }
+}
+
+/// What a walk carries and scores (the renderer's RGB throughput or the simulation's weight).
+/// Each method returns false when the path ends there.
+pub trait Carrier {
+    /// The colour channel whose σt samples the next free path (may draw; spectral MIS).
+    fn channel(&mut self, rng: &mut PhotonRng) -> Option<usize>;
+    /// The path moved `s` through `m` to a collision at `p` (arriving along `d`, inside
+    /// `media`): weight the throughput and score what the collision scores.
+    #[allow(clippy::too_many_arguments)]
+    fn collide(
+        &mut self,
+        scene: &Scene,
+        m: &Translucent,
+        media: &Media,
+        s: f64,
+        p: V3,
+        d: V3,
+        rng: &mut PhotonRng,
+    ) -> bool;
+    /// After the new direction is drawn: Russian roulette.
+    fn roulette(&mut self, p: V3, rng: &mut PhotonRng) -> bool;
+    /// The path moved `t` through `m` to a boundary (before crossing it).
+    fn reach(&mut self, m: &Translucent, t: f64) -> bool;
+    /// The path was reflected at, or crossed, a boundary and stays inside the objects.
+    fn bounced(&mut self, crossing: &Crossing);
+    /// The path left every object at `hit.p` along `d`.
+    fn exit(&mut self, scene: &Scene, hit: &Hit, d: V3, rng: &mut PhotonRng);
+    /// The path ended without leaving: an opaque surface met from inside, a numerical leak out
+    /// of a closed mesh (`capped` false) or the [`MAX_EVENTS`] safety net (`capped` true).
+    fn lost(&mut self, p: V3, capped: bool);
+}
+
+/// Walk from `p` along `d` inside `media` (`skip`: the triangle the path starts on, or
+/// `u32::MAX`) until the carrier ends the path or it leaves every object.
+pub fn walk<C: Carrier>(
+    scene: &Scene,
+    mut media: Media,
+    mut p: V3,
+    mut d: V3,
+    mut skip: u32,
+    c: &mut C,
+    rng: &mut PhotonRng,
+) {
+    for _ in 0..MAX_EVENTS {
+        let Some(m) = media.medium(scene) else { return c.lost(p, false) };
+        let Some(k) = c.channel(rng) else { return };
+        let st = m.sigma_t[k];
+        let s = if st > 0.0 { -(-rng.uniform()).ln_1p() / st } else { f64::INFINITY };
+        // The boundary ahead, unless the collision comes first. A collision closer than every
+        // surface (the distance grid's bound) needs no ray: the same path, the same numbers.
+        let ahead = if s < scene.accel.clear_radius(p) {
+            None
+        } else {
+            let Some(h) = scene.accel.intersect(p, d, f64::INFINITY, skip) else {
+                return c.lost(p, false); // numerically leaked out of a closed mesh
+            };
+            (s >= h.t).then_some(h)
+        };
+        match ahead {
+            None => {
+                p = madd(p, d, s);
+                skip = u32::MAX;
+                if !c.collide(scene, m, &media, s, p, d, rng) {
+                    return;
+                }
+                let cos = m.phase.sample(rng.uniform());
+                let phi = 2.0 * std::f64::consts::PI * rng.uniform();
+                d = spin(d, cos, phi.cos(), phi.sin());
+                if !c.roulette(p, rng) {
+                    return;
+                }
+            }
+            Some(h) => {
+                if !c.reach(m, h.t) {
+                    return;
+                }
+                p = h.p;
+                skip = h.tri;
+                let x = cross_boundary(scene, &mut media, &h, d, rng);
+                match x {
+                    Crossing::Opaque => return c.lost(p, false),
+                    Crossing::Reflected(r) => d = r,
+                    Crossing::Transmitted { d: t, .. } => {
+                        d = t;
+                        if media.is_empty() {
+                            return c.exit(scene, &h, d, rng);
+                        }
+                    }
+                }
+                c.bounced(&x);
+            }
+        }
+    }
+    c.lost(p, true)
+}
