@@ -145,7 +145,7 @@ def test_profile_and_materials(cli, one_line_error):
 
 
 def test_demo_small(tmp_path, cli, one_line_error):
-    p = cli("demo", "--photons", "3000", "--out-dir", tmp_path / "out", "-q")
+    p = cli("demo", "--quick", "--photons", "3000", "--out-dir", tmp_path / "out", "-q")
     assert p.returncode == 0, p.stderr
     r = subsurf.load(tmp_path / "out" / "demo.h5")
     assert len(r.absorbed_per_layer) == 3 and abs(r.energy_balance - 1) < 1e-12 and r.photons == 3000

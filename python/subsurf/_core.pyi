@@ -334,7 +334,10 @@ class RenderJob:
         seed: int,
         threads: int | None = None,
         hierarchical: dict[str, Any] | None = None,
-    ) -> None: ...
+        progress: Callable[[str, int, int], object] | None = None,
+    ) -> None:
+        """Prepare the scene with the GIL released; Ctrl-C raises KeyboardInterrupt. progress(stage,
+        done, total): stage "profiles" (monte_carlo photons; none for random_walk) or "irradiance"."""
     @property
     def warnings(self) -> list[str]:
         """Warnings about the scene (lights that cannot light anything), one line each."""

@@ -5,6 +5,10 @@ after sleeps and timers. ``SUBSURF_TEST_HOOK`` holds comma-separated ``name[=val
 
 * ``interrupt_after=N`` — the command line's progress callback raises ``KeyboardInterrupt`` (what
   Ctrl-C does) at its first call with at least N photons done;
+* ``terminate_after=N`` — the same callback sends the process SIGTERM (what ``kill`` does) at
+  its first call with at least N done;
+* ``setup_interrupt_after=N``, ``setup_terminate_after=N`` — the same for the progress of
+  ``render``'s set-up (Monte Carlo profile photons, irradiance samples), before any pass;
 * ``pause_in_write=DIR`` — an atomic write (:mod:`subsurf.atomic`), with half of its bytes in the
   temporary file, creates ``DIR/paused`` and waits up to 60 s for ``DIR/resume`` to appear;
 * ``sigint_at_start`` — the ``subsurf`` command sends itself SIGINT before it loads numpy and the
@@ -36,18 +40,22 @@ def get(name: str) -> str | None:
     return None
 
 
-def wrap_progress(progress):
-    """``progress`` (a callable or None), raising KeyboardInterrupt as ``interrupt_after`` asks."""
-    after = get("interrupt_after")
-    if after is None:
+def wrap_progress(progress, prefix: str = ""):
+    """``progress`` (a callable or None), raising KeyboardInterrupt as ``interrupt_after`` asks or
+    sending SIGTERM as ``terminate_after`` does (hooks named ``prefix`` + those names)."""
+    after, term = get(prefix + "interrupt_after"), get(prefix + "terminate_after")
+    if after is None and term is None:
         return progress
-    n = int(after)
+    n = int(after if after is not None else term)
 
     def hooked(done: int, total: int) -> None:
         if progress is not None:
             progress(done, total)
         if done >= n:
-            raise KeyboardInterrupt
+            if after is None:
+                os.kill(os.getpid(), signal.SIGTERM)
+            else:
+                raise KeyboardInterrupt
 
     return hooked
 

@@ -35,6 +35,7 @@ SKIN_630NM = (
 )
 
 DEFAULT_PHOTONS = 150_000  # ~1300 scattering events per photon: 20-40 s for both runs on 2 cores
+QUICK_PHOTONS = 2_000  # `subsurf demo --quick`: every output, in seconds
 
 
 def skin_stack():
@@ -52,21 +53,32 @@ def dermis_stack():
     return Stack([Layer(n, mua, mus, g)], n_above=1.0, n_below=1.0)
 
 
-def run(out_dir: str = "out", photons: int | None = None, threads: int | None = None, quiet: bool = False) -> int:
-    """Simulate the skin and the dermis, write ``out_dir/demo.h5``, ``demo_dermis.h5`` and ``demo.png``.
+def run(
+    out_dir: str = "out",
+    photons: int | None = None,
+    threads: int | None = None,
+    quiet: bool = False,
+    quick: bool = False,
+) -> int:
+    """Simulate the skin and the dermis, write ``out_dir/demo.h5``, ``demo_dermis.h5`` and
+    ``demo.png``, then render the materials scene (:mod:`subsurf.render.demo`: ``render.png``, and
+    ``render.exr`` when the ``openexr`` package is there — checked first, with one line if not).
 
+    ``quick``: a smoke run in seconds (few photons, a tiny image) that still writes every output.
     ``out_dir`` is created if needed; the demo's own files in it are replaced. Returns the exit
     status: 0, or 130 when Ctrl-C cut a run short (what was traced is written, marked partial).
     """
     from matplotlib.figure import Figure
 
     from . import diffusion, plot, runner
+    from .render import demo as render_demo
     from .tallies import Tallies
 
-    photons = int(photons or DEFAULT_PHOTONS)
+    photons = int(photons or (QUICK_PHOTONS if quick else DEFAULT_PHOTONS))
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise runner.UserError(f"--out-dir {out_dir}: is a file, not a directory")
     os.makedirs(out_dir, exist_ok=True)
+    exr = render_demo.check_exr()
     tallies = Tallies(nr=100, dr=0.05, nz=100, dz=0.04, na=15)
     t0 = time.monotonic()
     results, written = {}, []
@@ -108,7 +120,5 @@ def run(out_dir: str = "out", photons: int | None = None, threads: int | None = 
         f"{dermis.diffuse_reflectance_stderr:.1g}, dipole {dipole:.4f}"
     )
     print(f"wrote {written[0]}, {written[1]} and {png} ({time.monotonic() - t0:.1f} s)")
-    from .render.demo import run as render_demo
-
-    img = render_demo(out_dir, threads=threads, quiet=quiet, quick=photons < DEFAULT_PHOTONS)
-    return runner.EXIT_INTERRUPTED if img.partial else 0
+    img = render_demo.run(out_dir, threads=threads, quiet=quiet, quick=quick, exr=exr)
+    return runner.EXIT_INTERRUPTED if img.partial or img.spp == 0 else 0

@@ -28,9 +28,10 @@ def _fmt_rate(r: float) -> str:
 
 
 class ProgressBar:
-    """``ProgressBar(label="", stream=sys.stderr, quiet=False, delay=1.0, width=28)``.
+    """``ProgressBar(label="", stream=sys.stderr, quiet=False, delay=1.0, width=28, unit="photons")``.
 
-    Call it as ``bar(done, total)``; call :meth:`close` at the end (it ends the line if one was drawn).
+    Call it as ``bar(done, total)`` (``total`` in ``unit``, e.g. photons, samples, spp, points);
+    call :meth:`close` at the end (it ends the line if one was drawn).
     ``enabled`` is False when output is suppressed (quiet, or the stream is not a TTY).
     """
 
@@ -43,17 +44,18 @@ class ProgressBar:
         width: int = 28,
         force: bool = False,
         clock=time.monotonic,
+        unit: str = "photons",
     ):
         self.stream = sys.stderr if stream is None else stream
         isatty = getattr(self.stream, "isatty", lambda: False)
         self.enabled = not quiet and (force or bool(isatty()))
-        self.label, self.delay, self.width, self.clock = label, delay, width, clock
+        self.label, self.delay, self.width, self.clock, self.unit = label, delay, width, clock, unit
         self.t0 = clock()
         self.drawn = False
         self.last = -1.0
 
     def line(self, done: int, total: int, now: float | None = None) -> str:
-        """The text of the bar for ``done`` of ``total`` photons."""
+        """The text of the bar for ``done`` of ``total`` (in ``unit``)."""
         now = self.clock() if now is None else now
         el = max(now - self.t0, 1e-9)
         frac = min(max(done / total, 0.0), 1.0) if total > 0 else 0.0
@@ -63,7 +65,7 @@ class ProgressBar:
         lab = f"{self.label} " if self.label else ""
         return (
             f"{lab}[{'#' * fill}{'.' * (self.width - fill)}] {100 * frac:5.1f}%  "
-            f"{_fmt_rate(rate)} photons/s  elapsed {_fmt_time(el)}  ETA {_fmt_time(eta)}"
+            f"{_fmt_rate(rate)} {self.unit}/s  elapsed {_fmt_time(el)}  ETA {_fmt_time(eta)}"
         )
 
     def __call__(self, done: int, total: int) -> None:

@@ -9,7 +9,7 @@
 
 use crate::errors::{threads_arg, to_py, u64_arg, IntoPyResult};
 use crate::medium::{stack_from_py, LayerTuple};
-use crate::wait::interruptible;
+use crate::wait::{interrupted, interruptible, interruptible_ctl};
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, ToPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -19,11 +19,11 @@ use subsurf_core::bssrdf::monte_carlo::McSettings;
 use subsurf_core::mc::config::{PHOTONS_ALLOWED, SEED_ALLOWED};
 use subsurf_core::render::camera::RESOLUTION_ALLOWED;
 use subsurf_core::render::driver::{check_spp, SPP_ALLOWED};
-use subsurf_core::render::material::channel_profiles;
 use subsurf_core::render::shapes::{MAX_SUBDIVISIONS, SUBDIVISIONS_ALLOWED};
 use subsurf_core::render::walk_sim::{simulate, BeamSource, VoxelGrid, WalkConfig};
 use subsurf_core::render::{
-    shapes, Camera, HierarchicalParams, Light, LightKind, Material, Mesh, Method, Object, Renderer, Scene, Translucent,
+    shapes, Camera, Control, HierarchicalParams, Light, LightKind, Material, Mesh, Method, Object, Renderer, Scene,
+    TranslucentSpec,
 };
 use subsurf_core::Error;
 
@@ -109,9 +109,16 @@ enum MaterialArgs<'py> {
     Lambertian(LambertianArgs),
 }
 
+/// A material as given: Lambertian ones are ready; translucent ones compute their profiles
+/// later, off the GIL and cancellably ([`SceneSpec::build`]).
+enum MaterialSpec {
+    Ready(Material),
+    Translucent(Box<TranslucentSpec>),
+}
+
 impl TranslucentArgs<'_> {
-    /// The material; its profiles only when `profiles` (the method uses them).
-    fn build(&self, threads: Option<usize>, profiles: bool) -> PyResult<Material> {
+    /// The material's inputs, checked (the profiles are computed by [`TranslucentSpec::build`]).
+    fn spec(&self, threads: Option<usize>) -> PyResult<TranslucentSpec> {
         let ctx = format!("materials.{}", self.name);
         let mut st = Vec::with_capacity(3);
         for (k, (layers, above, below)) in self.stacks.iter().enumerate() {
@@ -125,17 +132,19 @@ impl TranslucentArgs<'_> {
             threads,
             ..McSettings::default()
         };
-        let model = subsurf_core::bssrdf::Model::from_name(&format!("{ctx}.model"), &self.model).py()?;
-        let (bssrdf, ss_default) = if profiles {
-            let (p, ss) = channel_profiles(&self.model, &stacks, &mc, self.reflectance.as_ref())
-                .map_err(|e| invalid(format!("{ctx}: {e}")))?;
-            (Some(p), ss)
-        } else {
-            (None, model.adds_single_scattering())
-        };
-        let ss = self.single_scattering.unwrap_or(ss_default);
-        let t = Translucent::new(&ctx, self.sigma_a, self.sigma_s, self.g, self.eta, bssrdf, ss).py()?;
-        Ok(Material::Translucent(Box::new(t)))
+        subsurf_core::bssrdf::Model::from_name(&format!("{ctx}.model"), &self.model).py()?;
+        Ok(TranslucentSpec {
+            field: ctx,
+            sigma_a: self.sigma_a,
+            sigma_s: self.sigma_s,
+            g: self.g,
+            eta: self.eta,
+            model: self.model.clone(),
+            stacks,
+            mc,
+            reflectance: self.reflectance,
+            single_scattering: self.single_scattering,
+        })
     }
 }
 
@@ -219,13 +228,15 @@ struct SceneArgs<'py> {
 }
 
 impl SceneArgs<'_> {
-    /// The core scene; materials get profiles only when `profiles` (the method uses them).
-    fn build(&self, py: Python<'_>, threads: Option<usize>, profiles: bool) -> PyResult<Scene> {
+    /// The scene's inputs, checked, with the GIL: everything but the materials' profiles.
+    fn spec(&self, threads: Option<usize>) -> PyResult<SceneSpec> {
         let mut materials = vec![];
         for m in &self.materials {
             materials.push(match m {
-                MaterialArgs::Translucent(t) => t.build(threads, profiles)?,
-                MaterialArgs::Lambertian(l) => Material::lambertian(&format!("materials.{}", l.name), l.albedo).py()?,
+                MaterialArgs::Translucent(t) => MaterialSpec::Translucent(Box::new(t.spec(threads)?)),
+                MaterialArgs::Lambertian(l) => {
+                    MaterialSpec::Ready(Material::lambertian(&format!("materials.{}", l.name), l.albedo).py()?)
+                }
             });
         }
         let mut objects = vec![];
@@ -234,9 +245,58 @@ impl SceneArgs<'_> {
         }
         let lights = self.lights.iter().enumerate().map(|(i, l)| l.build(i)).collect::<PyResult<Vec<_>>>()?;
         let camera = self.camera.as_ref().map(CameraArgs::build).transpose()?;
-        let env = self.environment;
-        py.detach(|| Scene::new(objects, materials, lights, env, camera)).py()
+        Ok(SceneSpec { objects, materials, lights, env: self.environment, camera })
     }
+
+    /// The core scene without profiles (the random walk and the BVH benchmark: nothing long).
+    fn build_without_profiles(&self, py: Python<'_>, threads: Option<usize>) -> PyResult<Scene> {
+        let spec = self.spec(threads)?;
+        let scene = py.detach(|| spec.build(false, &Control::default())).py()?;
+        Ok(scene.expect("never cancelled"))
+    }
+}
+
+/// A scene read from Python, before its materials' profiles are computed.
+struct SceneSpec {
+    objects: Vec<Object>,
+    materials: Vec<MaterialSpec>,
+    lights: Vec<Light>,
+    env: [f64; 3],
+    camera: Option<Camera>,
+}
+
+impl SceneSpec {
+    /// Photons the materials' Monte Carlo profiles trace, if `profiles` are built.
+    fn photons(&self, profiles: bool) -> u64 {
+        let specs = self.materials.iter().filter_map(|m| match m {
+            MaterialSpec::Translucent(t) if profiles => Some(t.photons()),
+            _ => None,
+        });
+        specs.fold(0, u64::saturating_add)
+    }
+
+    /// The core scene; materials get profiles only when `profiles` (the method uses them).
+    /// `None` when `ctl.cancel` stopped a Monte Carlo profile (which counts photons in `ctl.done`).
+    fn build(self, profiles: bool, ctl: &Control) -> subsurf_core::Result<Option<Scene>> {
+        let mut materials = Vec::with_capacity(self.materials.len());
+        for m in self.materials {
+            materials.push(match m {
+                MaterialSpec::Ready(m) => m,
+                MaterialSpec::Translucent(t) => match t.build(profiles, &ctl.cancel, &ctl.done)? {
+                    Some(t) => Material::Translucent(Box::new(t)),
+                    None => return Ok(None),
+                },
+            });
+        }
+        Scene::new(self.objects, materials, self.lights, self.env, self.camera).map(Some)
+    }
+}
+
+/// `progress` bound to a stage name: `functools.partial(progress, stage)`.
+fn staged(py: Python<'_>, progress: Option<&Py<PyAny>>, stage: &str) -> PyResult<Option<Py<PyAny>>> {
+    let Some(p) = progress else { return Ok(None) };
+    let partial = py.import("functools")?.getattr("partial")?;
+    Ok(Some(partial.call1((p, stage))?.unbind()))
 }
 
 /// Settings of the hierarchical method: the dict `render(hierarchical=...)` completes with
@@ -299,9 +359,13 @@ struct RenderJob {
 #[pymethods]
 impl RenderJob {
     /// Prepare `scene` (a dict) for `method`; `hierarchical`: the method's settings (a dict of
-    /// every key of `RENDER_HIERARCHICAL_DEFAULTS`) or None for the defaults.
+    /// every key of `RENDER_HIERARCHICAL_DEFAULTS`) or None for the defaults. The set-up runs
+    /// with the GIL released and stops on Ctrl-C (KeyboardInterrupt) or SIGTERM:
+    /// `monte_carlo` profiles (built only for methods that use profiles) call
+    /// `progress("profiles", photons done, total)`, the hierarchical irradiance samples
+    /// `progress("irradiance", samples done, total)`; stages with nothing to do are not reported.
     #[new]
-    #[pyo3(signature = (scene, method, seed, threads=None, hierarchical=None))]
+    #[pyo3(signature = (scene, method, seed, threads=None, hierarchical=None, progress=None))]
     fn new(
         py: Python<'_>,
         scene: SceneArgs<'_>,
@@ -309,15 +373,28 @@ impl RenderJob {
         seed: &Bound<'_, PyAny>,
         threads: Option<&Bound<'_, PyAny>>,
         hierarchical: Option<HierarchicalArgs<'_>>,
+        progress: Option<Py<PyAny>>,
     ) -> PyResult<Self> {
         let m = Method::from_name("method", method).py()?;
         let seed = u64_arg(seed, "seed", SEED_ALLOWED)?;
         let threads = threads.map(threads_arg).transpose()?;
         let hp = hierarchical.as_ref().map_or_else(|| Ok(HierarchicalParams::default()), HierarchicalArgs::build)?;
-        let sc = Arc::new(scene.build(py, threads, m.uses_profiles())?);
+        let spec = scene.spec(threads)?;
+        let (profiles, photons) = (m.uses_profiles(), spec.photons(m.uses_profiles()));
+        let cb = staged(py, progress.as_ref().filter(|_| photons > 0), "profiles")?;
+        let (sc, stop) = interruptible_ctl(py, cb.as_ref(), photons, move |ctl| spec.build(profiles, ctl))?;
+        let Some(sc) = sc.py()?.filter(|_| stop.is_none()) else {
+            return Err(stop.unwrap_or_else(|| interrupted("the render set-up")));
+        };
+        let sc = Arc::new(sc);
         let (w, h) = sc.camera.as_ref().map(|c| (c.width, c.height)).unwrap_or((0, 0));
-        let r =
-            py.detach(|| subsurf_core::render::with_threads(threads, || Renderer::new(sc, m, seed, &hp))).py()?.py()?;
+        let cb = staged(py, progress.as_ref().filter(|_| m == Method::Hierarchical), "irradiance")?;
+        let (r, stop) = interruptible_ctl(py, cb.as_ref(), 0, move |ctl| {
+            subsurf_core::render::with_threads(threads, || Renderer::prepare(sc, m, seed, &hp, ctl))
+        })?;
+        let Some(r) = r.py()?.py()?.filter(|_| stop.is_none()) else {
+            return Err(stop.unwrap_or_else(|| interrupted("the render set-up")));
+        };
         Ok(RenderJob { renderer: Arc::new(r), accum: vec![0.0; w * h * 3], spp: 0, threads })
     }
 
@@ -452,7 +529,7 @@ fn render_walk_simulate<'py>(
         }
         None => None,
     };
-    let sc = scene.build(py, threads, false)?;
+    let sc = scene.build_without_profiles(py, threads)?;
     let src = match source.0.as_str() {
         "pencil" => BeamSource::Pencil { origin: source.1, direction: source.2 },
         "collimated" => BeamSource::Collimated { direction: source.2 },
@@ -500,7 +577,7 @@ fn render_walk_simulate<'py>(
 /// (inside rays/s, camera rays/s) of the BVH over `scene`'s meshes, one thread, `n` rays each.
 #[pyfunction]
 fn render_bvh_benchmark(py: Python<'_>, scene: SceneArgs<'_>, n: usize) -> PyResult<(f64, f64)> {
-    let sc = scene.build(py, None, false)?;
+    let sc = scene.build_without_profiles(py, None)?;
     Ok(py.detach(|| subsurf_core::render::accel::rays_per_second(&sc.accel, n, 1)))
 }
 

@@ -6,13 +6,15 @@
 //! call, or pending when a short computation ends — sets the work's cancel flag and is answered
 //! by returning it (not raising it) with whatever the work returned; any other exception from `progress`
 //! also cancels the work and propagates once the work has stopped. Used by every long entry point
-//! of the binding (`mc_run`, the BSSRDF profile, table points, slab points, render passes).
+//! of the binding (`mc_run`, the BSSRDF profile, table points, slab points, the render set-up and
+//! passes).
 
 use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError};
 use pyo3::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::Duration;
+use subsurf_core::render::Control;
 
 /// How often the waiting thread re-attaches to check signals and report progress.
 pub const POLL: Duration = Duration::from_millis(50);
@@ -29,13 +31,28 @@ where
     T: Send + 'static,
     W: FnOnce(&AtomicBool, &AtomicU64) -> T + Send + 'static,
 {
-    let cancel = Arc::new(AtomicBool::new(false));
-    let done = Arc::new(AtomicU64::new(0));
+    interruptible_ctl(py, progress, total, move |c: &Control| work(&c.cancel, &c.done))
+}
+
+/// [`interruptible`] for work that learns its size as it goes: it may add to `ctl.total`
+/// (which starts at `total`); `progress` is called with `(done, total)` as they stand.
+pub fn interruptible_ctl<T, W>(
+    py: Python<'_>,
+    progress: Option<&Py<PyAny>>,
+    total: u64,
+    work: W,
+) -> PyResult<(T, Option<PyErr>)>
+where
+    T: Send + 'static,
+    W: FnOnce(&Control) -> T + Send + 'static,
+{
+    let ctl = Arc::new(Control::default());
+    ctl.total.store(total, Ordering::Relaxed);
     let (tx, mut rx) = mpsc::channel::<()>();
     let handle = {
-        let (cancel, done) = (cancel.clone(), done.clone());
+        let ctl = ctl.clone();
         std::thread::spawn(move || {
-            let out = work(&cancel, &done);
+            let out = work(&ctl);
             let _ = tx.send(());
             out
         })
@@ -43,7 +60,10 @@ where
     let report = |py: Python<'_>| -> PyResult<()> {
         py.check_signals()?;
         match progress {
-            Some(cb) => cb.call1(py, (done.load(Ordering::Relaxed), total)).map(|_| ()),
+            Some(cb) => {
+                let (d, t) = (ctl.done.load(Ordering::Relaxed), ctl.total.load(Ordering::Relaxed));
+                cb.call1(py, (d, t)).map(|_| ())
+            }
             None => Ok(()),
         }
     };
@@ -58,7 +78,7 @@ where
             break;
         }
         if let Err(e) = report(py) {
-            cancel.store(true, Ordering::Relaxed);
+            ctl.cancel.store(true, Ordering::Relaxed);
             stop = Some(e);
             break;
         }

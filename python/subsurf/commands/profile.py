@@ -53,8 +53,22 @@ def _channels(a):
     return title, a.eta, [("-", a.sigma_a, a.sigma_s_prime)]
 
 
+def _monte_carlo(layer, photons, seed, label):
+    """The Monte Carlo profile under a progress bar (Ctrl-C: KeyboardInterrupt, exit status 130)."""
+    from .. import _testhooks, bssrdf
+    from ..runner import progress_bar
+
+    bar = progress_bar(label, quiet=False)
+    try:
+        progress = _testhooks.wrap_progress(bar)
+        return bssrdf.Profile.from_monte_carlo(layer, photons=photons, seed=seed, progress=progress)
+    finally:
+        bar.close()
+
+
 def run(a) -> int:
     from .. import bssrdf
+    from ..medium import Layer
     from . import CommandError as UserError
 
     title, eta, chans = _channels(a)
@@ -72,9 +86,7 @@ def run(a) -> int:
         for i, model in enumerate(models):
             sigma_s = ssp / (1 - a.g)
             if model == "monte_carlo":
-                from ..medium import Layer
-
-                p = bssrdf.Profile.from_monte_carlo(Layer(eta, sa, sigma_s, a.g), photons=a.photons, seed=a.seed + i)
+                p = _monte_carlo(Layer(eta, sa, sigma_s, a.g), a.photons, a.seed + i, f"profile {c} monte_carlo")
             else:
                 p = bssrdf.Profile.from_model(model, sa, sigma_s, a.g, eta)
             ss = p.single_scattering()

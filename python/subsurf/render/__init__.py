@@ -15,6 +15,8 @@ from __future__ import annotations
 import time
 import warnings
 
+import numpy as np
+
 from .. import _core
 from .image import Image, read_exr, tonemap, write_exr, write_png
 from .scene import (
@@ -39,13 +41,27 @@ METHODS = tuple(_core.RENDER_METHODS)
 HIERARCHICAL_DEFAULTS = dict(_core.RENDER_HIERARCHICAL_DEFAULTS)
 
 
-def render(scene, method="hierarchical", spp=16, seed=0, threads=None, progress=None, pass_spp=None, hierarchical=None):
+def render(
+    scene,
+    method="hierarchical",
+    spp=16,
+    seed=0,
+    threads=None,
+    progress=None,
+    pass_spp=None,
+    hierarchical=None,
+    setup_progress=None,
+):
     """Render ``scene`` with ``method`` at ``spp`` samples per pixel; progressive in passes of
-    ``pass_spp`` (default: from 1 spp, doubling while a pass takes under 0.5 s, at most spp/16). ``progress(done,
-    total)`` is called after each pass. Ctrl-C (KeyboardInterrupt) ends the render after the
-    current pass and returns the image so far with ``partial = True``. The same seed gives the
-    same image for any ``threads``. ``hierarchical`` = dict(spacing=, epsilon=, env_samples=,
-    light_samples=) tunes that method."""
+    ``pass_spp`` (default: from 1 spp, doubling while a pass takes under 0.5 s, at most spp/16).
+    ``progress(done, total)`` is called before the first pass (done = 0) and after each;
+    ``setup_progress(stage, done, total)`` during the set-up: stage ``"profiles"`` (photons of
+    ``monte_carlo`` profiles; ``random_walk`` builds none) and ``"irradiance"`` (the
+    hierarchical method's irradiance samples), for the stages that have work. Ctrl-C
+    (KeyboardInterrupt) ends the render after the current pass and returns the image so far with
+    ``partial = True`` (during the set-up: an image of 0 spp). The same seed gives the same image
+    for any ``threads``.
+    ``hierarchical`` = dict(spacing=, epsilon=, env_samples=, light_samples=) tunes that method."""
     if method not in METHODS:
         raise _core.ParameterError(f"method = {method!r} is not a render method: must be one of {list(METHODS)}")
     spp, _ = _core.render_check_settings(spp, seed)
@@ -60,13 +76,19 @@ def render(scene, method="hierarchical", spp=16, seed=0, threads=None, progress=
             )
         hp = {**HIERARCHICAL_DEFAULTS, **hierarchical}
     t0 = time.monotonic()
-    job = _core.RenderJob(scene._to_core(method), method, seed, threads, hp)
+    try:
+        job = _core.RenderJob(scene._to_core(method), method, seed, threads, hp, setup_progress)
+    except KeyboardInterrupt:
+        shape = (scene.camera.height, scene.camera.width, 3)
+        return Image(np.zeros(shape), 0, spp, method, seed, time.monotonic() - t0)
     for w in job.warnings:
         warnings.warn(w, RuntimeWarning, stacklevel=2)
     cap = int(pass_spp) if pass_spp else max(1, spp // 16)
     step = cap if pass_spp else 1  # passes grow from 1 spp while they take under half a second
     done = 0
     try:
+        if progress is not None:
+            progress(0, spp)  # the set-up is over: the passes start
         while done < spp:
             t1 = time.monotonic()
             done = job.render_pass(min(step, spp - done))

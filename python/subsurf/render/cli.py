@@ -34,9 +34,8 @@ def add_parser(sub, exit_interrupted=130):
 
 
 def cmd_render(a, exit_interrupted=130) -> int:
-    from .. import _testhooks, atomic
-    from ..progress import ProgressBar
-    from . import load_scene, render
+    from .. import atomic
+    from . import load_scene
     from .image import output_paths
 
     scene, st = load_scene(a.scene)
@@ -46,17 +45,11 @@ def cmd_render(a, exit_interrupted=130) -> int:
     out = a.output or st["output"] or os.path.splitext(os.path.basename(a.scene))[0] + ".exr"
     if not a.output and st["output"] and not os.path.isabs(out):
         out = os.path.join(os.path.dirname(a.scene), out)
+    out = output_without_openexr(out)
     paths = output_paths(out)
     for p in paths:  # before the render: a refusal costs nothing
         atomic.check_target(p, force=a.force, inputs=(a.scene,))
-    bar = ProgressBar(label=f"render {method}", quiet=a.quiet)
-    bar.line = _spp_line(bar)
-    try:
-        img = render(
-            scene, method=method, spp=spp, seed=seed, threads=a.threads, progress=_testhooks.wrap_progress(bar)
-        )
-    finally:
-        bar.close()
+    img = render_with_bars(scene, method, spp, seed, a.threads, a.quiet)
     if img.spp == 0:
         import sys
 
@@ -72,10 +65,72 @@ def cmd_render(a, exit_interrupted=130) -> int:
     return exit_interrupted if (img.partial or held.received) else 0
 
 
-def _spp_line(bar):
-    base = bar.line
+def output_without_openexr(out: str) -> str:
+    """``out``, or its .png when it is an .exr and the ``openexr`` package is missing (saying so in
+    one line on stderr) — decided before the render, so a missing package never fails a finished one."""
+    from .image import EXR_HINT, exr_available
 
-    def line(done, total, now=None):
-        return base(done, total, now).replace("photons/s", "spp/s")
+    if os.path.splitext(out)[1].lower() != ".exr" or exr_available():
+        return out
+    import sys
 
-    return line
+    png = os.path.splitext(out)[0] + ".png"
+    sys.stderr.write(f"subsurf: note: {EXR_HINT}; writing {png} only\n")
+    return png
+
+
+#: Progress-bar label and unit of each set-up stage of :func:`subsurf.render.render`.
+SETUP_STAGES = {"profiles": ("Monte Carlo profiles", "photons"), "irradiance": ("irradiance samples", "samples")}
+
+
+def render_with_bars(scene, method, spp, seed, threads=None, quiet=False, label="render"):
+    """:func:`subsurf.render.render` under progress bars on stderr — one per set-up stage that
+    lasts over a second, then the passes (spp) — with the test hooks of :mod:`subsurf._testhooks`
+    (``interrupt_after`` stops the passes as Ctrl-C does, ``setup_interrupt_after`` the set-up).
+    Returns the image."""
+    from .. import _testhooks
+    from ..progress import ProgressBar
+    from . import render
+
+    bars = []
+
+    def bar(text, unit, hooks=""):
+        while bars:
+            bars.pop().close()
+        b = ProgressBar(label=f"{label} {text}", quiet=quiet, unit=unit)
+        bars.append(b)
+        return _testhooks.wrap_progress(b, hooks)
+
+    stages = {}
+
+    def setup(stage, done, total):
+        if stage not in stages:
+            stages[stage] = bar(*SETUP_STAGES.get(stage, (stage, "items")), hooks="setup_")
+        stages[stage](done, total)
+
+    try:
+        return render(
+            scene,
+            method=method,
+            spp=spp,
+            seed=seed,
+            threads=threads,
+            progress=_LazyBar(lambda: bar(method, "spp")),
+            setup_progress=setup,
+        )
+    finally:
+        while bars:
+            bars.pop().close()
+
+
+class _LazyBar:
+    """A progress callable made on its first call (``render`` makes it when the set-up is over, so
+    the passes' bar and rate start then)."""
+
+    def __init__(self, make):
+        self.make, self.fn = make, None
+
+    def __call__(self, done, total):
+        if self.fn is None:
+            self.fn = self.make()
+        self.fn(done, total)

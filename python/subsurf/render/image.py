@@ -1,5 +1,6 @@
-"""Rendered images: the linear HDR array, OpenEXR (the ``openexr`` package) and a tone-mapped
-sRGB PNG, both written atomically (a temporary file renamed into place)."""
+"""Rendered images: the linear HDR array, OpenEXR (the optional ``openexr`` package, see
+:func:`exr_available`) and a tone-mapped sRGB PNG, both written atomically (a temporary file
+renamed into place)."""
 
 from __future__ import annotations
 
@@ -61,15 +62,26 @@ def output_paths(path):
     raise ValueError(f"{path}: unknown image format {ext!r} (use .exr, .png or .npy)")
 
 
+#: How to get OpenEXR output (the one optional package of the renderer).
+EXR_HINT = "OpenEXR output needs the 'openexr' package: pip install 'subsurf[render]'"
+
+
+def exr_available() -> bool:
+    """Whether the ``openexr`` package can be imported (OpenEXR output; PNG and .npy need nothing)."""
+    try:
+        import OpenEXR  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
 def _openexr():
     try:
         import OpenEXR
     except ImportError:
         from .. import _core
 
-        raise _core.ParameterError(
-            "writing OpenEXR needs the 'openexr' package: pip install 'subsurf[render]'"
-        ) from None
+        raise _core.ParameterError(f"writing {EXR_HINT}") from None
     return OpenEXR
 
 
@@ -116,12 +128,19 @@ def read_exr(path):
         return np.array(rgb), dict(f.header())
 
 
-def tonemap(array, exposure=0.0):
-    """Linear radiance → 8-bit sRGB: scale by 2^exposure / (the 99.5th percentile of the
-    luminance), clip to [0, 1], sRGB transfer curve."""
+def white_point(array) -> float:
+    """The luminance :func:`tonemap` maps to white: the 99.5th percentile of the image's."""
     a = np.nan_to_num(np.asarray(array, dtype=np.float64), nan=0.0, posinf=0.0)
     lum = a @ np.array([0.2126, 0.7152, 0.0722])
-    ref = np.percentile(lum, 99.5) if lum.size else 1.0
+    return float(np.percentile(lum, 99.5)) if lum.size else 1.0
+
+
+def tonemap(array, exposure=0.0, white=None):
+    """Linear radiance → 8-bit sRGB: scale by 2^exposure / ``white`` (default
+    :func:`white_point` of the image; give one to show several images on the same scale), clip
+    to [0, 1], sRGB transfer curve."""
+    a = np.nan_to_num(np.asarray(array, dtype=np.float64), nan=0.0, posinf=0.0)
+    ref = white_point(a) if white is None else float(white)
     x = a * (2.0**exposure) / (ref if ref > 0 else 1.0)
     x = np.clip(x, 0, 1)
     srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)

@@ -2,7 +2,7 @@
 transform and a material), materials, lights, a constant environment and a pinhole camera.
 
 Units: mm for lengths; light power in W (any consistent unit: images are linear in it). Meshes
-are loaded with ``trimesh`` (OBJ, PLY, STL, GLB) or given as a ``trimesh.Trimesh``; the core
+are loaded with ``trimesh`` (a base dependency: OBJ, PLY, STL, GLB) or given as a ``trimesh.Trimesh``; the core
 validates them (finite vertices, non-zero area; ``random_walk`` also needs watertight meshes).
 """
 
@@ -307,7 +307,9 @@ class Object:
         try:
             import trimesh
         except ImportError:
-            raise _err("loading meshes needs the 'trimesh' package: pip install 'subsurf[render]'") from None
+            raise _err(
+                "loading meshes needs the 'trimesh' package (a dependency of subsurf): pip install trimesh"
+            ) from None
 
         if isinstance(source, (str, os.PathLike)):
             path = os.fspath(source)
@@ -320,7 +322,9 @@ class Object:
             except Exception as e:  # trimesh raises many kinds on malformed files
                 raise _err(f"{name or path}: cannot read mesh file {path!r}: {e}") from None
             if isinstance(tm, trimesh.Trimesh) and len(tm.faces) == 0:
-                raise _err(f"{name or path}: cannot read mesh file {path!r}: it is not a valid mesh file (no faces found)")
+                raise _err(
+                    f"{name or path}: cannot read mesh file {path!r}: it is not a valid mesh file (no faces found)"
+                )
         else:
             tm = source
         if not isinstance(tm, trimesh.Trimesh):

@@ -31,6 +31,7 @@ mod contract_tests;
 use crate::error::{check_g, check_index, check_nonneg, Error, Result};
 use crate::medium::{Layer, Stack};
 use cdf::RadialCdf;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// A radial diffuse-reflectance profile and the sampling routines a renderer needs.
 ///
@@ -278,13 +279,32 @@ impl Model {
 
 /// The profile of `model` for `stack` (Monte Carlo settings from `mc`; ignored by the others).
 pub fn profile(model: Model, stack: &Stack, mc: &monte_carlo::McSettings) -> Result<Box<dyn RadialProfile>> {
-    Ok(match model {
-        Model::MonteCarlo => Box::new(monte_carlo::MonteCarloProfile::simulate(stack, mc)?),
+    let never = AtomicBool::new(false);
+    Ok(profile_with(model, stack, mc, &never, &AtomicU64::new(0))?.expect("never cancelled"))
+}
+
+/// [`profile`], cancellable: a Monte Carlo profile polls `cancel` (as [`crate::mc::run()`] does)
+/// and counts its traced photons in `progress`; `None` when `cancel` stopped it.
+pub fn profile_with(
+    model: Model,
+    stack: &Stack,
+    mc: &monte_carlo::McSettings,
+    cancel: &AtomicBool,
+    progress: &AtomicU64,
+) -> Result<Option<Box<dyn RadialProfile>>> {
+    Ok(Some(match model {
+        Model::MonteCarlo => {
+            let run = monte_carlo::MonteCarloProfile::simulate_with(stack, mc, cancel, progress);
+            if cancel.load(Ordering::Relaxed) {
+                return Ok(None); // also a run stopped before two photons (an error otherwise)
+            }
+            Box::new(run?.0)
+        }
         Model::Multipole => multipole::profile(stack)?,
         Model::Dipole | Model::BetterDipole | Model::PhotonBeamDiffusion | Model::NormalizedDiffusion => {
             medium_profile(model, &Medium::from_stack(stack, model.name())?)?
         }
-    })
+    }))
 }
 
 /// The profile of a closed-form `model` for a homogeneous semi-infinite medium (Monte Carlo
@@ -308,18 +328,32 @@ pub fn channel_profiles(
     stacks: &[Stack],
     mc: &monte_carlo::McSettings,
 ) -> Result<Vec<Box<dyn RadialProfile>>> {
+    let never = AtomicBool::new(false);
+    Ok(channel_profiles_with(model, stacks, mc, &never, &AtomicU64::new(0))?.expect("never cancelled"))
+}
+
+/// [`channel_profiles`], cancellable as [`profile_with`] (channel i's Monte Carlo run uses seed
+/// `mc.seed + i`); `None` when `cancel` stopped it.
+pub fn channel_profiles_with(
+    model: Model,
+    stacks: &[Stack],
+    mc: &monte_carlo::McSettings,
+    cancel: &AtomicBool,
+    progress: &AtomicU64,
+) -> Result<Option<Vec<Box<dyn RadialProfile>>>> {
     if stacks.is_empty() {
         return Err(Error::Invalid("stacks: give at least one stack (one per channel)".into()));
     }
-    stacks
-        .iter()
-        .enumerate()
-        .map(|(i, s)| {
-            let mut cfg = *mc;
-            cfg.seed = mc.seed.wrapping_add(i as u64);
-            profile(model, s, &cfg).map_err(|e| channel_error(e, i))
-        })
-        .collect()
+    let mut out = Vec::with_capacity(stacks.len());
+    for (i, s) in stacks.iter().enumerate() {
+        let mut cfg = *mc;
+        cfg.seed = mc.seed.wrapping_add(i as u64);
+        match profile_with(model, s, &cfg, cancel, progress).map_err(|e| channel_error(e, i))? {
+            Some(p) => out.push(p),
+            None => return Ok(None),
+        }
+    }
+    Ok(Some(out))
 }
 
 fn channel_error(e: Error, i: usize) -> Error {

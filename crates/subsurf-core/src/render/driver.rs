@@ -44,6 +44,16 @@ impl Method {
     }
 }
 
+/// A cancel flag and progress counters shared between long work and a thread waiting for it
+/// (the binding's Ctrl-C handling): the work polls `cancel` and counts finished items in `done`
+/// out of `total` (which may grow once the work knows its size).
+#[derive(Debug, Default)]
+pub struct Control {
+    pub cancel: AtomicBool,
+    pub done: AtomicU64,
+    pub total: AtomicU64,
+}
+
 /// A scene prepared for one method.
 pub struct Renderer {
     pub scene: Arc<Scene>,
@@ -57,6 +67,20 @@ impl Renderer {
     /// Prepare `scene` for `method` (the hierarchical method computes its irradiance samples
     /// and octree here). Errors: random_walk on an open translucent mesh, bad parameters.
     pub fn new(scene: Arc<Scene>, method: Method, seed: u64, hp: &HierarchicalParams) -> Result<Renderer> {
+        Ok(Self::prepare(scene, method, seed, hp, &Control::default())?.expect("never cancelled"))
+    }
+
+    /// [`new`](Self::new), cancellable: the hierarchical set-up (seconds to minutes for a dense
+    /// medium) polls `ctl.cancel` and counts its irradiance samples in `ctl` ([`Hierarchical::new_with`]);
+    /// `None` when cancelled. Errors also when a BSSRDF method meets a material built without
+    /// profiles (for `random_walk`).
+    pub fn prepare(
+        scene: Arc<Scene>,
+        method: Method,
+        seed: u64,
+        hp: &HierarchicalParams,
+        ctl: &Control,
+    ) -> Result<Option<Renderer>> {
         let Some(camera) = &scene.camera else {
             return Err(Error::Invalid("camera: the scene has no camera; add one to render an image".into()));
         };
@@ -66,14 +90,17 @@ impl Renderer {
             return Err(Error::Invalid(format!("method {}: a translucent material has no profiles", method.name())));
         }
         let tr: Box<dyn Translucency> = match method {
-            Method::Hierarchical => Box::new(Hierarchical::new(&scene, hp, seed)?),
+            Method::Hierarchical => match Hierarchical::new_with(&scene, hp, seed, ctl)? {
+                Some(h) => Box::new(h),
+                None => return Ok(None),
+            },
             Method::Probe => Box::new(Probe::new(&scene)),
             Method::RandomWalk => {
                 scene.require_closed_translucent("method random_walk")?;
                 Box::new(RandomWalk::new(&scene))
             }
         };
-        Ok(Renderer { scene, tr, seed, dropped: AtomicU64::new(0) })
+        Ok(Some(Renderer { scene, tr, seed, dropped: AtomicU64::new(0) }))
     }
 
     fn camera(&self) -> &super::camera::Camera {

@@ -17,6 +17,7 @@
 //!    plus the single-scattering term S⁽¹⁾ ([`super::shade::single_scattering`]).
 
 use super::accel::Hit;
+use super::driver::Control;
 use super::material::Translucent;
 use super::math::{add, dot, length, madd, mul, scale, sub, Rgb, V3};
 use super::scene::Scene;
@@ -25,6 +26,7 @@ use crate::error::{Error, Result};
 use crate::rng::PhotonRng;
 use rayon::prelude::*;
 use std::f64::consts::PI;
+use std::sync::atomic::Ordering;
 
 /// Settings of the hierarchical method.
 #[derive(Clone, Copy, Debug)]
@@ -228,26 +230,48 @@ impl Hierarchical {
     /// Place the samples, compute their irradiance (in parallel, reproducibly: sample j uses
     /// the stream (seed ⊕ 0x4a42_2002, j)) and build the trees.
     pub fn new(scene: &Scene, params: &HierarchicalParams, seed: u64) -> Result<Hierarchical> {
+        Ok(Self::new_with(scene, params, seed, &Control::default())?.expect("never cancelled"))
+    }
+
+    /// [`new`](Self::new), cancellable: adds the number of irradiance samples to `ctl.total`,
+    /// counts the finished ones in `ctl.done` and polls `ctl.cancel` before each; `None` when
+    /// cancelled.
+    pub fn new_with(
+        scene: &Scene,
+        params: &HierarchicalParams,
+        seed: u64,
+        ctl: &Control,
+    ) -> Result<Option<Hierarchical>> {
         params.validate()?;
+        let spots: Vec<Option<(Spots, f64)>> = (0..scene.objects.len())
+            .map(|oi| {
+                let m = scene.material(oi).translucent()?;
+                let median = (0..3).map(|k| m.profiles()[k].radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min);
+                let total = scene.objects[oi].mesh.total_area();
+                let mut delta = params.spacing * median;
+                if !(delta > 0.0) || total / (delta * delta) > params.max_samples as f64 {
+                    delta = (total / params.max_samples as f64).sqrt();
+                }
+                Some((place_samples(scene, oi, delta), delta))
+            })
+            .collect();
+        let n_all: usize = spots.iter().flatten().map(|(s, _)| s.len()).sum();
+        ctl.total.fetch_add(n_all as u64, Ordering::Relaxed);
         let mut trees = Vec::with_capacity(scene.objects.len());
         let mut base = 0u64;
-        for (oi, o) in scene.objects.iter().enumerate() {
-            let Some(m) = scene.material(oi).translucent() else {
+        for (oi, spot) in spots.into_iter().enumerate() {
+            let (Some(m), Some((spots, delta))) = (scene.material(oi).translucent(), spot) else {
                 trees.push(None);
                 continue;
             };
-            let median = (0..3).map(|k| m.profiles()[k].radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min);
-            let total = o.mesh.total_area();
-            let mut delta = params.spacing * median;
-            if !(delta > 0.0) || total / (delta * delta) > params.max_samples as f64 {
-                delta = (total / params.max_samples as f64).sqrt();
-            }
-            let spots = place_samples(scene, oi, delta);
             let n = spots.len() as u64;
-            let samples: Vec<Sample> = spots
+            let samples: Option<Vec<Sample>> = spots
                 .into_par_iter()
                 .enumerate()
                 .map(|(j, (h, area))| {
+                    if ctl.cancel.load(Ordering::Relaxed) {
+                        return None;
+                    }
                     let mut rng = PhotonRng::new(seed ^ 0x4a42_2002, base + j as u64);
                     let mut e = [0.0; 3];
                     for _ in 0..params.light_samples {
@@ -255,22 +279,27 @@ impl Hierarchical {
                     }
                     e = scale(e, 1.0 / params.light_samples as f64);
                     let env = direct_irradiance(scene, &h, Some(m.eta), false, params.env_samples, &mut rng);
-                    Sample { p: h.p, area, e: add(e, env) }
+                    ctl.done.fetch_add(1, Ordering::Relaxed);
+                    Some(Sample { p: h.p, area, e: add(e, env) })
                 })
                 .collect();
+            let Some(samples) = samples else { return Ok(None) };
             base += n;
             trees.push(Some(Tree::build(samples, delta)));
         }
-        Ok(Hierarchical { trees, params: *params })
+        Ok(Some(Hierarchical { trees, params: *params }))
     }
 }
+
+/// Irradiance sample positions (as hits) with their areas (mm²).
+type Spots = Vec<(Hit, f64)>;
 
 /// The irradiance samples of object `oi` as hits, with their areas: triangles larger than Δ²
 /// are cut into k² congruent sub-triangles (a sample at each centroid); smaller ones are visited
 /// in Morton order of their centroids and a sample is placed (at the centroid) each time the
 /// running area passes a multiple of Δ² (systematic sampling along a space-filling curve), so a
 /// finely tessellated mesh gets about area/Δ² evenly spread samples, not one per triangle.
-fn place_samples(scene: &Scene, oi: usize, delta: f64) -> Vec<(Hit, f64)> {
+fn place_samples(scene: &Scene, oi: usize, delta: f64) -> Spots {
     let acc = &scene.accel;
     let mut out = vec![];
     let mut small = vec![];

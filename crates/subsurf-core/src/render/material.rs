@@ -16,7 +16,11 @@ use crate::bssrdf::RadialProfile;
 use crate::error::{check_g, check_index, check_nonneg, Error, Result};
 use crate::medium::{Layer, Stack};
 use crate::optics::{diffuse_fresnel_reflectance, Phase};
+use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::Arc;
+
+/// One radial profile per RGB channel.
+pub type Profiles = [Arc<dyn RadialProfile>; 3];
 
 /// A translucent material: the medium (per channel σa, σs; one phase function; index η
 /// relative to the outside) and its radial profiles.
@@ -32,7 +36,7 @@ pub struct Translucent {
     pub eta: f64,
     /// R_d(r) per channel (any model behind [`RadialProfile`]); `None` for a material built
     /// for a method that uses no profile ([`super::Method::uses_profiles`]).
-    pub bssrdf: Option<[Arc<dyn RadialProfile>; 3]>,
+    pub bssrdf: Option<Profiles>,
     /// Whether the BSSRDF methods add the single-scattering term S⁽¹⁾ (off for profiles that
     /// already contain every scattering order, e.g. Monte Carlo ones).
     pub single_scattering: bool,
@@ -54,7 +58,7 @@ impl Translucent {
         sigma_s: Rgb,
         g: f64,
         eta: f64,
-        profiles: Option<[Arc<dyn RadialProfile>; 3]>,
+        profiles: Option<Profiles>,
         single_scattering: bool,
     ) -> Result<Translucent> {
         for k in 0..3 {
@@ -90,8 +94,65 @@ impl Translucent {
 impl Translucent {
     /// The profiles per channel; only for materials built with them (the renderer checks
     /// [`super::Method::uses_profiles`] methods get them).
-    pub fn profiles(&self) -> &[Arc<dyn RadialProfile>; 3] {
+    pub fn profiles(&self) -> &Profiles {
         self.bssrdf.as_ref().expect("a BSSRDF method's materials have profiles (checked by Renderer::new)")
+    }
+}
+
+/// A translucent material as the user gives it, before its profiles are computed: what the
+/// binding and scene files hand to the core; [`build`](Self::build) makes the [`Translucent`].
+#[derive(Clone, Debug)]
+pub struct TranslucentSpec {
+    /// Name used in errors (`materials.marble`).
+    pub field: String,
+    /// σa per channel, mm⁻¹.
+    pub sigma_a: Rgb,
+    /// σs per channel, mm⁻¹.
+    pub sigma_s: Rgb,
+    /// HG mean cosine.
+    pub g: f64,
+    /// Refractive index of the medium (outside: 1).
+    pub eta: f64,
+    /// The profile model, a [`crate::bssrdf::Model`] name.
+    pub model: String,
+    /// One stack per channel: the medium the profile models see.
+    pub stacks: [Stack; 3],
+    /// Settings of a `monte_carlo` profile.
+    pub mc: crate::bssrdf::monte_carlo::McSettings,
+    /// The reflectance the material was made from, if any (see [`channel_profiles`]).
+    pub reflectance: Option<Rgb>,
+    /// Whether the BSSRDF methods add S⁽¹⁾ (`None`: the model's default, see [`channel_profiles`]).
+    pub single_scattering: Option<bool>,
+}
+
+impl TranslucentSpec {
+    /// Photons its profiles trace: 3 × `mc.photons` for `monte_carlo`, else 0 (the progress
+    /// total of [`build`](Self::build)).
+    pub fn photons(&self) -> u64 {
+        match crate::bssrdf::Model::from_name("model", &self.model) {
+            Ok(crate::bssrdf::Model::MonteCarlo) => self.mc.photons.saturating_mul(3),
+            _ => 0,
+        }
+    }
+
+    /// The material. With `profiles` false (the `random_walk` method uses none) no profile is
+    /// computed, so a costly `monte_carlo` run is skipped. A Monte Carlo profile polls `cancel`
+    /// and counts its photons in `progress`; `None` when `cancel` stopped it.
+    pub fn build(&self, profiles: bool, cancel: &AtomicBool, progress: &AtomicU64) -> Result<Option<Translucent>> {
+        let within = |e: Error| Error::Invalid(format!("{}: {e}", self.field));
+        let (profs, ss_default) = if profiles {
+            match channel_profiles(&self.model, &self.stacks, &self.mc, self.reflectance.as_ref(), cancel, progress)
+                .map_err(within)?
+            {
+                Some((p, ss)) => (Some(p), ss),
+                None => return Ok(None),
+            }
+        } else {
+            let m = crate::bssrdf::Model::from_name(&format!("{}.model", self.field), &self.model)?;
+            (None, m.adds_single_scattering())
+        };
+        let ss = self.single_scattering.unwrap_or(ss_default);
+        Translucent::new(&self.field, self.sigma_a, self.sigma_s, self.g, self.eta, profs, ss).map(Some)
     }
 }
 
@@ -225,12 +286,16 @@ impl RadialProfile for RdTable {
 ///   [`crate::bssrdf::inverse`]) gives normalized diffusion that reflectance as its surface
 ///   albedo ([`crate::bssrdf::normalized_diffusion::from_reflectance`]); the other models'
 ///   materials were inverted under their own totals, which already give the reflectance.
+///
+/// `None` when `cancel` stopped a Monte Carlo profile (which counts its photons in `progress`).
 pub fn channel_profiles(
     model: &str,
     stacks: &[Stack; 3],
     mc: &crate::bssrdf::monte_carlo::McSettings,
     reflectance: Option<&Rgb>,
-) -> Result<([Arc<dyn RadialProfile>; 3], bool)> {
+    cancel: &AtomicBool,
+    progress: &AtomicU64,
+) -> Result<Option<(Profiles, bool)>> {
     use crate::bssrdf::{normalized_diffusion, Medium, Model};
     let m = Model::from_name("model", model)?;
     let profs: Vec<Box<dyn RadialProfile>> = match (m, reflectance) {
@@ -246,7 +311,10 @@ pub fn channel_profiles(
                 ))
             })
             .collect::<Result<_>>()?,
-        _ => crate::bssrdf::channel_profiles(m, stacks, mc)?,
+        _ => match crate::bssrdf::channel_profiles_with(m, stacks, mc, cancel, progress)? {
+            Some(p) => p,
+            None => return Ok(None),
+        },
     };
     let mut out: Vec<Arc<dyn RadialProfile>> = Vec::with_capacity(3);
     for (p, s) in profs.into_iter().zip(stacks) {
@@ -258,8 +326,8 @@ pub fn channel_profiles(
         out.push(Arc::new(RdTable::new(p, k)));
     }
     let ss = m.adds_single_scattering();
-    let arr: [Arc<dyn RadialProfile>; 3] = [out[0].clone(), out[1].clone(), out[2].clone()];
-    Ok((arr, ss))
+    let arr: Profiles = [out[0].clone(), out[1].clone(), out[2].clone()];
+    Ok(Some((arr, ss)))
 }
 
 #[cfg(test)]

@@ -38,9 +38,9 @@ mod tests;
 mod walk_tests;
 
 pub use camera::Camera;
-pub use driver::{with_threads, Method, Renderer};
+pub use driver::{with_threads, Control, Method, Renderer};
 pub use hierarchical::HierarchicalParams;
 pub use light::{Light, LightKind};
-pub use material::{Material, Translucent};
+pub use material::{Material, Translucent, TranslucentSpec};
 pub use mesh::Mesh;
 pub use scene::{Object, Scene};

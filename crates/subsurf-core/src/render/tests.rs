@@ -350,3 +350,67 @@ fn random_walk_point_light_far_away_is_a_directional_light() {
     println!("point {:.4} ± {:.4}, directional {:.4} ± {:.4}", a[0], sa[0], b[0], sb[0]);
     assert!((a[0] - b[0]).abs() < 4.0 * (sa[0] * sa[0] + sb[0] * sb[0]).sqrt() + 1e-3 * b[0]);
 }
+
+/// A monte_carlo material of `photons` per channel, as the binding gives it.
+fn mc_spec(photons: u64) -> super::TranslucentSpec {
+    let stack = crate::medium::Stack::new(
+        vec![crate::medium::Layer::new(1.3, 0.01, 1.0, 0.0, f64::INFINITY).unwrap()],
+        1.0,
+        1.0,
+    )
+    .unwrap();
+    super::TranslucentSpec {
+        field: "materials.m".into(),
+        sigma_a: [0.01; 3],
+        sigma_s: [1.0; 3],
+        g: 0.0,
+        eta: 1.3,
+        model: "monte_carlo".into(),
+        stacks: [stack.clone(), stack.clone(), stack],
+        mc: crate::bssrdf::monte_carlo::McSettings { photons, ..Default::default() },
+        reflectance: None,
+        single_scattering: None,
+    }
+}
+
+/// A material for `random_walk` computes no profile (u64::MAX photons would
+/// never end), and a Monte Carlo profile stops when its cancel flag is set.
+#[test]
+fn material_set_up_skips_unused_profiles_and_stops_when_cancelled() {
+    let (never, done) = (AtomicBool::new(false), AtomicU64::new(0));
+    let t = mc_spec(u64::MAX).build(false, &never, &done).unwrap().unwrap();
+    assert!(t.bssrdf.is_none() && done.into_inner() == 0);
+    let (cancel, done) = (AtomicBool::new(true), AtomicU64::new(0));
+    assert!(mc_spec(u64::MAX).build(true, &cancel, &done).unwrap().is_none());
+    let t = mc_spec(2000).build(true, &never, &done).unwrap().unwrap();
+    assert!(t.bssrdf.is_some() && done.into_inner() == 6000);
+    // the BSSRDF methods refuse a material prepared without profiles
+    let m = Material::Translucent(Box::new(mc_spec(1).build(false, &never, &AtomicU64::new(0)).unwrap().unwrap()));
+    let s = scene(vec![icosphere([0.0; 3], 5.0, 2).unwrap()], m, vec![], [1.0; 3], Some(down_camera(2)));
+    for method in [Method::Hierarchical, Method::Probe] {
+        let e = Renderer::new(s.clone(), method, 0, &HierarchicalParams::default()).err().unwrap();
+        assert!(e.to_string().contains("has no profiles"), "{e}");
+    }
+    assert!(Renderer::new(s, Method::RandomWalk, 0, &HierarchicalParams::default()).is_ok());
+}
+
+/// The hierarchical set-up of a dense medium (millions of irradiance samples)
+/// counts its samples and stops at once when cancelled.
+#[test]
+fn hierarchical_set_up_counts_and_stops_when_cancelled() {
+    let m = test_material([0.5; 3], 1e5, [1e4; 3], [1e6; 3], 0.0, 1.3, false);
+    let sun = Light::directional("sun", [0.0, 0.0, 1.0], [1.0; 3]).unwrap();
+    let s = scene(vec![icosphere([0.0; 3], 5.0, 3).unwrap()], m, vec![sun], [0.0; 3], Some(down_camera(2)));
+    let ctl = super::Control::default();
+    ctl.cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+    let hp = HierarchicalParams { max_samples: 50_000, ..Default::default() };
+    let r = Renderer::prepare(s.clone(), Method::Hierarchical, 0, &hp, &ctl).unwrap();
+    assert!(r.is_none());
+    let (done, total) = (ctl.done.into_inner(), ctl.total.into_inner());
+    assert!(done == 0 && (40_000..=80_000).contains(&total), "{done} of {total}");
+    let hp = HierarchicalParams { max_samples: 500, ..Default::default() };
+    let ctl = super::Control::default();
+    assert!(Renderer::prepare(s, Method::Hierarchical, 0, &hp, &ctl).unwrap().is_some());
+    let (done, total) = (ctl.done.into_inner(), ctl.total.into_inner());
+    assert!(done == total && (400..=800).contains(&total), "{done} of {total}");
+}
