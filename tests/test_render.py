@@ -235,7 +235,7 @@ def test_random_walk_two_nested_layers_match_the_layered_engine_brdf():
     interface) at normal view under a normal directional light: the radiance is E·f_r(0, 0) of
     the two-layer stack, against the MC engine's BRDF tally in its top cos θ bin, within 4σ.
     Power: the band 4σ is asserted below 5 % of f_r; before collisions in the inner medium
-    connected to lights the image lost most of the directional light (issue 19: −72 %)."""
+    connected to lights the image lost most of the directional light (−72 %)."""
     top, bottom, n, d1 = (0.4, 12.0, 0.8), (0.05, 6.0, 0.7), 1.4, 0.3
     m1 = R.Translucent([top[0]] * 3, [top[1]] * 3, g=top[2], eta=n)
     m2 = R.Translucent([bottom[0]] * 3, [bottom[1]] * 3, g=bottom[2], eta=n)
