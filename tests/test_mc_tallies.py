@@ -171,6 +171,7 @@ def test_brdf_reciprocity_of_a_slab():
     assert abs(g12 - g21) < 4 * math.hypot(u12, u21)
 
 
+@pytest.mark.slow
 def test_single_scattering_of_a_semi_infinite_medium():
     """Order-1 diffuse reflectance of a semi-infinite, index-matched, isotropic medium under
     normal incidence: R₁ = (a/2) ∫₀¹ μ/(μ₀ + μ) dμ at μ₀ = 1, i.e. (a/2)(1 − ln 2) (the first

@@ -31,7 +31,7 @@ fn small_table(g: f64, eta: f64, albedos: Vec<f64>, photons: u64) -> ProfileTabl
 /// channel (table: 8 albedos in [0.9, 0.9995], 10⁵
 /// photons each; check: 3·10⁵ (0.6/colour)² photons per channel, whose 4σ is < 0.5 %).
 #[test]
-fn monte_carlo_appearance_reproduces_colour() {
+fn monte_carlo_appearance_reproduces_colour_slow() {
     let (g, eta) = (0.0, 1.33);
     let albedos: Vec<f64> = (0..8).map(|i| 1.0 - 0.1 * (0.005f64).powf(i as f64 / 7.0)).collect();
     let table = small_table(g, eta, albedos, 100_000);
