@@ -4,7 +4,7 @@ The test suite uses them to interrupt and kill the ``subsurf`` command at exact 
 after sleeps and timers. ``SUBSURF_TEST_HOOK`` holds comma-separated ``name[=value]`` items:
 
 * ``interrupt_after=N`` — the command line's progress callback raises ``KeyboardInterrupt`` (what
-  Ctrl-C does) at its first call with at least N photons done;
+  Ctrl-C does) at its first call with at least N photons (``render``: samples per pixel) done;
 * ``pause_in_write=DIR`` — an atomic write (:mod:`subsurf.atomic`), with half of its bytes in the
   temporary file, creates ``DIR/paused`` and waits up to 60 s for ``DIR/resume`` to appear;
 * ``sigint_at_start`` — the ``subsurf`` command sends itself SIGINT before it loads numpy and the

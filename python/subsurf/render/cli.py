@@ -22,6 +22,7 @@ def add_parser(sub, exit_interrupted=130):
 
 
 def cmd_render(a, exit_interrupted=130) -> int:
+    from .. import _testhooks
     from ..progress import ProgressBar
     from . import load_scene, render
 
@@ -35,7 +36,9 @@ def cmd_render(a, exit_interrupted=130) -> int:
     bar = ProgressBar(label=f"render {method}", quiet=a.quiet)
     bar.line = _spp_line(bar)
     try:
-        img = render(scene, method=method, spp=spp, seed=seed, threads=a.threads, progress=bar)
+        img = render(
+            scene, method=method, spp=spp, seed=seed, threads=a.threads, progress=_testhooks.wrap_progress(bar)
+        )
     finally:
         bar.close()
     if img.spp == 0:
