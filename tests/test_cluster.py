@@ -194,6 +194,8 @@ def test_ctrl_c_cancels_running_tasks(client):
     """A real SIGINT while every task is still running: KeyboardInterrupt (nothing completed),
     and the cancelled tasks stop on the workers instead of running to their end. (Waiting for the
     10⁹ photons would end in a result, not in KeyboardInterrupt.)"""
+    # a shell's background job without job control ignores SIGINT: fail here rather than run 10⁹ photons
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler, "SIGINT is ignored in this process"
     threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
     with pytest.raises(KeyboardInterrupt):  # tasks of seconds each
         subsurf.simulate(STACK, photons=10**9, seed=1, client=client, progress=None, tallies=None)
