@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: all venv build lint test test-rust test-python demo figures bench clean docs docs-check dist dist-check
+.PHONY: all venv build lint test test-fast test-rust test-rust-fast test-python test-python-fast demo figures bench clean docs docs-check dist dist-check
 
 all: build
 
@@ -22,11 +22,26 @@ venv: $(VENV)/.ready
 build: venv
 	$(VENV)/bin/maturin develop --release -q
 
+# The core's tests run in the release profile of the extension build (`make build`), with the same
+# dependency features (subsurf-py has no Rust tests, so `--workspace` resolves them as maturin does):
+# dependencies and subsurf-core are compiled once for both, with no debug info. `--tests` (the targets
+# with `test = true`: not subsurf-py, whose build would change with maturin's PYO3_CONFIG_FILE): the
+# examples are compiled by clippy, and the crates have no doctests.
+CARGO_TEST := cargo test --release --workspace --tests -q
+
+# Two tiers. `make test-fast` (the inner loop, about a minute after a build): the core's tests but
+# those named `*_slow`, and pytest without `@pytest.mark.slow`. `make test`: lints and every test.
 test-rust:
-	cargo test --workspace --exclude subsurf-py -q
+	$(CARGO_TEST)
+
+test-rust-fast:
+	$(CARGO_TEST) -- --skip _slow
 
 test-python: build
 	$(PY) -m pytest -q tests
+
+test-python-fast: build
+	$(PY) -m pytest -q -m "not slow" tests
 
 # Formatting and lints: rustfmt.toml and [tool.ruff] in pyproject.toml settle the style (width 120).
 lint: venv
@@ -37,6 +52,8 @@ lint: venv
 	$(VENV)/bin/ruff format --check .
 
 test: lint test-rust test-python docs-check
+
+test-fast: test-rust-fast test-python-fast
 
 demo: build
 	$(VENV)/bin/subsurf demo

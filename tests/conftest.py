@@ -6,13 +6,16 @@
 * ``make_result`` — hand-built, self-consistent :class:`subsurf.Result` objects (``synthetic.py``).
 * ``sample_mci`` — the text of a two-run MCML input file.
 * ``as_format_1`` — turn a saved results file into one of format version 1 (no checksums).
-* ``profile_table`` — a small :class:`subsurf.bssrdf.ProfileTable` (g = 0, η = 1.3, 4 albedos of
-  2000 photons), built once per session.
+* ``profile_table`` — the suite's one Monte Carlo :class:`subsurf.bssrdf.ProfileTable` (built once).
 * ``worker`` — a separate process running property-test cases (``fuzz_worker.py``), restarted
   after a case that crashes it or outlives its time limit.
 * ``cli`` — run the ``subsurf`` command (``python -m subsurf``) in a subprocess; ``one_line_error``
   checks that it failed with exit status 2 and one line on stderr. ``cli_here`` runs it in this
-  process (faster) and ``error_here`` checks its one-line error.
+  process (faster) and ``error_here`` checks its one-line error; ``run_here`` runs it in this process
+  with ``cli``'s signature and result. Start a process only where the test needs one (signals, kills,
+  resource limits, start-up, a crash that must not take pytest down): each costs an interpreter start.
+* Markers: ``@pytest.mark.slow`` on a test that takes seconds (measured, ``--durations``); ``make
+  test-fast`` leaves those out, so keep some fast test in every module.
 
 Hypothesis settings profiles (``tests/test_properties.py``): ``ci`` (the default: short and
 derandomised, for ``make test``) and ``campaign`` (long random exploration), chosen with
@@ -63,6 +66,15 @@ def rng(request) -> np.random.Generator:
 def make_result():
     """``make_result(seed=1, photons=10_000, nr=20, …) -> (Result, raw bin weights)``."""
     return synthetic.make_result
+
+
+@pytest.fixture(scope="session")
+def profile_table():
+    """A small Monte Carlo profile table (g = 0, η = 1.3; albedos 0.7–0.99, 2·10⁴ photons each)
+    reaching colours 0.2–0.6, built once for the whole suite."""
+    from subsurf import bssrdf
+
+    return bssrdf.ProfileTable.build(0.0, 1.3, albedos=[0.7, 0.8, 0.9, 0.95, 0.98, 0.99], photons=20_000)
 
 
 SAMPLE_MCI = """\
@@ -117,14 +129,6 @@ def _as_format_1(path) -> None:
 
 
 @pytest.fixture(scope="session")
-def profile_table():
-    """A small ProfileTable (g = 0, eta = 1.3, 4 albedos, 2000 photons each): cheap, for file and API tests."""
-    from subsurf import bssrdf
-
-    return bssrdf.ProfileTable.build(0.0, 1.3, n_albedos=4, photons=2000)
-
-
-@pytest.fixture(scope="session")
 def as_format_1():
     """``as_format_1(path)``: make a saved results file look like one written before checksums."""
     return _as_format_1
@@ -163,6 +167,31 @@ def cli_here(capsys):
         status = command.main([str(a) for a in args])
         out = capsys.readouterr()
         return status, out.out, out.err
+
+    return run
+
+
+@pytest.fixture
+def run_here(capsys, monkeypatch):
+    """``run_here(*args, cwd=None, hook=None) -> CompletedProcess``: ``subsurf ARGS`` run in this process,
+    in ``cwd``, with ``SUBSURF_TEST_HOOK`` = ``hook`` (see ``subsurf/_testhooks.py``)."""
+    from subsurf import cli as command
+
+    def run(*args, cwd=None, hook=None):
+        argv = [str(a) for a in args]
+        with monkeypatch.context() as m:
+            m.delenv("SUBSURF_DEBUG", raising=False)
+            m.delenv("SUBSURF_TEST_HOOK", raising=False)
+            if hook:
+                m.setenv("SUBSURF_TEST_HOOK", hook)
+            if cwd is not None:
+                m.chdir(cwd)
+            try:
+                status = command.main(argv)
+            except SystemExit as e:  # argparse's usage errors; --version, --help
+                status = e.code
+        out = capsys.readouterr()
+        return subprocess.CompletedProcess(["subsurf", *argv], status, out.out, out.err)
 
     return run
 

@@ -64,17 +64,12 @@ def test_chandrasekhar_and_normalized_diffusion_values():
     assert p.rd(1.0) == pytest.approx(0.5 * 1.539 * (np.exp(-1.539) + np.exp(-0.513)) / (8 * np.pi), rel=1e-12)
 
 
-@pytest.fixture(scope="module")
-def table():
-    s = bssrdf.ProfileTable.default_settings(0.0, 1.33, albedos=[0.8, 0.9, 0.95, 0.99, 0.995], photons=4000)
-    return bssrdf.ProfileTable.build(**{k: v for k, v in s.items() if k not in ("g", "eta")}, g=0.0, eta=1.33)
-
-
-def test_table_roundtrip_and_corruption(table, tmp_path):
+def test_table_roundtrip_and_corruption(profile_table, tmp_path):
+    table = profile_table
     path = table.save(tmp_path / "t.h5")
     back = bssrdf.ProfileTable.load(path)
     assert back.rho_eff(0.93) == table.rho_eff(0.93)
-    assert not list(tmp_path.glob("*.tmp"))
+    assert [p.name for p in tmp_path.iterdir()] == ["t.h5"]  # saved atomically: no temporary file left
     a = table.albedo_for(0.5)
     assert table.rho_eff(a) == pytest.approx(0.5, abs=1e-12)
     prof = table.profile(0.01, 0.99)
@@ -90,9 +85,10 @@ def test_table_roundtrip_and_corruption(table, tmp_path):
         bssrdf.ProfileTable.assemble(table.settings, [])
 
 
-def test_inverse_and_bad_input(table):
+def test_inverse_and_bad_input(profile_table):
+    table = profile_table
     inv = bssrdf.material_from_reflectance
-    layers = inv([0.5, 0.4], [1.0, 2.0], eta=1.33, g=0.0, model="monte_carlo", table=table)
+    layers = inv([0.5, 0.4], [1.0, 2.0], eta=1.3, g=0.0, model="monte_carlo", table=table)
     assert [round(1 / l.sigma_t, 12) for l in layers] == [1.0, 2.0]
     for lay, c in zip(layers, [0.5, 0.4]):
         assert table.rho_eff(lay.albedo) == pytest.approx(c, abs=1e-9)
@@ -107,7 +103,7 @@ def test_inverse_and_bad_input(table):
     with pytest.raises(ParameterError, match=r"reflectance\[0\] = 1.5"):
         inv([1.5], [1.0], model="dipole")
     with pytest.raises(ParameterError, match=r"reflectance\[0\] = 0.99 is out of range"):
-        inv([0.99], [1.0], eta=1.33, model="monte_carlo", table=table)
+        inv([0.99], [1.0], eta=1.3, model="monte_carlo", table=table)
     with pytest.raises(ParameterError, match=r"mfp\[0\] = 0"):
         inv([0.5], [0.0])
     with pytest.raises(ParameterError, match="mfp_kind.*burley_d"):

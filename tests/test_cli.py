@@ -33,24 +33,24 @@ def test_bad_config_is_one_line(tmp_path, error_here, text, fragments):
     error_here("simulate", p, fragments=fragments)
 
 
-def test_bad_arguments_are_one_line(tmp_path, cli, one_line_error):
-    one_line_error(cli("simulate", tmp_path / "missing.toml"), "missing.toml: no such file")
-    one_line_error(cli("simulate"), "required: CONFIG.toml")
-    one_line_error(cli("frobnicate"), "invalid choice")
+def test_bad_arguments_are_one_line(tmp_path, cli, run_here, one_line_error):
+    one_line_error(cli("simulate", tmp_path / "missing.toml"), "missing.toml: no such file")  # a process
+    one_line_error(run_here("simulate"), "required: CONFIG.toml")
+    one_line_error(run_here("frobnicate"), "invalid choice")
     (tmp_path / "c.toml").write_text(GOOD)
-    one_line_error(cli("simulate", tmp_path / "c.toml", "--photons", "0"), "--photons = 0 is out of range")
-    one_line_error(cli("simulate", tmp_path / "c.toml", "--photons", "many"), "invalid int value")
+    one_line_error(run_here("simulate", tmp_path / "c.toml", "--photons", "0"), "--photons = 0 is out of range")
+    one_line_error(run_here("simulate", tmp_path / "c.toml", "--photons", "many"), "invalid int value")
     one_line_error(
-        cli("simulate", tmp_path / "c.toml", "--photons", "100000000000000000000"),
+        run_here("simulate", tmp_path / "c.toml", "--photons", "100000000000000000000"),
         "--photons = 100000000000000000000 is out of range: must be an integer in [1, 2^64 - 1]",
     )
-    one_line_error(cli("simulate", tmp_path / "c.toml", "--seed", str(2**64)), "--seed = 18446744073709551616")
-    one_line_error(cli("mcml", tmp_path / "x.mci", "--threads", "0"), "--threads = 0 is out of range")
-    one_line_error(cli("plot", tmp_path / "c.toml"), "c.toml: not an HDF5 results file")
-    one_line_error(cli("mcml", tmp_path / "none.mci"), "none.mci: no such file")
+    one_line_error(run_here("simulate", tmp_path / "c.toml", "--seed", str(2**64)), "--seed = 18446744073709551616")
+    one_line_error(run_here("mcml", tmp_path / "x.mci", "--threads", "0"), "--threads = 0 is out of range")
+    one_line_error(run_here("plot", tmp_path / "c.toml"), "c.toml: not an HDF5 results file")
+    one_line_error(run_here("mcml", tmp_path / "none.mci"), "none.mci: no such file")
     (tmp_path / "b.mci").write_text("1.0\n1\nout.mco A\n-3\n")
-    one_line_error(cli("mcml", tmp_path / "b.mci"), "b.mci:4: number of photons = -3 is out of range")
-    one_line_error(cli("profile", "--sigma-a", "-1", "--sigma-s-prime", "1"), "--sigma-a = -1 is out of range")
+    one_line_error(run_here("mcml", tmp_path / "b.mci"), "b.mci:4: number of photons = -3 is out of range")
+    one_line_error(run_here("profile", "--sigma-a", "-1", "--sigma-s-prime", "1"), "--sigma-a = -1 is out of range")
 
 
 def test_mci_photons_beyond_64_bits(tmp_path, error_here, sample_mci):
@@ -67,28 +67,29 @@ def _png(path):
     return image.imread(io.BytesIO(data), format="png")
 
 
-def test_plot_and_merge_from_files(tmp_path, cli, one_line_error, make_result):
+@pytest.mark.slow
+def test_plot_and_merge_from_files(tmp_path, run_here, one_line_error, make_result):
     a, _ = make_result(seed=1)
     b, _ = make_result(seed=2)
     subsurf.save(a, tmp_path / "a.h5")
     subsurf.save(b, tmp_path / "b.h5")
-    p = cli("plot", tmp_path / "a.h5", "-o", tmp_path / "a.png", "--no-models")
+    p = run_here("plot", tmp_path / "a.h5", "-o", tmp_path / "a.png", "--no-models")
     assert p.returncode == 0, p.stderr
     px = _png(tmp_path / "a.png")
     # the figure of a result with R(r), A(z), BRDF and orders: 2 × 3 panels of 6 × 4.5 in at 130 dpi
     assert px.shape[:2] == (round(3 * 4.5 * 130), round(2 * 6 * 130))
     ink = (px[..., :3] < 0.5).any(axis=-1).mean()
     assert 0.01 < ink < 0.6, ink  # drawn, not blank and not a solid block
-    p = cli("merge", tmp_path / "a.h5", tmp_path / "b.h5", "-o", tmp_path / "m.h5")
+    p = run_here("merge", tmp_path / "a.h5", tmp_path / "b.h5", "-o", tmp_path / "m.h5")
     assert p.returncode == 0, p.stderr
     m = subsurf.load(tmp_path / "m.h5")
     assert m.photons == a.photons + b.photons and m.config["seeds"] == [1, 2]
     assert m.diffuse_reflectance == pytest.approx(0.35) and m.rd_r.values.shape == a.rd_r.values.shape
-    one_line_error(cli("merge", tmp_path / "a.h5", tmp_path / "a.h5", "-o", tmp_path / "x.h5"), "seed 1")
-    one_line_error(cli("merge", tmp_path / "a.h5", tmp_path / "b.h5", "-o", tmp_path / "m.h5"), "--force")
+    one_line_error(run_here("merge", tmp_path / "a.h5", tmp_path / "a.h5", "-o", tmp_path / "x.h5"), "seed 1")
+    one_line_error(run_here("merge", tmp_path / "a.h5", tmp_path / "b.h5", "-o", tmp_path / "m.h5"), "--force")
 
 
-def test_simulate_writes_result_and_table(tmp_path, cli):
+def test_simulate_writes_result_and_table(tmp_path, cli, run_here):
     (tmp_path / "c.toml").write_text(GOOD)
     p = cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "r.h5", "--seed", "9", "--threads", "1")
     assert p.returncode == 0, p.stderr
@@ -100,52 +101,53 @@ def test_simulate_writes_result_and_table(tmp_path, cli):
     assert r.summary().splitlines()[:8] == p.stdout.splitlines()[:8]
     assert f"wrote {tmp_path / 'r.h5'}" in p.stdout and "events/s" in p.stdout
     # same seed, different thread count: bit-identical numbers
-    p = cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "r2.h5", "--seed", "9", "--threads", "2", "-q")
+    p = run_here("simulate", tmp_path / "c.toml", "-o", tmp_path / "r2.h5", "--seed", "9", "--threads", "2", "-q")
     assert p.returncode == 0 and "diffuse reflectance" not in p.stdout
     assert subsurf.io.results_equal(subsurf.load(tmp_path / "r2.h5"), r, provenance=False)
-    p = cli("plot", tmp_path / "r.h5")
+    p = run_here("plot", tmp_path / "r.h5")
     assert p.returncode == 0 and _png(tmp_path / "r.png").shape[2] == 4
 
 
-def test_mcml_drop_in(tmp_path, cli, one_line_error, sample_mci):
+def test_mcml_drop_in(tmp_path, run_here, one_line_error, sample_mci):
     from subsurf import mcml
 
     (tmp_path / "s.mci").write_text(sample_mci)
-    p = cli("mcml", "s.mci", "--photons", "1000", cwd=tmp_path)
+    p = run_here("mcml", "s.mci", "--photons", "1000", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
     for name in ("first.mco", "second.mco"):
         back = mcml.read_mco(tmp_path / name)
         assert back["photons"] == 1000
         assert back["Rsp"] + back["Rd"] + back["A"] + back["Tt"] == pytest.approx(1.0, abs=1e-5)
     before = (tmp_path / "first.mco").read_bytes()
-    one_line_error(cli("mcml", "s.mci", "--photons", "100", cwd=tmp_path), "first.mco: exists", "--force")
+    one_line_error(run_here("mcml", "s.mci", "--photons", "100", cwd=tmp_path), "first.mco: exists", "--force")
     assert (tmp_path / "first.mco").read_bytes() == before
-    p = cli("mcml", "s.mci", "--photons", "100", "--force", cwd=tmp_path)
+    p = run_here("mcml", "s.mci", "--photons", "100", "--force", cwd=tmp_path)
     assert p.returncode == 0, p.stderr
     assert mcml.read_mco(tmp_path / "first.mco")["photons"] == 100
 
 
-def test_profile_and_materials(cli, one_line_error):
+def test_profile_and_materials(run_here, one_line_error):
     from subsurf import diffusion
 
-    p = cli("materials")
+    p = run_here("materials")
     assert p.returncode == 0, p.stderr
     assert "marble" in p.stdout and "skin1" in p.stdout
-    p = cli("profile", "marble", "--photons", "3000")
+    p = run_here("profile", "marble", "--photons", "3000")
     assert p.returncode == 0, p.stderr
     for m in bssrdf.MODELS:
         assert m in p.stdout
-    p = cli("profile", "--sigma-a", "0.01", "--sigma-s-prime", "1.0", "--eta", "1.3", "--model", "dipole")
+    p = run_here("profile", "--sigma-a", "0.01", "--sigma-s-prime", "1.0", "--eta", "1.3", "--model", "dipole")
     assert p.returncode == 0, p.stderr
     row = next(line for line in p.stdout.splitlines() if line.startswith("dipole"))
     # the dipole's total and R_d(1 mm): the library's own values, printed
     assert float(row.split()[1]) == pytest.approx(float(diffusion.total_diffuse_reflectance(1 / 1.01, 1.3)), abs=6e-5)
     assert "3.0312e-02" in row
-    one_line_error(cli("profile", "unobtainium"), "unknown material 'unobtainium'")
+    one_line_error(run_here("profile", "unobtainium"), "unknown material 'unobtainium'")
 
 
-def test_demo_small(tmp_path, cli, one_line_error):
-    p = cli("demo", "--quick", "--photons", "3000", "--out-dir", tmp_path / "out", "-q")
+@pytest.mark.slow
+def test_demo_small(tmp_path, run_here, one_line_error):
+    p = run_here("demo", "--quick", "--photons", "3000", "--out-dir", tmp_path / "out", "-q")
     assert p.returncode == 0, p.stderr
     r = subsurf.load(tmp_path / "out" / "demo.h5")
     assert len(r.absorbed_per_layer) == 3 and abs(r.energy_balance - 1) < 1e-12 and r.photons == 3000
@@ -156,7 +158,7 @@ def test_demo_small(tmp_path, cli, one_line_error):
     want = subsurf.diffusion.total_diffuse_reflectance(2.53 / (0.049 + 2.53), 1.4)
     assert f"dipole {float(want):.4f}" in p.stdout
     (tmp_path / "f").write_text("x")
-    one_line_error(cli("demo", "--out-dir", tmp_path / "f", "-q"), "is a file, not a directory")
+    one_line_error(run_here("demo", "--out-dir", tmp_path / "f", "-q"), "is a file, not a directory")
 
 
 def test_every_command_is_registered():
@@ -167,24 +169,24 @@ def test_every_command_is_registered():
     assert [m.__name__.rpartition(".")[2] for m in cli.COMMANDS] == list(sub.choices)
 
 
-def test_profile_plot_and_fit(tmp_path, cli, one_line_error):
+def test_profile_plot_and_fit(tmp_path, run_here, one_line_error):
     out = tmp_path / "p.png"
-    p = cli("profile", "skin1", "--model", "dipole", "--model", "normalized_diffusion", "-o", out)
+    p = run_here("profile", "skin1", "--model", "dipole", "--model", "normalized_diffusion", "-o", out)
     assert p.returncode == 0, p.stderr
     assert out.exists() and "wrote" in p.stdout
     prof = bssrdf.Profile.from_model("dipole", 0.02, 1.0, 0.0, 1.4)
     r = np.geomspace(0.2, 5, 12)
     rows = "\n".join(f"{x},{y},{0.02 * y}" for x, y in zip(r, prof.rd(r)))
     (tmp_path / "m.csv").write_text("r,rd,sigma\n" + rows + "\n")
-    p = cli("fit", tmp_path / "m.csv", "--model", "dipole", "--eta", "1.4")
+    p = run_here("fit", tmp_path / "m.csv", "--model", "dipole", "--eta", "1.4")
     assert p.returncode == 0, p.stderr
     assert "sigma_a" in p.stdout and "0.02 ±" in p.stdout
     (tmp_path / "s.csv").write_text("rd,tt,sigma_rd,sigma_tt\n0.2,0.4,0.005,0.005\n")
-    p = cli("fit", tmp_path / "s.csv", "--kind", "slab", "--thickness", "1.0")
+    p = run_here("fit", tmp_path / "s.csv", "--kind", "slab", "--thickness", "1.0")
     assert p.returncode == 0, p.stderr
     assert "mus_prime" in p.stdout
-    one_line_error(cli("fit", tmp_path / "s.csv", "--kind", "slab"), "--thickness")
-    one_line_error(cli("fit", tmp_path / "none.csv"), "none.csv: no such file")
+    one_line_error(run_here("fit", tmp_path / "s.csv", "--kind", "slab"), "--thickness")
+    one_line_error(run_here("fit", tmp_path / "none.csv"), "none.csv: no such file")
 
 
 _PROFILE = "r,rd,sigma\n" + "".join(f"{0.5 * i},{{rd}},{{sigma}}\n" for i in range(1, 9))

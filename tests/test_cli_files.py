@@ -76,46 +76,49 @@ def test_ctrl_c_after_the_first_photons_writes_a_partial_result(tmp_path, cli):
     assert f"PARTIAL: {r.photons:,} of 1,000,000,000 photons" in p.stdout and "(partial: interrupted)" in p.stdout
 
 
-def test_ctrl_c_before_any_photon_writes_nothing(tmp_path, cli, one_line_error):
+def test_ctrl_c_before_any_photon_writes_nothing(tmp_path, run_here, one_line_error):
     (tmp_path / "slow.toml").write_text(SLOW)
-    p = cli("simulate", tmp_path / "slow.toml", "-o", tmp_path / "s.h5", "--threads", "1", hook="interrupt_after=0")
+    p = run_here(
+        "simulate", tmp_path / "slow.toml", "-o", tmp_path / "s.h5", "--threads", "1", hook="interrupt_after=0"
+    )
     one_line_error(p, "interrupted before any photon was traced; nothing written", status=130)
     assert not (tmp_path / "s.h5").exists() and p.stdout == ""
     # the MCML drop-in: no .mco full of NAN
     (tmp_path / "slow.mci").write_text(SLOW_MCI)
-    p = cli("mcml", "slow.mci", "--threads", "1", cwd=tmp_path, hook="interrupt_after=0")
+    p = run_here("mcml", "slow.mci", "--threads", "1", cwd=tmp_path, hook="interrupt_after=0")
     one_line_error(p, "run 1 (slow.mco): interrupted before any photon", status=130)
     assert not (tmp_path / "slow.mco").exists()
 
 
-def test_ctrl_c_never_replaces_a_complete_result(tmp_path, cli):
+def test_ctrl_c_never_replaces_a_complete_result(tmp_path, run_here):
     (tmp_path / "c.toml").write_text(FAST.format(photons=3000))
     (tmp_path / "long.toml").write_text(FAST.format(photons=10**9))
     out = tmp_path / "r.h5"
-    assert cli("simulate", tmp_path / "c.toml", "-o", out, "-q").returncode == 0
+    assert run_here("simulate", tmp_path / "c.toml", "-o", out, "-q").returncode == 0
     complete = out.read_bytes()
-    p = cli("simulate", tmp_path / "long.toml", "-o", out, "--force", "-q", "--threads", "1", hook=AFTER_A_CHUNK)
+    p = run_here("simulate", tmp_path / "long.toml", "-o", out, "--force", "-q", "--threads", "1", hook=AFTER_A_CHUNK)
     assert p.returncode == 130, p.stderr
     assert out.read_bytes() == complete
     partial = subsurf.load(tmp_path / "r.partial.h5")
     assert partial.partial and f"wrote {tmp_path / 'r.partial.h5'} (partial: interrupted)" in p.stdout
     # a second interrupted run does not replace the first partial result either
-    p = cli("simulate", tmp_path / "long.toml", "-o", out, "--force", "-q", "--threads", "1", hook=AFTER_A_CHUNK)
+    p = run_here("simulate", tmp_path / "long.toml", "-o", out, "--force", "-q", "--threads", "1", hook=AFTER_A_CHUNK)
     assert p.returncode == 130 and subsurf.load(tmp_path / "r.partial-2.h5").partial
     assert subsurf.io.results_equal(subsurf.load(tmp_path / "r.partial.h5"), partial)
 
 
-def test_resume_finishes_an_interrupted_run_with_the_bits_of_one_run(tmp_path, cli, cli_here, error_here):
+@pytest.mark.slow
+def test_resume_finishes_an_interrupted_run_with_the_bits_of_one_run(tmp_path, run_here, cli_here, error_here):
     n = 10**6  # long enough (~1 s on one thread) for the hook's Ctrl-C to come before the end
     (tmp_path / "c.toml").write_text(FAST.format(photons=n))
-    p = cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "p.h5", "-q", "--threads", "1", hook=AFTER_A_CHUNK)
+    p = run_here("simulate", tmp_path / "c.toml", "-o", tmp_path / "p.h5", "-q", "--threads", "1", hook=AFTER_A_CHUNK)
     assert p.returncode == 130, p.stderr
     partial = subsurf.load(tmp_path / "p.h5")
     assert partial.partial and 0 < partial.photons < n
-    p = cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "r.h5", "-q", "--resume", tmp_path / "p.h5")
+    p = run_here("simulate", tmp_path / "c.toml", "-o", tmp_path / "r.h5", "-q", "--resume", tmp_path / "p.h5")
     assert p.returncode == 0, p.stderr
     assert f"resuming from {tmp_path / 'p.h5'}: {partial.photons:,} photons already traced" in p.stdout
-    assert cli("simulate", tmp_path / "c.toml", "-o", tmp_path / "d.h5", "-q", "--threads", "2").returncode == 0
+    assert run_here("simulate", tmp_path / "c.toml", "-o", tmp_path / "d.h5", "-q", "--threads", "2").returncode == 0
     resumed, direct = subsurf.load(tmp_path / "r.h5"), subsurf.load(tmp_path / "d.h5")
     assert not resumed.partial and resumed.photons == direct.photons == n
     assert subsurf.io.results_equal(resumed, direct, provenance=False)
@@ -129,6 +132,7 @@ def test_resume_finishes_an_interrupted_run_with_the_bits_of_one_run(tmp_path, c
     assert not (tmp_path / "x.h5").exists()
 
 
+@pytest.mark.slow
 def test_second_ctrl_c_during_the_save_leaves_a_complete_file(tmp_path):
     (tmp_path / "long.toml").write_text(FAST.format(photons=10**9))
     hook = tmp_path / "hook"
@@ -170,6 +174,7 @@ def _command_writing(tmp_path, name, make_result, sample_mci):
     return ["mcml", tmp_path / "s.mci", "--photons", "300", "-q"], tmp_path / "first.mco"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "command, sig",
     [
@@ -218,6 +223,7 @@ def limit_files(limit):
     return limit_files
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["simulate", "merge", "mcml"])
 def test_full_disk_is_one_line_and_leaves_nothing(tmp_path, cli, make_result, sample_mci, one_line_error, command):
     args, target = _command_writing(tmp_path, command, make_result, sample_mci)

@@ -110,6 +110,7 @@ def test_better_dipole_constants():
     np.testing.assert_allclose(d.better_dipole_rd(r, sa, ssp, eta), ref, rtol=1e-13)
 
 
+@pytest.mark.slow
 def test_fits_against_fresnel_quadrature():
     etas = np.linspace(1.0, 2.5, 31)
     c1 = np.array([fresnel_moment(e, 1) for e in etas])

@@ -24,17 +24,20 @@ def test_there_are_examples():
     assert {".toml", ".py", ".mci"} <= kinds
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.toml")), ids=lambda p: p.name)
-def test_toml_example(path, tmp_path):
-    _run(["-m", "subsurf", "simulate", str(path), "--photons", "2000", "-o", str(tmp_path / "r.h5"), "-q"], tmp_path)
+def test_toml_example(path, tmp_path, run_here):
+    p = run_here("simulate", path, "--photons", "2000", "-o", tmp_path / "r.h5", "-q", cwd=tmp_path)
+    assert p.returncode == 0, p.stdout + p.stderr
     r = subsurf.load(tmp_path / "r.h5")
     assert r.photons == 2000 and not r.partial and abs(r.energy_balance - 1) < 1e-12
 
 
 @pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.mci")), ids=lambda p: p.name)
-def test_mci_example(path, tmp_path):
+def test_mci_example(path, tmp_path, run_here):
     shutil.copy(path, tmp_path / path.name)
-    p = _run(["-m", "subsurf", "mcml", path.name, "--photons", "500", "-q"], tmp_path)
+    p = run_here("mcml", path.name, "--photons", "500", "-q", cwd=tmp_path)
+    assert p.returncode == 0, p.stdout + p.stderr
     from subsurf import mcml
 
     runs = mcml.read_mci(path)
@@ -45,6 +48,7 @@ def test_mci_example(path, tmp_path):
         assert back["Rsp"] + back["Rd"] + back["A"] + back["Tt"] == pytest.approx(1, abs=1e-5)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.py")), ids=lambda p: p.name)
 def test_script_example(path, tmp_path):
     _run([str(path)], tmp_path)

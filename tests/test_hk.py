@@ -152,6 +152,7 @@ def test_index_matched_semi_infinite_albedo_closed_form():
     assert hk.single_scattering_reflectance(s, [0, 0, 1.0]) == pytest.approx(exact, rel=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "stack, theta_i",
     [

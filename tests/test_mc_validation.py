@@ -120,6 +120,7 @@ MULTI = Stack(
 )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("source", [PencilBeam(), PencilBeam(0.7, 2.0), DiffuseIllumination()])
 def test_energy_balance_and_thread_invariance(source):
     a = simulate(MULTI, photons=9_000, seed=7, threads=1, source=source)

@@ -56,6 +56,7 @@ def _pixels(data: bytes):
     return image.imread(io.BytesIO(data), format="png")
 
 
+@pytest.mark.slow
 def test_summary_figure_saves_png(res, tmp_path):
     fig = plot.figure(res)
     assert len(fig.axes) == 6  # R(r), A(z), BRDF map + its colour bar, in-plane BRDF, orders

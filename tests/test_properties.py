@@ -141,6 +141,7 @@ def run_cases(draw):
     )
 
 
+@pytest.mark.slow
 @given(case=run_cases())
 def test_simulate_ends_in_a_result_or_a_parameter_error(worker, case):
     photons = case["photons"]
@@ -276,6 +277,7 @@ def check_cli(reply, case, photons):
     check(bool(written), f"exit 0 but no output: {written}", case)
 
 
+@pytest.mark.slow
 @given(doc=config_docs(), ops=MUTATIONS, override=st.booleans())
 def test_simulate_command_on_any_configuration(worker, doc, ops, override):
     doc, hostile = doc
@@ -353,6 +355,7 @@ def h5_file(make_result):
     return Blob(rio.to_bytes(res))
 
 
+@pytest.mark.slow
 @given(
     flips=st.lists(st.tuples(st.floats(0, 1, exclude_max=True), st.integers(1, 255)), min_size=1, max_size=8),
     truncate=st.none() | st.floats(0, 1),
@@ -382,6 +385,7 @@ ATTR_VALUES = st.one_of(
 )
 
 
+@pytest.mark.slow
 @given(edits=st.lists(st.tuples(EDITS, st.integers(0, 10**6), ATTR_VALUES), min_size=1, max_size=3), v1=st.booleans())
 @(lambda f: f if CAMPAIGN else settings(max_examples=25)(f))  # ~0.1 s a case (h5py edits and a save)
 def test_edited_results_files_merge_cleanly(worker, h5_file, as_format_1, tmp_path_factory, edits, v1):

@@ -38,6 +38,7 @@ def test_every_method_renders_and_is_reproducible(method):
     assert not a.partial and a.spp == 2
 
 
+@pytest.mark.slow
 def test_every_profile_model_renders():
     for model in R.MODELS:
         mat = R.Translucent.library("skin1", model=model, mc_photons=20_000)
@@ -132,8 +133,10 @@ def test_exports_refuse_what_they_cannot_write():
         export.from_mitsuba({"bsdf": {}})
 
 
+@pytest.mark.slow
 def test_walk_simulation_matches_the_engine():
-    """Pencil beam on a large thick box: total exitance = the MC engine's diffuse reflectance (4σ)."""
+    """Pencil beam on a large thick box: total exitance = the MC engine's diffuse reflectance (4σ).
+    Power: the 4σ band is 2.3 % of R_d, so a 2.5 % bias of the walk fails."""
     mua, mus, g, n = 0.05, 8.0, 0.7, 1.4
     mat = R.Translucent([mua] * 3, [mus] * 3, g=g, eta=n)
     sc = R.Scene([R.Object.box(mat, lo=(-40, -40, -30), hi=(40, 40, 0))])
@@ -185,15 +188,13 @@ material = "{mat}"
         ('mesh = "flat.obj"', "marble", 100, "hierarchical", "zero area"),
     ],
 )
-def test_cli_bad_input_one_line(tmp_path, obj, mat, power, method, expect):
+def test_cli_bad_input_one_line(tmp_path, error_here, obj, mat, power, method, expect):
     (tmp_path / "flat.obj").write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")
     p = _toml(tmp_path, BASE.format(obj=obj, mat=mat, power=power))
-    r = _cli("render", p, "-o", str(tmp_path / "o.exr"), "--method", method, "--spp", "1", "-q")
-    assert r.returncode == 2, r.stderr
-    lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and expect in lines[0] and "Traceback" not in r.stderr, r.stderr
+    error_here("render", p, "-o", tmp_path / "o.exr", "--method", method, "--spp", "1", "-q", fragments=[expect])
 
 
+@pytest.mark.slow
 def test_example_scene_runs(tmp_path):
     scene, st = R.load_scene(os.path.join(EXAMPLES, "marble_sphere.toml"))
     scene.camera.width, scene.camera.height = 40, 30
@@ -203,32 +204,39 @@ def test_example_scene_runs(tmp_path):
     assert r.returncode == 0, r.stderr
 
 
+@pytest.mark.slow
 def test_random_walk_render_matches_the_engine_brdf():
     """The rendered radiance of a thick slab at normal view under a normal directional light of
     irradiance E is E·f_r(0, 0): random_walk (camera paths, spectral MIS, next-event estimation
-    through the facet) against the MC engine's BRDF tally in its top cos θ bin, within 4σ."""
-    mua, mus, g, n = 0.1, 10.0, 0.8, 1.4
+    through the facet) against the MC engine's BRDF tally in its top cos θ bin, within 4σ. Albedo
+    0.91 keeps the histories short, so both sides afford the samples. Power: the 4σ band is below
+    3 % of f_r (2.5 %; checked), so a 3 % bias of either side fails; 5 % more irradiance given to the
+    renderer did."""
+    mua, mus, g, n = 0.5, 5.0, 0.5, 1.4
     mat = R.Translucent([mua] * 3, [mus] * 3, g=g, eta=n)
     sc = R.Scene(
         [R.Object.box(mat, lo=(-40, -40, -30), hi=(40, 40, 0))],
         [R.DirectionalLight((0, 0, 1), 1.0)],
         (0, 0, 0),
-        R.Camera((0, 0, 50), look_at=(0, 0, 0), up=(0, 1, 0), fov=0.5, width=12, height=12),
+        R.Camera((0, 0, 50), look_at=(0, 0, 0), up=(0, 1, 0), fov=0.5, width=24, height=24),
     )
-    img = R.render(sc, "random_walk", spp=48, seed=5)
+    img = R.render(sc, "random_walk", spp=192, seed=5)
     px = img.array[..., 1].ravel()  # channels are identical; each pixel is an independent mean
     mean, se = px.mean(), px.std(ddof=1) / np.sqrt(px.size)
     res = subsurf.simulate(
         subsurf.Stack([subsurf.Layer(n, mua, mus, g)]),
-        photons=400_000,
+        photons=4_000_000,
         seed=6,
         tallies=subsurf.Tallies(brdf=(50, 1), spatial=False, angular=False),
     )
     f, fse = float(res.brdf.values[-1, 0]), float(res.brdf.stderr[-1, 0])
     assert res.brdf.edges[0][-2] >= 0.97  # top bin: cos θ in [0.98, 1]
-    assert abs(mean - f) < 4 * np.hypot(se, fse), (mean, se, f, fse)
+    band = 4 * np.hypot(se, fse)
+    assert band < 0.03 * f, ("too noisy to catch a 3 % bias", band / f)
+    assert abs(mean - f) < band, (mean, se, f, fse)
 
 
+@pytest.mark.slow
 def test_random_walk_two_nested_layers_match_the_layered_engine_brdf():
     """A two-layer object as nested meshes (a 0.3 mm top layer over a thick second medium of the
     same η: index-matched, so next-event estimation connects straight through the inner
@@ -261,15 +269,10 @@ def test_random_walk_two_nested_layers_match_the_layered_engine_brdf():
     assert abs(mean - f) < 4 * sig, (mean, se, f, fse)
 
 
-@pytest.fixture(scope="module")
-def table_g0_n13():
-    """A small Monte Carlo profile table (g = 0, η = 1.3) reaching colours 0.2–0.6."""
-    return subsurf.bssrdf.ProfileTable.build(0.0, 1.3, albedos=[0.7, 0.8, 0.9, 0.95, 0.98, 0.99], photons=20_000)
-
-
+@pytest.mark.slow
 @pytest.mark.parametrize("power", ["incident", "entering"])
 @pytest.mark.parametrize("model", R.MODELS)
-def test_from_reflectance_renders_the_reflectance(model, power, table_g0_n13):
+def test_from_reflectance_renders_the_reflectance(model, power, profile_table):
     """A material made from a reflectance, rendered (hierarchical) as a large flat slab under a
     normal directional light, shows it: exitance = reflectance per incident power × irradiance,
     i.e. the radiance at normal view is R_inc · E · F_t(0)/(π c), R_inc = the reflectance
@@ -280,7 +283,7 @@ def test_from_reflectance_renders_the_reflectance(model, power, table_g0_n13):
     # The reflectance is the profile's (every scattering order for photon beam diffusion, normalized
     # diffusion and Monte Carlo); the pure diffusion models' S⁽¹⁾ comes on top of it: off here.
     m = R.Translucent.from_reflectance(
-        color, mfp, eta=eta, model=model, power=power, table=table_g0_n13, mc_photons=100_000, single_scattering=False
+        color, mfp, eta=eta, model=model, power=power, table=profile_table, mc_photons=100_000, single_scattering=False
     )
     sc = R.Scene(
         [R.Object.box(m, lo=(-8, -8, -6), hi=(8, 8, 0))],
@@ -319,25 +322,15 @@ def test_reflectance_material_tables_and_the_forwarding_alias():
         material({"reflectance": 0.5, "mfp": 1.0, "mfp_kind": "free"})
 
 
-def test_ctrl_c_writes_the_partial_image(tmp_path):
-    """SIGINT during `subsurf render` ends it after cancelling the current pass: exit 130, and the
-    EXR holds the completed passes, marked partial."""
-    import signal
-    import time
-
+def test_ctrl_c_writes_the_partial_image(tmp_path, run_here):
+    """Ctrl-C during `subsurf render` (the test hook raises KeyboardInterrupt at the first progress
+    report, after the first pass) ends it: exit 130, and the EXR holds the completed pass, marked
+    partial."""
     body = BASE.format(obj='shape = "sphere"\nradius = 3', mat="skin1", power=1e4).replace("width = 8", "width = 16")
     p = _toml(tmp_path, body.replace("height = 8", "height = 16"))
     out = tmp_path / "o.exr"
-    cmd = [sys.executable, "-m", "subsurf.cli", "render", p, "-o", str(out), "--method", "random_walk"]
-    proc = subprocess.Popen([*cmd, "--spp", "100000", "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < 60 and proc.poll() is None:
-        time.sleep(1.0)
-        if time.monotonic() - t0 > 8:
-            proc.send_signal(signal.SIGINT)
-            break
-    stdout, stderr = proc.communicate(timeout=120)
-    assert proc.returncode == 130, stdout + stderr
-    assert "partial" in stdout and "Traceback" not in stderr
+    r = run_here("render", p, "-o", out, "--method", "random_walk", "--spp", "64", "-q", hook="interrupt_after=1")
+    assert r.returncode == 130, r.stdout + r.stderr
+    assert "partial" in r.stdout
     arr, header = R.read_exr(str(out))
-    assert header["partial"] == "True" and 0 < int(header["spp"]) < 100000 and arr.max() > 0
+    assert header["partial"] == "True" and 0 < int(header["spp"]) < 64 and arr.max() > 0

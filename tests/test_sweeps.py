@@ -2,10 +2,7 @@
 points already done, sweep TOML files and the ``subsurf sweep`` command, and Monte Carlo
 profile and table builds that Ctrl-C interrupts and that resume."""
 
-import os
 import pathlib
-import subprocess
-import sys
 
 import h5py
 import numpy as np
@@ -176,38 +173,26 @@ def test_bad_sweep_toml(extra, match):
         config.parse_sweep(BASE + extra, "s.toml")
 
 
-def cli(*args, cwd=None):
-    env = dict(os.environ)
-    env.pop("SUBSURF_DEBUG", None)
-    return subprocess.run(
-        [sys.executable, "-m", "subsurf.cli", *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        cwd=cwd,
-        env=env,
-    )
-
-
-def test_cli_sweep_resumes_and_refuses_other_files(tmp_path):
+def test_cli_sweep_resumes_and_refuses_other_files(tmp_path, run_here):
     (tmp_path / "s.toml").write_text(BASE + AXIS_G)
     cfg = config.load_sweep(tmp_path / "s.toml")
     out = tmp_path / "s.h5"
     with pytest.warns(RuntimeWarning):
         subsurf.sweep(cfg, cfg.grid(), out, progress=_stop_after(1), units=cfg.units())
-    p = cli("sweep", tmp_path / "s.toml", "-o", out)
+    p = run_here("sweep", tmp_path / "s.toml", "-o", out)
     assert p.returncode == 0, p.stderr
     assert "resuming, 1 of 2 points already done" in p.stdout and "wrote" in p.stdout
     assert sweeps.load(out).complete
-    p = cli("sweep", tmp_path / "s.toml", "-o", out, "--photons", "1000")  # another sweep: refused
+    p = run_here("sweep", tmp_path / "s.toml", "-o", out, "--photons", "1000")  # another sweep: refused
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1 and "--force" in p.stderr
-    p = cli("sweep", tmp_path / "s.toml", "-o", out, "--photons", "1000", "--force", "-q")
+    p = run_here("sweep", tmp_path / "s.toml", "-o", out, "--photons", "1000", "--force", "-q")
     assert p.returncode == 0 and sweeps.load(out)["photons"].max() == 1000
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.toml")), ids=lambda p: p.name)
-def test_sweep_examples_run(path, tmp_path):
-    p = cli("sweep", path, "--photons", "2000", "-q", "-o", tmp_path / "out.h5")
+def test_sweep_examples_run(path, tmp_path, run_here):
+    p = run_here("sweep", path, "--photons", "2000", "-q", "-o", tmp_path / "out.h5")
     assert p.returncode == 0, p.stderr
     assert sweeps.load(tmp_path / "out.h5").complete
 

@@ -4,7 +4,7 @@ The test suite uses them to interrupt and kill the ``subsurf`` command at exact 
 after sleeps and timers. ``SUBSURF_TEST_HOOK`` holds comma-separated ``name[=value]`` items:
 
 * ``interrupt_after=N`` — the command line's progress callback raises ``KeyboardInterrupt`` (what
-  Ctrl-C does) at its first call with at least N photons done;
+  Ctrl-C does) at its first call with at least N photons (``render``: samples per pixel) done;
 * ``terminate_after=N`` — the same callback sends the process SIGTERM (what ``kill`` does) at
   its first call with at least N done;
 * ``setup_interrupt_after=N``, ``setup_terminate_after=N`` — the same for the progress of

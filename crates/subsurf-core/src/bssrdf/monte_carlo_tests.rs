@@ -15,7 +15,7 @@ fn semi(a: f64) -> Stack {
 /// exact) matches Chandrasekhar's exact 1 − H(1)√(1 − a) within 0.5 % and within 4σ, over
 /// albedo 0.3–0.999. Photons per albedo chosen so that 4σ < 0.5 % of the value.
 #[test]
-fn total_matches_chandrasekhar() {
+fn total_matches_chandrasekhar_slow() {
     for &(a, photons) in &[(0.3, 3_000_000u64), (0.6, 1_600_000), (0.9, 500_000), (0.99, 150_000), (0.999, 50_000)] {
         let s = McSettings { photons, seed: 7, ..McSettings::default() };
         let edges = default_edges(&semi(a), &s).unwrap();
@@ -43,7 +43,7 @@ fn total_matches_chandrasekhar() {
 /// `rd_r` tally of the same photons) matches the engine's R(r) within 4 of its standard errors
 /// from 0.05 to 3 mm, and the profile is positive and sampled consistently.
 #[test]
-fn layered_profile_matches_engine() {
+fn layered_profile_matches_engine_slow() {
     let stack = Stack::new(
         vec![
             Layer::new(1.4, 0.3, 10.0, 0.8, 0.1).unwrap(),

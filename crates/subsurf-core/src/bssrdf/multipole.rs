@@ -357,7 +357,7 @@ mod tests {
     /// the engine +2.3 % (σs' = 6 mm⁻¹ on top) and +20 % (σs' = 1.5, d σt' = 1.5), each within
     /// the stated bound (the engine's 4σ is < 2 % here).
     #[test]
-    fn thin_layers_refused_and_layered_totals_against_the_engine() {
+    fn thin_layers_refused_and_layered_totals_against_the_engine_slow() {
         let e = profile(&skin((0.25, 1.5), 0.25)).err().expect("a 0.44-mfp layer is refused").to_string();
         assert!(e.starts_with("layers[0]: thickness = 0.25 mm") && e.contains("monte_carlo"), "{e}");
         let l = Layer::new(1.4, 0.25, 7.5, 0.8, 0.25).unwrap();

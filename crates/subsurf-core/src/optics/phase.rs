@@ -253,7 +253,7 @@ mod stat_tests {
     const TESTS: usize = 8;
 
     #[test]
-    fn hg_sampling_chi2() {
+    fn hg_sampling_chi2_slow() {
         let alpha = sidak_alpha(0.01, TESTS).unwrap();
         let s = 1.0 / 3.0f64.sqrt();
         let dirs = [[0.3, -0.5, (1.0f64 - 0.34).sqrt()], [0.0, 0.0, 1.0], [s, s, -s]];

@@ -34,7 +34,7 @@ const INCIDENT_EXT: Conventions = Conventions { power: Power::Incident, mfp_kind
 /// (table: 8 albedos in [0.9, 0.9995], 10⁵ photons each; check: 3·10⁵ (0.6/R)² photons per
 /// channel, whose 4σ is < 0.5 %). Normalized diffusion shares its material.
 #[test]
-fn monte_carlo_reflectance_reproduced_by_the_engine() {
+fn monte_carlo_reflectance_reproduced_by_the_engine_slow() {
     let (g, eta) = (0.0, 1.33);
     let table = small_table(g, eta, table_albedos(), 100_000);
     let colour = [0.6, 0.5, 0.4];

@@ -222,7 +222,7 @@ fn run_all(s: &Stack, cfg: &RunConfig, tc: &TallyConfig) -> (Totals, Vec<Histogr
 /// Every instruction set this machine has gives the same bits (totals, every histogram and
 /// its errors, events) for every source, and so does any thread count.
 #[test]
-fn same_bits_on_every_instruction_set_and_thread_count() {
+fn same_bits_on_every_instruction_set_and_thread_count_slow() {
     let s = hard_stack();
     for source in [Source::default(), Source::Pencil { theta: 1.2, phi: 0.4 }, Source::Diffuse] {
         let mut cfg = RunConfig::new(6_000, 3);
@@ -252,7 +252,7 @@ fn same_bits_on_every_instruction_set_and_thread_count() {
 /// stack within 4 combined standard errors (independent runs: different seeds); the
 /// transmittance is exactly 0 for both (semi-infinite bottom).
 #[test]
-fn lanes_agree_with_scalar_reference() {
+fn lanes_agree_with_scalar_reference_slow() {
     let s = hard_stack();
     let nl = s.layers.len();
     let n = 60_000;
