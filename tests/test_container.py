@@ -105,11 +105,11 @@ def test_fit_with_a_damaged_table_is_one_line(table_bytes, tmp_path, cli, one_li
     one_line_error(p, "bad.h5: ", "checksum")
 
 
-def test_tables_and_sweeps_round_trip_and_name_foreign_files(table_bytes, sweep_bytes, tmp_path):
+def test_tables_and_sweeps_round_trip_and_name_foreign_files(table_bytes, sweep_bytes, profile_table, tmp_path):
     (tmp_path / "t.h5").write_bytes(table_bytes)
     (tmp_path / "s.h5").write_bytes(sweep_bytes)
     t = bssrdf.ProfileTable.load(tmp_path / "t.h5")
-    assert t.settings["albedos"] == bssrdf.ProfileTable.default_settings(0.0, 1.3, n_albedos=4)["albedos"]
+    assert t.settings == profile_table.settings
     s = sweeps.load(tmp_path / "s.h5")
     assert s.complete and s["y"].tolist() == [1.0, 4.0, 9.0] and s["v"].shape == (3, 2)
     with pytest.raises(container.FileFormatError, match=r"s.h5: a subsurf-sweep file, not a profile table file"):

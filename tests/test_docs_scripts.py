@@ -20,6 +20,7 @@ def test_script_imports(path, monkeypatch):
     assert callable(getattr(module, "main", None)), f"{path.name} has no main()"
 
 
+@pytest.mark.slow
 def test_figures_quick(tmp_path, monkeypatch, capsys):
     monkeypatch.syspath_prepend(str(SCRIPTS))
     readme = (SCRIPTS.parent.parent / "README.md").read_bytes()

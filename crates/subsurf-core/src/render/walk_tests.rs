@@ -84,12 +84,12 @@ fn nested_matches_single(name: &str, light: Option<Light>, env: Rgb, n: u32, see
 }
 
 #[test]
-fn nested_same_medium_is_invisible_point_light() {
+fn nested_same_medium_is_invisible_point_light_slow() {
     nested_matches_single("point", Some(Light::point("l", [4.0, -6.0, 5.0], [400.0; 3]).unwrap()), [0.0; 3], 1000, 0);
 }
 
 #[test]
-fn nested_same_medium_is_invisible_directional_light() {
+fn nested_same_medium_is_invisible_directional_light_slow() {
     let l = Light::directional("l", [0.5, -0.6, 0.7], [1.0; 3]).unwrap();
     nested_matches_single("directional", Some(l), [0.0; 3], 800, 2);
 }
@@ -98,13 +98,13 @@ fn nested_same_medium_is_invisible_directional_light() {
 /// whose connections were skipped) are heavy-tailed, ∝ the light's radiance; large lights keep
 /// the band below 5 %.
 #[test]
-fn nested_same_medium_is_invisible_sphere_light() {
+fn nested_same_medium_is_invisible_sphere_light_slow() {
     let l = Light::sphere("l", [8.0, -10.0, 6.0], 5.0, [2000.0; 3]).unwrap();
     nested_matches_single("sphere", Some(l), [0.0; 3], 2600, 4);
 }
 
 #[test]
-fn nested_same_medium_is_invisible_rect_light() {
+fn nested_same_medium_is_invisible_rect_light_slow() {
     let l = Light::rect("l", [0.0, -8.0, 8.0], [-6.0, 0.0, 0.0], [0.0, 4.0, 4.0], [2000.0; 3]).unwrap();
     nested_matches_single("rect", Some(l), [0.0; 3], 1600, 6);
 }

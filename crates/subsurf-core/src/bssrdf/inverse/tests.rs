@@ -111,7 +111,7 @@ fn length(kind: MeanFreePath, model: Model, m: &Medium, a_enter: f64) -> f64 {
 /// total reproduces the reflectance and the layer has the requested length, within the
 /// numerical method's tolerance (see [`forward_total`]; lengths are arithmetic: 1e-12).
 #[test]
-fn reflectance_round_trips_every_model_and_convention() {
+fn reflectance_round_trips_every_model_and_convention_slow() {
     let (g, eta) = (0.6, 1.4);
     let enter = appearance::entering_fraction(eta);
     let table = small_table(g, eta, table_albedos(), 5_000);
