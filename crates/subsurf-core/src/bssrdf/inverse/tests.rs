@@ -107,7 +107,8 @@ fn length(kind: MeanFreePath, model: Model, m: &Medium, a_enter: f64) -> f64 {
 }
 
 /// Round trip reflectance → material → the model's own total, for every model, both power
-/// conventions and every kind of mean free path (g = 0.6, η = 1.4, two reflectances): the
+/// conventions and every kind of mean free path (g = 0.6, η = 1.4, two reflectances, one for
+/// photon beam diffusion): the
 /// total reproduces the reflectance and the layer has the requested length, within the
 /// numerical method's tolerance (see [`forward_total`]; lengths are arithmetic: 1e-12).
 #[test]
@@ -122,7 +123,10 @@ fn reflectance_round_trips_every_model_and_convention_slow() {
             for kind in
                 [MeanFreePath::Extinction, MeanFreePath::Transport, MeanFreePath::Diffuse, MeanFreePath::BurleyD]
             {
-                for t in [0.3, 0.7] {
+                // photon beam diffusion's α is a root of its tabulated total (~1 s an inversion):
+                // one reflectance each; the others take two
+                let ts: &[f64] = if model == Model::PhotonBeamDiffusion { &[0.7] } else { &[0.3, 0.7] };
+                for &t in ts {
                     // per incident power, inside the table's range for the table models
                     let inc = lo + t * (hi - lo);
                     let r = if power == Power::Incident { inc } else { inc / enter };
