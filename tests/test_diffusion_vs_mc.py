@@ -72,6 +72,9 @@ def test_profile_agrees_in_diffusion_regime(high_albedo, model):
     sel = (e[:-1] >= 2.0 - 1e-9) & (e[1:] <= 8.0 + 1e-9)
     assert sel.sum() == 12
     tol = TOL_PROFILE[(model, eta)]
+    # Power: 2·10⁵ photons; a 0.5 mfp ring holds 7 % (2 mfp) … 0.8 % (8 mfp) of them, so
+    # 4σ_ring ≈ 4/√(N P_ring) is 3.4 % … 10 % of the ring's value, on top of tol = 15–30 %: only
+    # a model error beyond ≈ 20–40 % fails (the stated model tolerance, not the MC, sets it).
     dev = np.abs(mod - mc)[sel]
     assert np.all(dev <= tol * mod[sel] + 4 * se[sel]), (dev / mod[sel], se[sel] / mc[sel])
 
@@ -80,12 +83,17 @@ def test_profile_agrees_in_diffusion_regime(high_albedo, model):
 def test_total_agrees_in_diffusion_regime(high_albedo, model):
     eta, (rd, rd_se, *_) = high_albedo
     t = diffusion.total_diffuse_reflectance(0.99, eta, model=model)
+    # Power: R_d ≈ 0.75 (η = 1) / 0.65 (η = 1.3) at 2·10⁵ photons has σ ≈ 0.1 % of R_d (measured
+    # at 2·10⁴ and scaled), so 4σ ≈ 0.4–0.5 %: with the 5 % tolerance a model error beyond ≈ 5.5 %
+    # fails.
     assert abs(t - rd) <= TOL_TOTAL_099 * t + 4 * rd_se
 
 
 @pytest.mark.parametrize("model", ["dipole", "better_dipole"])
 def test_fails_near_the_entry_point(high_albedo, model):
     # r → 0: the models lack the low-order (single/few scattering) peak, MC is > 10× larger.
+    # Power (of the claimed failure): the first ring (r < 0.05 mfp) gets ≈ 2 % of the photons; its
+    # 4σ is ≈ 6–7 % of its value at 2·10⁵ photons; the model must lie > 90 % below MC − 4σ.
     eta, (_, _, e, mc, se) = high_albedo
     mod = _ring_average(model, e[:2], 0.99, eta)[0]
     assert mod < (1.0 - FAIL_CENTER) * (mc[0] - 4 * se[0])
@@ -94,6 +102,9 @@ def test_fails_near_the_entry_point(high_albedo, model):
 @pytest.mark.parametrize("eta", [1.0, 1.3, 1.5])
 def test_total_fails_at_low_albedo(eta):
     rd, rd_se, *_ = _run(0.5, eta, 50_000, seed=4100 + int(10 * eta), nr=1, dr=1.0)
+    # Power (of the claimed failure): R_d ≈ 0.12 / 0.064 / 0.047 (η = 1 / 1.3 / 1.5) at 5·10⁴
+    # photons has 4σ ≈ 2.8 / 3.9 / 4.7 % of R_d, so the models must be off by more than ≈ 13–15 %
+    # of R_d for the test to pass.
     for model in ("dipole", "better_dipole"):
         t = diffusion.total_diffuse_reflectance(0.5, eta, model=model)
         assert abs(t - rd) > FAIL_TOTAL_05 * rd + 4 * rd_se, (model, t, rd)
@@ -102,6 +113,8 @@ def test_total_fails_at_low_albedo(eta):
 @pytest.mark.slow
 def test_better_dipole_total_closer_at_highest_albedo():
     # docs table: α' = 0.999, η = 1.3: better dipole −0.3 %, dipole −0.9 % (MC σ 0.04 % at 5·10⁵).
+    # Power: at 10⁵ photons σ ≈ 0.09 % of R_d, so 4σ ≈ 0.37 % and the margin is 0.9 − 0.3 − 0.37
+    # ≈ 0.2 % of R_d: the ordering is resolved, but narrowly.
     rd, rd_se, *_ = _run(0.999, 1.3, 100_000, seed=4200, nr=1, dr=1.0)
     d = diffusion.total_diffuse_reflectance(0.999, 1.3, model="dipole")
     b = diffusion.total_diffuse_reflectance(0.999, 1.3, model="better_dipole")

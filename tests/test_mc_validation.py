@@ -40,6 +40,8 @@ SLAB_A = Stack([Layer(1.0, 1.0, 9.0, 0.75, 0.2)], 1.0, 1.0)  # van de Hulst / MC
 def test_van_de_hulst_slab():
     # van de Hulst (1980) as tabulated in Wang, Jacques & Zheng 1995 (Table 2):
     # Rd = 0.09739, Tt = 0.66096 for n = 1, μa = 10, μs = 90 /cm, g = 0.75, d = 0.02 cm.
+    # Power: σ ≈ √(p(1−p)/N) at 4·10⁵ photons, so the 4σ band is ≈ 1.9 % of Rd, 0.45 % of Tt and
+    # 1.6 % of the unscattered e⁻²: a 2 % bias of Rd or 0.5 % of Tt fails.
     r = simulate(SLAB_A, photons=400_000, seed=1)
     close(r.diffuse_reflectance, r.diffuse_reflectance_stderr, 0.09739, ref_halfulp=5e-6)
     close(r.transmittance, r.transmittance_stderr, 0.66096, ref_halfulp=5e-6)
@@ -56,6 +58,8 @@ def test_giovanelli_semi_infinite():
     # Giovanelli (1955), as quoted by Wang et al. 1995: n = 1.5 in air, g = 0, μa = 10,
     # μs = 90 /cm, semi-infinite: specular + diffuse reflectance = 0.2600 (specular = 0.04).
     s = Stack([Layer(1.5, 1.0, 9.0, 0.0, math.inf)], 1.0, 1.0)
+    # Power: the diffuse part (≈ 0.22) at 2·10⁵ photons has 4σ ≈ 3.7·10⁻³, 1.7 % of it (1.4 % of
+    # 0.26): a 2 % bias of the diffuse reflectance fails.
     r = simulate(s, photons=200_000, seed=2)
     assert r.specular_reflectance == pytest.approx(0.04, abs=1e-12)
     close(r.specular_reflectance + r.diffuse_reflectance, r.diffuse_reflectance_stderr, 0.2600, ref_halfulp=5e-5)
@@ -68,7 +72,9 @@ def test_giovanelli_semi_infinite():
 )
 def test_exact_semi_infinite_isotropic(albedo, rd, photons):
     # Exact (H-function) diffuse reflectance of a semi-infinite, index-matched, isotropically
-    # scattering medium at normal incidence (van de Hulst 1980; Giovanelli 1955).
+    # scattering medium at normal incidence (van de Hulst 1980; Giovanelli 1955). Power:
+    # 4σ ≈ 4√(Rd(1−Rd)/N) is 1.4 % (albedo 0.8), 1.1 % (0.9) and 1.0 % (0.99, 5·10⁴ photons) of
+    # Rd: a 1.5 % bias fails.
     s = Stack([Layer(1.0, 1.0 - albedo, albedo, 0.0, math.inf)], 1.0, 1.0)
     r = simulate(s, photons=photons, seed=3)
     close(r.diffuse_reflectance, r.diffuse_reflectance_stderr, rd, ref_halfulp=5e-6)
@@ -79,6 +85,8 @@ def test_glass_slab():
     # Clear slab n = 1.5 in air, normal incidence; incoherent multiple reflections:
     # R = R0 + (1 − R0)² R0 / (1 − R0²) = 2 R0 / (1 + R0), T = 1 − R.
     s = Stack([Layer(1.5, 0.0, 0.0, 0.0, 2.0)], 1.0, 1.0)
+    # Power: only the diffuse part (≈ 0.037) is random; at 2·10⁵ photons its 4σ ≈ 1.7·10⁻³ is
+    # 2.2 % of R = 0.077: a 2.5 % error in R fails.
     r = simulate(s, photons=200_000, seed=4)
     r0 = ((1.5 - 1) / (1.5 + 1)) ** 2
     close(r.specular_reflectance + r.diffuse_reflectance, r.diffuse_reflectance_stderr, 2 * r0 / (1 + r0))
@@ -97,7 +105,9 @@ def test_oblique_pencil_specular_is_fresnel():
 
 def test_diffuse_illumination_specular():
     # Lambertian light from air onto n = 1.5: the specular reflectance is the cosine-weighted
-    # hemispherical average 2∫₀¹ R(μ) μ dμ, here by Gauss–Legendre quadrature.
+    # hemispherical average 2∫₀¹ R(μ) μ dμ, here by Gauss–Legendre quadrature. Power: the
+    # per-photon R(μ) has sd ≈ 0.10 about the mean 0.092, so at 10⁵ photons the 4σ band is 1.4 %
+    # of it: a 1.5 % error fails.
     s = Stack([Layer(1.5, 0.5, 5.0, 0.5, math.inf)], 1.0, 1.0)
     r = simulate(s, photons=100_000, seed=6, source=DiffuseIllumination())
     x, w = np.polynomial.legendre.leggauss(200)

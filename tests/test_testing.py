@@ -30,7 +30,8 @@ def test_pooling_matches_hand_computation():
 
 def test_p_values_are_uniform_under_the_null(rng):
     # 300 tests of an exact uniform sampler: the count with p < 0.1 is Binomial(300, 0.1),
-    # mean 30, σ ≈ 5.2 — accept within 4σ.
+    # mean 30, σ ≈ 5.2 — accept within 4σ. Power: the band is ±21 of 30 (70 %), so only a gross
+    # excess or deficit of small p-values (a count outside 9…51) fails.
     low = 0
     for _ in range(300):
         obs = np.bincount(rng.integers(0, 25, 500), minlength=25)
@@ -39,7 +40,11 @@ def test_p_values_are_uniform_under_the_null(rng):
 
 
 def test_kit_rejects_a_wrong_sampler(rng):
-    # Sampling HG with g = 0.5 but testing against g = 0.6 must fail, in 2-D and 1-D.
+    # Sampling HG with g = 0.5 but testing against g = 0.6 must fail, in 2-D and 1-D. Power: a
+    # relative deviation ±δ of the cells holding a fraction f of the probability adds
+    # λ = N Σ(δp)²/p ≈ N f δ² to X²; g = 0.5 vs 0.6 gives λ ≈ 6100 at N = 10⁵ (2-D: 160 cells, 1-D:
+    # 50 bins), far past the X² of p = 10⁻¹⁰ (≈ 300 and ≈ 140). The passing control (160 cells,
+    # α = 0.01, λ ≳ 76 for probability 0.9) would fail for δ ≈ 2.8 % over the whole pdf.
     def sampler(n, rng):
         return np.stack([optics.sample_hg(rng.random(n), 0.5), 2 * math.pi * rng.random(n)], axis=-1)
 
@@ -58,7 +63,8 @@ def test_kit_rejects_a_wrong_sampler(rng):
         seed=2,
     )
     assert not res1.passed and res1.p_value < 1e-10
-    # A misnormalised pdf (integral 1.02) is detected through the total count.
+    # A misnormalised pdf (integral 1.02) is detected through the total count: every one of the 20
+    # bins is 2 % short, λ ≈ 4·10⁵ × 0.02² ≈ 160 against a critical X² ≈ 36 (α = 0.01, 19 dof).
     bad = testing.chi2_test_1d(rng.random(400_000), lambda x: np.full_like(x, 1.02), range=(0, 1), n_bins=20)
     assert not bad.passed and bad.pdf_integral == pytest.approx(1.02)
     # A sample outside the pdf's support (pdf = 1 on [0, 1], 0 on (1, 2]) fails outright; the

@@ -252,6 +252,11 @@ mod stat_tests {
     /// One family of tests: 6 HG values + 1 mixture + 1 isotropic, at overall α = 0.01.
     const TESTS: usize = 8;
 
+    /// Power (how the χ² statements here are derived): a relative deviation ±δ of the cell
+    /// probabilities over cells holding a fraction f of the probability adds λ = N Σ(δp)²/p ≈
+    /// N f δ² to X²; at α_i = 1.3·10⁻³ (α = 0.01 over 8 tests) on ≈ 320 cells (40 graded cos θ ×
+    /// 8 φ) the test fails with probability 0.9 once λ ≳ 125 (non-central χ²). With N = 10⁶ per
+    /// g that is δ ≈ 1.1 % spread over the whole pdf, or ≈ 3.5 % confined to a tenth of it.
     #[test]
     fn hg_sampling_chi2_slow() {
         let alpha = sidak_alpha(0.01, TESTS).unwrap();
@@ -265,6 +270,9 @@ mod stat_tests {
         }
     }
 
+    /// Power (derived as for `hg_sampling_chi2_slow`: λ ≈ N f δ² ≳ 125 on ≈ 320 cells at
+    /// α_i = 1.3·10⁻³): the mixture (N = 10⁶) fails for δ ≈ 1.1 % over the whole pdf or 3.5 % over
+    /// a tenth of it; the isotropic case (N = 5·10⁵) for δ ≈ 1.6 % or 5.0 %.
     #[test]
     fn mixture_and_isotropic_chi2() {
         let alpha = sidak_alpha(0.01, TESTS).unwrap();
@@ -280,7 +288,9 @@ mod stat_tests {
     #[test]
     fn chi2_rejects_wrong_sampler() {
         // Sampling with g = 0.5 but claiming g = 0.6 must fail decisively; so must a mixture
-        // with swapped weights.
+        // with swapped weights. Power: with N = 10⁵ the expected shift λ = N Σ(δp)²/p of the cell
+        // probabilities is ≈ 6100 (g) and ≈ 3100 (weights 0.6/0.4 for 0.7/0.3) on ≈ 320 cells,
+        // far past the X² ≈ 510 at which p = 10⁻¹⁰.
         let r = chi2_of([0.0, 0.0, 1.0], |u| sample_hg(u, 0.5), |c| hg_phase(c, 0.6), 100_000, 300);
         println!("wrong g: {r:?}");
         assert!(r.p_value < 1e-10, "{r:?}");

@@ -28,6 +28,10 @@ use std::sync::atomic::AtomicU64;
 /// (cells down to 10⁻⁵ in cos θ at both ends), 5 HG values × 3 incident directions (normal
 /// incidence, which takes the special form; a generic one; one 10⁻⁴ rad from the pole, where
 /// 1 − uz² has lost its precision in f32) at overall α = 0.01 (Šidák), 2·10⁵ samples each.
+/// Power: a relative deviation ±δ of the cell probabilities over cells holding a fraction f of
+/// the probability adds λ = N Σ(δp)²/p ≈ N f δ² to X²; at α_i = 6.7·10⁻⁴ (15 tests) on ≈ 320
+/// cells the test fails with probability 0.9 once λ ≳ 130 (non-central χ²), so with N = 2·10⁵
+/// δ ≈ 2.6 % spread over the whole pdf, or ≈ 8 % confined to a tenth of it, fails.
 #[test]
 fn lane_scattering_chi2() {
     let dirs = [[0.0, 0.0, -1.0], [1.0, -1.0, 1.0], [6e-5, 8e-5, 1.0]];
@@ -250,7 +254,10 @@ fn same_bits_on_every_instruction_set_and_thread_count_slow() {
 /// The lane kernel and the scalar reference kernel (`mc::kernel`, the same physics with the
 /// azimuth drawn from a disc point) agree on every total and per-layer absorption of the hard
 /// stack within 4 combined standard errors (independent runs: different seeds); the
-/// transmittance is exactly 0 for both (semi-infinite bottom).
+/// transmittance is exactly 0 for both (semi-infinite bottom). Power: Rd ≈ 0.27, A ≈ 0.68 with
+/// 6·10⁴ photons a side, so the 4 combined σ band (√2 · 4σ, σ ≈ 1.1·10⁻³ each) is ≈ 2.3 % of Rd
+/// and ≈ 0.9 % of A; for the layers (A ≈ 0.44, 0.16, 0.08, binomial σ ≈ √(A(1−A)/N)) it is
+/// ≈ 2.6 %, 5 % and 8 %: a 3 % bias of a total, or 8 % of the deepest layer's absorption, fails.
 #[test]
 fn lanes_agree_with_scalar_reference_slow() {
     let s = hard_stack();
@@ -281,13 +288,17 @@ fn lanes_agree_with_scalar_reference_slow() {
 /// Coverage of the standard errors: 200 independent runs (seeds) of the van de Hulst slab
 /// (Rd = 0.09739, Tt = 0.66096, A = 1 − Rd − Tt, MCML paper Table 2) with 16384 photons each;
 /// the fraction of runs whose estimate lies within 1 (2) reported standard errors of the exact
-/// value must match 68.3 % (95.4 %) within 3 binomial standard errors (3.3 % and 1.5 % points
-/// for 200 runs). Checked for the per-photon errors of the totals and of an escape histogram
+/// value must match 68.3 % (95.4 %) within 3 binomial standard errors (3 × 3.3 % and 3 × 1.5 %
+/// points for 200 runs). Checked for the per-photon errors of the totals and of an escape histogram
 /// (rd_r, one bin over the whole surface), and for the batch-means errors of an absorption
 /// histogram (a_z, one bin over the whole slab: its
 /// physical deposits, whose mean is A since roulette's term has mean 0; 64 batches of 256
 /// photons, so the t-distribution of the estimate, 67.9 % and 95.0 % for 63 degrees of
-/// freedom, is within the tolerance of the normal one).
+/// freedom, is within the tolerance of the normal one). Power: the coverage bands are ±9.9 and
+/// ±4.4 % points, so (90 % power: band + 1.28 binomial σ) reported errors below ≈ 0.75× the true
+/// ones (1 σ: 2Φ(0.74) − 1 = 54 %; 2 σ: 0.80×) or above ≈ 1.35× (1 σ coverage 82 %) fail; a
+/// 10 % error in the reported σ usually passes. The exact values hold to 5·10⁻⁶, below 1 % of
+/// σ ≥ 2·10⁻³ at 16384 photons.
 #[test]
 fn standard_errors_cover_the_exact_values() {
     let s = Stack::new(vec![layer(1.0, 1.0, 9.0, 0.75, 0.2)], 1.0, 1.0).unwrap();
