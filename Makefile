@@ -44,14 +44,22 @@ test-python-fast: build
 	$(PY) -m pytest -q -m "not slow" tests
 
 # Formatting and lints: rustfmt.toml and [tool.ruff] in pyproject.toml settle the style (width 120).
+# Clippy and rustdoc check in a target directory of their own (target/lint): their artifacts are not
+# the build's anyway, and `make test` runs them beside the release build of the tests instead of
+# queueing on its lock.
+LINT_CARGO := CARGO_TARGET_DIR=$(abspath target/lint) cargo
 lint: venv
 	cargo fmt --all --check
-	cargo clippy --workspace --all-targets -q -- -D warnings
-	RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps -q
+	$(LINT_CARGO) clippy --workspace --all-targets -q -- -D warnings
+	RUSTDOCFLAGS="-D warnings" $(LINT_CARGO) doc --workspace --no-deps -q
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 
-test: lint test-rust test-python docs-check
+# Two jobs at a time where they do not depend on each other (the venv's installs, clippy and the
+# release build of the tests overlap on 2 cores), then pytest alone, so its summary closes the log.
+test:
+	$(MAKE) --no-print-directory -j2 lint test-rust docs-check
+	$(PY) -m pytest -q tests
 
 test-fast: test-rust-fast test-python-fast
 
