@@ -5,15 +5,16 @@ PY     := $(VENV)/bin/python
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: all venv build lint test test-fast test-rust test-rust-fast test-python test-python-fast demo figures bench clean docs docs-check dist dist-check
+.PHONY: all venv build lint test test-docs-check test-pytest test-fast test-rust test-rust-fast test-python test-python-fast demo figures bench clean docs docs-check dist dist-check
 
 all: build
 
 $(VENV)/.ready: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q "maturin>=1.5,<2" "numpy>=1.22" "matplotlib>=3.5" "h5py>=3.6" "pytest>=7" "scipy>=1.8" "hypothesis>=6.100" "ruff==0.17.6" "trimesh>=4" "openexr>=3.3" "dask[distributed]>=2023.1"
-	$(PY) -m pip install -q "sphinx>=7.2" "myst-parser>=3" "sphinx-gallery>=0.17" "furo>=2024.1"  # the docs extra
+	$(PY) -m pip install -q "maturin>=1.5,<2" "numpy>=1.22" "matplotlib>=3.5" "h5py>=3.6" "pytest>=7" "scipy>=1.8" \
+		"hypothesis>=6.100" "ruff==0.17.6" "trimesh>=4" "openexr>=3.3" "dask[distributed]>=2023.1" \
+		"sphinx>=7.2" "myst-parser>=3" "sphinx-gallery>=0.17" "furo>=2024.1"  # the test, render, cluster and docs extras
 	touch $@
 
 venv: $(VENV)/.ready
@@ -55,10 +56,17 @@ lint: venv
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 
-# Two jobs at a time where they do not depend on each other (the venv's installs, clippy and the
-# release build of the tests overlap on 2 cores), then pytest alone, so its summary closes the log.
+# Two jobs at a time where they do not depend on each other: the venv's installs, clippy, the
+# release build and run of the core's tests and the extension's build overlap on 2 cores; then the
+# docs check (one Python process) beside pytest, whose summary closes the log.
 test:
-	$(MAKE) --no-print-directory -j2 lint test-rust docs-check
+	$(MAKE) --no-print-directory -j2 lint test-rust build
+	$(MAKE) --no-print-directory -j2 test-docs-check test-pytest
+
+test-docs-check:
+	$(DOCS_CHECK)
+
+test-pytest:
 	$(PY) -m pytest -q tests
 
 test-fast: test-rust-fast test-python-fast
@@ -86,7 +94,8 @@ docs: build
 # What `make test` runs: every guide and API page read afresh (-E), the check that each public name
 # has an entry, and one gallery script run, built apart from the full site.
 docs-check: build
-	SUBSURF_DOCS_GALLERY=plot_brdf_lobes $(SPHINX) -E -d docs/_build/check-doctrees docs docs/_build/check
+	$(DOCS_CHECK)
+DOCS_CHECK = SUBSURF_DOCS_GALLERY=plot_brdf_lobes $(SPHINX) -E -d docs/_build/check-doctrees docs docs/_build/check
 
 # An abi3 manylinux wheel and an sdist in dist/ (docs/building.md). ZIG=1 (default): linked by zig
 # (the ziglang package) for manylinux2014 (glibc >= 2.17); its own target dir, so the first build
