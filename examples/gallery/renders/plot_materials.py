@@ -5,7 +5,7 @@ Translucent materials side by side
 Five spheres (radius 6 mm) of measured and made-up materials, rendered with the hierarchical
 BSSRDF integrator (Jensen & Buhler 2002) and the dipole profile: marble, skin, whole milk and
 ketchup from Jensen et al. (2001) (:mod:`subsurf.materials`), and a jade green made from a surface
-colour and a mean free path (:meth:`subsurf.render.Translucent.from_color`). A small, bright area
+colour and a mean free path (:meth:`subsurf.render.Translucent.from_reflectance`). A small, bright area
 light behind and above the row makes the light that travels through the material visible at the
 silhouettes: the red channel, scattered and absorbed least in skin and ketchup, reaches furthest.
 """
@@ -18,7 +18,7 @@ materials = [
     ("skin", R.Translucent.library("skin1")),
     ("whole milk", R.Translucent.library("wholemilk")),
     ("ketchup", R.Translucent.library("ketchup")),
-    ("jade (from a colour)", R.Translucent.from_color((0.35, 0.75, 0.45), mean_free_path=(2.0, 4.0, 2.5))),
+    ("jade (from a colour)", R.Translucent.from_reflectance((0.35, 0.75, 0.45), mfp=(2.0, 4.0, 2.5))),
 ]
 objects = [
     R.Object.sphere(m, center=(16 * (i - 2), 0, 6), radius=6, subdivisions=3) for i, (_, m) in enumerate(materials)

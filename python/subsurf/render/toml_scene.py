@@ -2,7 +2,8 @@
 
 Top-level ``environment`` (RGB radiance), tables ``[render]`` (method, spp, seed, output),
 ``[camera]``, ``[materials.NAME]`` (``library = "marble"``, or ``sigma_a``/``sigma_s``/``g``/``eta``,
-or ``color`` + ``mean_free_path``, or ``type = "lambertian"``; plus ``model``), and arrays of
+or ``reflectance`` + ``mfp`` (+ ``power``, ``mfp_kind``; ``color`` + ``mean_free_path`` is the deprecated spelling), or
+``type = "lambertian"``; plus ``model``), and arrays of
 tables ``[[objects]]`` (``mesh = "file.obj"`` relative to the TOML file, or ``shape = "sphere" |
 "box" | "plane" | "torus"`` with its sizes; ``material``; ``translate``/``scale``/``rotate``) and
 ``[[lights]]`` (``type = "point" | "directional" | "sphere" | "rect"``). Errors name the key.
