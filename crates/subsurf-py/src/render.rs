@@ -10,7 +10,7 @@
 use crate::errors::{threads_arg, to_py, u64_arg, IntoPyResult};
 use crate::medium::{stack_from_py, LayerTuple};
 use crate::wait::{interrupted, interruptible, interruptible_ctl};
-use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, ToPyArray};
+use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray4, ToPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::sync::atomic::Ordering;
@@ -19,6 +19,7 @@ use subsurf_core::bssrdf::monte_carlo::McSettings;
 use subsurf_core::mc::config::{PHOTONS_ALLOWED, SEED_ALLOWED};
 use subsurf_core::render::camera::RESOLUTION_ALLOWED;
 use subsurf_core::render::driver::{check_spp, SPP_ALLOWED};
+use subsurf_core::render::grid::MediumGrid;
 use subsurf_core::render::shapes::{MAX_SUBDIVISIONS, SUBDIVISIONS_ALLOWED};
 use subsurf_core::render::walk_sim::{simulate, BeamSource, VoxelGrid, WalkConfig};
 use subsurf_core::render::{
@@ -93,6 +94,46 @@ struct TranslucentArgs<'py> {
     mc_seed: Bound<'py, PyAny>,
     single_scattering: Option<bool>,
     reflectance: Option<[f64; 3]>,
+    #[pyo3(default)]
+    grid: Option<GridArgs<'py>>,
+}
+
+/// A medium grid: `MediumGrid._to_core()` (σa, σs as (nx, ny, nz, 3) arrays, the box in
+/// object space, the object's world → object map as 3 rows of (A | b)).
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct GridArgs<'py> {
+    sigma_a: PyReadonlyArray4<'py, f64>,
+    sigma_s: PyReadonlyArray4<'py, f64>,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    to_object: [[f64; 4]; 3],
+}
+
+impl GridArgs<'_> {
+    fn build(&self, field: &str) -> PyResult<MediumGrid> {
+        let (a, s) = (self.sigma_a.as_array(), self.sigma_s.as_array());
+        for (name, arr) in [("sigma_a", &a), ("sigma_s", &s)] {
+            if arr.shape()[3] != 3 {
+                return Err(invalid(format!(
+                    "{field}.{name}: expected shape (nx, ny, nz) or (nx, ny, nz, 3), got {:?}",
+                    arr.shape()
+                )));
+            }
+        }
+        if a.shape() != s.shape() {
+            return Err(invalid(format!(
+                "{field}: sigma_a has shape {:?} but sigma_s {:?}; they must be the same",
+                a.shape(),
+                s.shape()
+            )));
+        }
+        let n = [a.shape()[0], a.shape()[1], a.shape()[2]];
+        let rgb = |x: &numpy::ndarray::ArrayView4<'_, f64>| -> Vec<[f64; 3]> {
+            x.iter().copied().collect::<Vec<f64>>().chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+        };
+        MediumGrid::new(field, (self.lo, self.hi), n, rgb(&a), rgb(&s), self.to_object).py()
+    }
 }
 
 /// An opaque Lambertian material: `Lambertian._to_core()`.
@@ -103,7 +144,9 @@ struct LambertianArgs {
     albedo: [f64; 3],
 }
 
+/// (Extracted once per scene and dropped: the size of the largest variant does not matter.)
 #[derive(FromPyObject)]
+#[allow(clippy::large_enum_variant)]
 enum MaterialArgs<'py> {
     Translucent(TranslucentArgs<'py>),
     Lambertian(LambertianArgs),
@@ -133,6 +176,7 @@ impl TranslucentArgs<'_> {
             ..McSettings::default()
         };
         subsurf_core::bssrdf::Model::from_name(&format!("{ctx}.model"), &self.model).py()?;
+        let grid = self.grid.as_ref().map(|g| g.build(&format!("{ctx}.grid"))).transpose()?.map(Arc::new);
         Ok(TranslucentSpec {
             field: ctx,
             sigma_a: self.sigma_a,
@@ -144,6 +188,7 @@ impl TranslucentArgs<'_> {
             mc,
             reflectance: self.reflectance,
             single_scattering: self.single_scattering,
+            grid,
         })
     }
 }

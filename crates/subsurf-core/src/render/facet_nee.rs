@@ -2,7 +2,8 @@
 //! collision point v inside the objects (at any depth of the media stack) to a light outside.
 //!
 //! The connection runs straight from v through index-matched inner interfaces (the same η on
-//! both sides: no refraction, no Fresnel loss; each medium's σt attenuates its own segment) and
+//! both sides: no refraction, no Fresnel loss; each medium's σt attenuates its own segment, a
+//! voxel grid's exactly voxel by voxel, [`super::grid::optical_depth`]) and
 //! refracts once, at one flat facet of the boundary that leaves every object ([`chain`]). A
 //! smooth boundary makes the connection v → p → light specular at p, so a random direction
 //! never finds it; on a flat triangle it can be solved exactly:
@@ -60,7 +61,8 @@ pub fn chain(scene: &Scene, media: &Media, v: V3, dir: V3) -> Option<Chain> {
     for _ in 0..MAX_CHAIN {
         let m = med.medium(scene)?;
         let h = scene.accel.intersect(o, dir, f64::INFINITY, skip)?;
-        tau = std::array::from_fn(|k| tau[k] + m.sigma_t[k] * h.t);
+        let dt = super::grid::optical_depth(m, o, dir, h.t);
+        tau = std::array::from_fn(|k| tau[k] + dt[k]);
         let (after, n1, n2) = med.across(scene, &h, dir)?;
         if after.is_empty() {
             return Some(Chain { hit: h, tau });

@@ -11,6 +11,7 @@
 //! exactly `profile.total() × E_t` (Jensen's un-normalised form would multiply it by c(η)
 //! once more; see `diffusion::bssrdf`).
 
+use super::grid::MediumGrid;
 use super::math::Rgb;
 use crate::bssrdf::RadialProfile;
 use crate::error::{check_g, check_index, check_nonneg, Error, Result};
@@ -48,6 +49,12 @@ pub struct Translucent {
     pub sigma_t: Rgb,
     /// One semi-infinite [`Stack`] per channel for the single-scattering BRDF.
     pub stacks: [Stack; 3],
+    /// σa, σs on a voxel grid ([`super::grid`]; the values above apply outside its box), for
+    /// the random walk; `None` for a homogeneous medium.
+    pub grid: Option<Arc<MediumGrid>>,
+    /// The majorant of delta tracking per channel: σt, or for a grid the largest σt of its
+    /// voxels and of the material (the walk samples free paths with it).
+    pub sigma_bar: Rgb,
 }
 
 impl Translucent {
@@ -87,7 +94,17 @@ impl Translucent {
             phase: Phase::hg(g)?,
             sigma_t: std::array::from_fn(|k| sigma_a[k] + sigma_s[k]),
             stacks,
+            grid: None,
+            sigma_bar: std::array::from_fn(|k| sigma_a[k] + sigma_s[k]),
         })
+    }
+
+    /// The material with σa, σs from `grid` inside its box (the majorant becomes the largest
+    /// σt of the voxels and of the material).
+    pub fn with_grid(mut self, grid: Arc<MediumGrid>) -> Translucent {
+        self.sigma_bar = std::array::from_fn(|k| self.sigma_t[k].max(grid.max_t[k]));
+        self.grid = Some(grid);
+        self
     }
 }
 
@@ -123,6 +140,8 @@ pub struct TranslucentSpec {
     pub reflectance: Option<Rgb>,
     /// Whether the BSSRDF methods add S⁽¹⁾ (`None`: the model's default, see [`channel_profiles`]).
     pub single_scattering: Option<bool>,
+    /// σa, σs on a voxel grid (random walk only; the BSSRDF methods refuse it).
+    pub grid: Option<Arc<MediumGrid>>,
 }
 
 impl TranslucentSpec {
@@ -140,6 +159,13 @@ impl TranslucentSpec {
     /// and counts its photons in `progress`; `None` when `cancel` stopped it.
     pub fn build(&self, profiles: bool, cancel: &AtomicBool, progress: &AtomicU64) -> Result<Option<Translucent>> {
         let within = |e: Error| Error::Invalid(format!("{}: {e}", self.field));
+        if profiles && self.grid.is_some() {
+            return Err(Error::Invalid(format!(
+                "{}.grid: only the random walk (method random_walk, simulate_walk) takes a medium grid; \
+                 the BSSRDF methods need a homogeneous material",
+                self.field
+            )));
+        }
         let (profs, ss_default) = if profiles {
             match channel_profiles(&self.model, &self.stacks, &self.mc, self.reflectance.as_ref(), cancel, progress)
                 .map_err(within)?
@@ -152,7 +178,11 @@ impl TranslucentSpec {
             (None, m.adds_single_scattering())
         };
         let ss = self.single_scattering.unwrap_or(ss_default);
-        Translucent::new(&self.field, self.sigma_a, self.sigma_s, self.g, self.eta, profs, ss).map(Some)
+        let m = Translucent::new(&self.field, self.sigma_a, self.sigma_s, self.g, self.eta, profs, ss)?;
+        Ok(Some(match &self.grid {
+            Some(g) => m.with_grid(g.clone()),
+            None => m,
+        }))
     }
 }
 

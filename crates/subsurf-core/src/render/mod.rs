@@ -19,6 +19,7 @@ pub mod camera;
 pub mod distance;
 pub mod driver;
 pub mod facet_nee;
+pub mod grid;
 pub mod hierarchical;
 pub mod light;
 pub mod material;
@@ -32,6 +33,8 @@ pub mod shapes;
 pub mod walk;
 pub mod walk_sim;
 
+#[cfg(test)]
+mod grid_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]

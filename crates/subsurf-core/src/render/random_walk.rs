@@ -12,6 +12,13 @@
 //!   reaching the boundary at t, β_k ← β_k T_k(t) / Σ_j w_j T_j(t). Unbiased in every channel,
 //!   and Σβ never grows (for albedo ≤ 1), so colour-dependent σt gives no fireflies (a
 //!   uniform channel choice makes β a product of many mean-one factors: heavy-tailed);
+//! - in a heterogeneous medium (a voxel grid, [`super::grid`]) the free paths are those of the
+//!   majorant σ̄ (the same spectral MIS with σ̄ for σt), and at a tentative collision x the
+//!   path is real with probability P = Σ_k ŵ_k σt,k(x)/σ̄_k (ŵ ∝ β), β_k ← β_k σs,k(x)/(σ̄_k P),
+//!   or null with 1 − P, β_k ← β_k (1 − σt,k(x)/σ̄_k)/(1 − P), straight on (delta tracking with
+//!   per-channel weights, the spectral tracking of Kutz et al. 2017 with a per-channel
+//!   majorant): unbiased per channel, Σβ never grows; a constant grid has P = 1 everywhere and
+//!   is the homogeneous walk. Connections attenuate by the grid's exact optical depth;
 //! - Russian roulette on max_k β_k (survive with q = max β, β ← β/q; a radiance estimator
 //!   books no energy, so nothing is tallied for it).
 //!
@@ -32,6 +39,7 @@
 
 use super::accel::Hit;
 use super::facet_nee::{self, Connection};
+use super::grid::Local;
 use super::light::Light;
 use super::material::{Material, Translucent};
 use super::math::{add, dot, max3, mul, neg, normalize, scale, sub, Rgb, V3};
@@ -96,13 +104,49 @@ impl Carrier for Radiance<'_> {
             return false;
         }
         self.beta = std::array::from_fn(|k| self.beta[k] * m.sigma_s[k] * tr[k] / pbar);
-        let q = if self.rw.nee { self.rw.nee_probability(scene, m, media, p) } else { 0.0 };
-        self.covered = q > 0.0 && rng.uniform() < q;
-        if self.covered {
-            self.l = add(self.l, mul(self.beta, self.rw.nee(scene, m, media, p, d, q, rng)));
-            self.last = (p, *media);
-        }
+        self.connect(scene, m, media, p, d, rng);
         true
+    }
+
+    fn delta(
+        &mut self,
+        scene: &Scene,
+        m: &Translucent,
+        local: &Local,
+        media: &Media,
+        s: f64,
+        p: V3,
+        d: V3,
+        rng: &mut PhotonRng,
+    ) -> Option<bool> {
+        // The majorant process's event density, as `collide` weights a homogeneous medium of σ̄.
+        let sb = m.sigma_bar;
+        let tr: Rgb = std::array::from_fn(|k| (-sb[k] * s).exp());
+        let pbar = dot(self.w, mul(sb, tr));
+        if !(pbar > 0.0) {
+            return None;
+        }
+        self.beta = std::array::from_fn(|k| self.beta[k] * sb[k] * tr[k] / pbar);
+        // Real with P = Σ_k ŵ_k σt,k(x)/σ̄_k (ŵ ∝ β: spectral MIS over the channels, Kutz et al.
+        // 2017 §5), null otherwise; each channel weighted by its own probability over P, so
+        // E[β_k] is exact per channel and Σβ never grows.
+        let bsum = self.beta[0] + self.beta[1] + self.beta[2];
+        if !(bsum > 0.0) {
+            return None;
+        }
+        let ratio: Rgb = std::array::from_fn(|k| if sb[k] > 0.0 { (local.sigma_t[k] / sb[k]).min(1.0) } else { 0.0 });
+        let pr = dot(self.beta, ratio) / bsum;
+        let real = pr >= 1.0 || (pr > 0.0 && rng.uniform() < pr);
+        if real {
+            let f = pr.min(1.0);
+            self.beta =
+                std::array::from_fn(|k| if sb[k] > 0.0 { self.beta[k] * local.sigma_s[k] / (sb[k] * f) } else { 0.0 });
+            self.connect(scene, m, media, p, d, rng);
+        } else {
+            // A null collision keeps the path straight: the last connection still covers it.
+            self.beta = std::array::from_fn(|k| self.beta[k] * (1.0 - ratio[k]) / (1.0 - pr));
+        }
+        Some(real)
     }
 
     fn roulette(&mut self, _p: V3, rng: &mut PhotonRng) -> bool {
@@ -117,7 +161,7 @@ impl Carrier for Radiance<'_> {
     }
 
     fn reach(&mut self, m: &Translucent, t: f64) -> bool {
-        let tr: Rgb = std::array::from_fn(|k| (-m.sigma_t[k] * t).exp());
+        let tr: Rgb = std::array::from_fn(|k| (-m.sigma_bar[k] * t).exp()); // σt, or the majorant
         let pbar = dot(self.w, tr);
         if !(pbar > 0.0) {
             return false;
@@ -143,6 +187,18 @@ impl Carrier for Radiance<'_> {
     }
 
     fn lost(&mut self, _p: V3, _capped: bool) {}
+}
+
+impl Radiance<'_> {
+    /// Next-event estimation at a (real) collision, made with probability q.
+    fn connect(&mut self, scene: &Scene, m: &Translucent, media: &Media, p: V3, d: V3, rng: &mut PhotonRng) {
+        let q = if self.rw.nee { self.rw.nee_probability(scene, m, media, p) } else { 0.0 };
+        self.covered = q > 0.0 && rng.uniform() < q;
+        if self.covered {
+            self.l = add(self.l, mul(self.beta, self.rw.nee(scene, m, media, p, d, q, rng)));
+            self.last = (p, *media);
+        }
+    }
 }
 
 impl RandomWalk {

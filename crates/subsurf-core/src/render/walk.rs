@@ -26,6 +26,10 @@
 //! share the physics functions ([`crate::optics`]: Fresnel, refraction, HG sampling, `spin`)
 //! and the roulette constants ([`crate::mc::config`]).
 //!
+//! In a heterogeneous medium (a voxel grid, [`super::grid`]) free paths are sampled with the
+//! majorant σ̄ and each tentative collision is real or null by the carrier's delta tracking
+//! ([`Carrier::delta`]); a null collision leaves the path straight and draws nothing more.
+//!
 //! A collision closer to its start than every surface, by the conservative bound of
 //! [`super::distance`], is taken without casting the ray (the ray could only confirm it).
 //!
@@ -34,6 +38,7 @@
 //! ξ and the carrier's roulette ξ; at a boundary with a mismatched index the Fresnel ξ.
 
 use super::accel::Hit;
+use super::grid::Local;
 use super::material::Translucent;
 use super::math::{dot, madd, V3};
 use super::scene::Scene;
@@ -158,6 +163,23 @@ pub trait Carrier {
         d: V3,
         rng: &mut PhotonRng,
     ) -> bool;
+    /// Delta tracking in a heterogeneous medium ([`super::grid`]): the path moved `s` through
+    /// the majorant process of `m` ([`Translucent::sigma_bar`]) to a tentative collision at `p`
+    /// where the medium is `local`. Decide whether it is real (then weight and score it as
+    /// [`collide`](Self::collide) does a homogeneous one) or null; `Some(true)` real,
+    /// `Some(false)` null (the path goes on straight), `None` the path ends.
+    #[allow(clippy::too_many_arguments)]
+    fn delta(
+        &mut self,
+        scene: &Scene,
+        m: &Translucent,
+        local: &Local,
+        media: &Media,
+        s: f64,
+        p: V3,
+        d: V3,
+        rng: &mut PhotonRng,
+    ) -> Option<bool>;
     /// After the new direction is drawn: Russian roulette.
     fn roulette(&mut self, p: V3, rng: &mut PhotonRng) -> bool;
     /// The path moved `t` through `m` to a boundary (before crossing it).
@@ -185,7 +207,7 @@ pub fn walk<C: Carrier>(
     for _ in 0..MAX_EVENTS {
         let Some(m) = media.medium(scene) else { return c.lost(p, false) };
         let Some(k) = c.channel(rng) else { return };
-        let st = m.sigma_t[k];
+        let st = m.sigma_bar[k]; // σt, or a grid's majorant (delta tracking)
         let s = if st > 0.0 { -(-rng.uniform()).ln_1p() / st } else { f64::INFINITY };
         // The boundary ahead, unless the collision comes first. A collision closer than every
         // surface (the distance grid's bound) needs no ray: the same path, the same numbers.
@@ -201,8 +223,14 @@ pub fn walk<C: Carrier>(
             None => {
                 p = madd(p, d, s);
                 skip = u32::MAX;
-                if !c.collide(scene, m, &media, s, p, d, rng) {
-                    return;
+                let real = match super::grid::local(m, p) {
+                    None => c.collide(scene, m, &media, s, p, d, rng).then_some(true),
+                    Some(local) => c.delta(scene, m, &local, &media, s, p, d, rng),
+                };
+                match real {
+                    None => return,
+                    Some(false) => continue, // a null collision of delta tracking: straight on
+                    Some(true) => {}
                 }
                 let cos = m.phase.sample(rng.uniform());
                 let phi = 2.0 * std::f64::consts::PI * rng.uniform();

@@ -19,6 +19,7 @@
 //! bit-identical for any thread count.
 
 use super::accel::Hit;
+use super::grid::Local;
 use super::material::{Material, Translucent};
 use super::math::{dot, madd, unit, Frame, V3};
 use super::mesh::MAX_COORDINATE;
@@ -215,19 +216,28 @@ impl Carrier for Packet<'_> {
     }
 
     fn collide(&mut self, _: &Scene, m: &Translucent, _: &Media, _: f64, p: V3, _: V3, _: &mut PhotonRng) -> bool {
-        // The engine's implicit capture: w′ = w σs/σt and the exact difference w − w′ (exact
-        // for w′ ≥ w/2) deposited, so the balance closes to rounding of the tallies' sums.
+        self.capture(m.sigma_s, m.sigma_t, p)
+    }
+
+    fn delta(
+        &mut self,
+        _: &Scene,
+        m: &Translucent,
+        local: &Local,
+        _: &Media,
+        _: f64,
+        p: V3,
+        _: V3,
+        rng: &mut PhotonRng,
+    ) -> Option<bool> {
+        // Woodcock: real with probability σt(x)/σ̄ (no draw where σt(x) = σ̄, so a constant
+        // grid is the homogeneous walk, bit for bit); the weight is untouched either way.
         let c = self.cfg.channel;
-        let w_new = self.w * (m.sigma_s[c] / m.sigma_t[c]);
-        let dw = self.w - w_new;
-        self.w = w_new;
-        self.t.absorbed += dw;
-        if let (Some(g), true) = (&self.cfg.voxels, dw != 0.0) {
-            if let Some(k) = g.index(p) {
-                self.t.voxels[k] += dw;
-            }
+        let (st, sb) = (local.sigma_t[c], m.sigma_bar[c]);
+        if st < sb && rng.uniform() * sb >= st {
+            return Some(false);
         }
-        self.w > 0.0
+        self.capture(local.sigma_s, local.sigma_t, p).then_some(true)
     }
 
     fn roulette(&mut self, _p: V3, rng: &mut PhotonRng) -> bool {
@@ -262,6 +272,25 @@ impl Carrier for Packet<'_> {
         } else {
             self.t.lost += self.w;
         }
+    }
+}
+
+impl Packet<'_> {
+    /// The engine's implicit capture at a real collision where the medium is (σs, σt):
+    /// w′ = w σs/σt and the exact difference w − w′ (exact for w′ ≥ w/2) deposited, so the
+    /// balance closes to rounding of the tallies' sums.
+    fn capture(&mut self, sigma_s: [f64; 3], sigma_t: [f64; 3], p: V3) -> bool {
+        let c = self.cfg.channel;
+        let w_new = self.w * (sigma_s[c] / sigma_t[c]);
+        let dw = self.w - w_new;
+        self.w = w_new;
+        self.t.absorbed += dw;
+        if let (Some(g), true) = (&self.cfg.voxels, dw != 0.0) {
+            if let Some(k) = g.index(p) {
+                self.t.voxels[k] += dw;
+            }
+        }
+        self.w > 0.0
     }
 }
 

@@ -36,7 +36,7 @@ fn spheres(nested: bool, light: Option<Light>, env: Rgb) -> Arc<Scene> {
 
 /// Mean and standard error, per channel, of the image sum over samples 0..n (each sample of
 /// the image is independent: per-pixel streams).
-fn image_sum_stats(r: &Renderer, n: u32) -> (Rgb, Rgb) {
+pub(super) fn image_sum_stats(r: &Renderer, n: u32) -> (Rgb, Rgb) {
     let cam = r.scene.camera.as_ref().unwrap();
     let (mut s, mut s2) = ([0.0; 3], [0.0; 3]);
     for i in 0..n {
