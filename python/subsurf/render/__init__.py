@@ -4,7 +4,8 @@
 :class:`Image`; methods: ``hierarchical`` (Jensen & Buhler 2002, the fast default), ``probe``
 (pbrt-v4's probe rays, unbiased) and ``random_walk`` (volumetric path tracing inside the closed
 meshes, the ground truth). Scenes: :class:`Scene` with :class:`Object` (meshes via trimesh or
-built-in shapes), :class:`Translucent`/:class:`Lambertian` materials, lights, a constant
+built-in shapes), :class:`Translucent`/:class:`Lambertian` materials (a :class:`MediumGrid` makes a
+translucent medium heterogeneous for the random walk), lights, a constant
 environment and a :class:`Camera`; or :func:`load_scene` from TOML. :func:`simulate_walk` runs the
 random walk as a tissue-optics simulation. :mod:`subsurf.render.export` writes Mitsuba 3 and
 pbrt-v4 materials.
@@ -19,6 +20,7 @@ import numpy as np
 
 from .. import _core
 from .image import Image, read_exr, tonemap, write_exr, write_png
+from .media import MediumGrid
 from .scene import (
     LIGHTS,
     MODELS,
@@ -110,6 +112,7 @@ __all__ = [
     "DirectionalLight",
     "Image",
     "Lambertian",
+    "MediumGrid",
     "Object",
     "PointLight",
     "RectLight",

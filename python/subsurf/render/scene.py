@@ -16,6 +16,7 @@ import numpy as np
 from .. import _core
 from ..materials import get as _library
 from ..medium import Layer, Stack
+from .media import MediumGrid, to_object_map
 
 #: The profile models (the core's list, ``subsurf_core::bssrdf::Model``).
 MODELS = tuple(_core.BSSRDF_MODELS)
@@ -69,7 +70,9 @@ class Translucent:
     layered material to the profile models (``multipole``, ``monte_carlo``); ``mc_photons`` and
     ``mc_seed`` set the Monte Carlo profile's run; ``reflectance`` (set by :meth:`from_reflectance`)
     is the reflectance per unit incident power the material was made from, which
-    ``normalized_diffusion`` takes (÷ (1 − R_sp)) as its surface albedo. Construct from the library
+    ``normalized_diffusion`` takes (÷ (1 − R_sp)) as its surface albedo. ``grid`` (a
+    :class:`MediumGrid`) makes the medium heterogeneous for ``random_walk`` and
+    :func:`simulate_walk`: σa, σs per voxel inside its box, the values above outside it. Construct from the library
     with :meth:`library`, from layers with :meth:`from_stacks`, or from a reflectance and a mean
     free path with :meth:`from_reflectance`.
     """
@@ -87,6 +90,7 @@ class Translucent:
         mc_seed=_MC["seed"],
         single_scattering=None,
         reflectance=None,
+        grid=None,
     ):
         self.sigma_a = _vec3("sigma_a", sigma_a)
         self.sigma_s = _vec3("sigma_s", sigma_s)
@@ -99,6 +103,11 @@ class Translucent:
             raise _err("stacks: give three subsurf.Stack objects, one per RGB channel")
         self.mc_photons, self.mc_seed, self.single_scattering = mc_photons, mc_seed, single_scattering  # core checks
         self.reflectance = None if reflectance is None else _vec3("reflectance", reflectance)
+        if isinstance(grid, dict):
+            grid = MediumGrid.from_dict(grid)
+        if grid is not None and not isinstance(grid, MediumGrid):
+            raise _err(f"grid = {grid!r}: give a subsurf.render.MediumGrid (or a table in a scene file)")
+        self.grid = grid
 
     @property
     def layered(self) -> bool:
@@ -184,8 +193,9 @@ class Translucent:
         :meth:`from_reflectance` (per incident power, mean free path 1/σt)."""
         return cls.from_reflectance(color, mean_free_path, eta=eta, g=g, model=model, name=name, table=table, **kw)
 
-    def _to_core(self, name):
+    def _to_core(self, name, to_object=None):
         return {
+            "grid": None if self.grid is None else self.grid._to_core(to_object),
             "kind": "translucent",
             "name": name,
             "sigma_a": self.sigma_a,
@@ -203,7 +213,7 @@ class Translucent:
     def __repr__(self):
         return (
             f"Translucent(name={self.name!r}, sigma_a={self.sigma_a}, sigma_s={self.sigma_s}, g={self.g}, "
-            f"eta={self.eta}, model={self.model!r})"
+            f"eta={self.eta}, model={self.model!r}" + ("" if self.grid is None else f", grid={self.grid!r}") + ")"
         )
 
 
@@ -294,6 +304,7 @@ class Object:
 
     def __init__(self, positions, triangles, material, name=None, tint=None, translate=None, scale=None, rotate=None):
         self.positions = _transform(positions, translate, scale, rotate)
+        self._placement = (translate, scale, rotate)
         self.triangles = np.asarray(triangles, dtype=np.int64)
         self.material = material if isinstance(material, (Translucent, Lambertian)) else globals()["material"](material)
         self.name = name
@@ -358,6 +369,10 @@ class Object:
     def info(self):
         """(closed, open_edges, area mm², volume mm³), validating the mesh."""
         return _core.render_mesh_info(self._mesh_dict(self.name or "mesh"))
+
+    def _to_object(self):
+        """The world → object affine map (3 rows of (A | b)) of this object's transform."""
+        return to_object_map(lambda p: _transform(p, *self._placement))
 
     def _mesh_dict(self, name):
         return {"name": name, "positions": self.positions, "triangles": self.triangles, "tint": self.tint}
@@ -469,13 +484,20 @@ class Scene:
                         f"materials.{n}: random_walk cannot use a layered stack on one mesh; "
                         "model the layers as nested closed meshes"
                     )
-        objs = []
+        # One core material per material, or per (material, object) for a grid material: its
+        # grid is in object space and follows each object's transform.
+        objs, entries, index = [], [], {}
         for i, o in enumerate(self.objects):
             k = next(k for k, m in enumerate(mats) if m is o.material)
-            objs.append({"mesh": o._mesh_dict(o.name or f"objects[{i}]"), "material": k})
+            key = (k, i) if getattr(o.material, "grid", None) is not None else (k, None)
+            if key not in index:
+                index[key] = len(entries)
+                m = o.material
+                entries.append(m._to_core(names[k], o._to_object()) if key[1] is not None else m._to_core(names[k]))
+            objs.append({"mesh": o._mesh_dict(o.name or f"objects[{i}]"), "material": index[key]})
         return {
             "objects": objs,
-            "materials": [m._to_core(n) for m, n in zip(mats, names)],
+            "materials": entries,
             "lights": [l._to_core(i) for i, l in enumerate(self.lights)],
             "environment": _vec3("environment", self.environment),
             "camera": None if self.camera is None else self.camera._to_core(),

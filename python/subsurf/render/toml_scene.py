@@ -88,7 +88,10 @@ def load_scene(path):
     mats = {}
     for name, spec in _table(doc, "materials", path, {}).items():
         try:
+            spec = _grid_files(spec, base)
             m = material(spec, key=f"materials.{name}")
+        except FileNotFoundError as e:
+            raise FileNotFoundError(f"{path}: materials.{name}.{e}") from None
         except _core.ParameterError as e:
             raise _err(path, str(e)) from None
         m.name = name
@@ -165,6 +168,19 @@ def load_scene(path):
         raise _err(path, f"render.method = {method!r}: must be one of {list(_core.RENDER_METHODS)}")
     settings = {"method": method, "spp": spp, "seed": seed, "output": output}
     return Scene(objects, lights, doc.get("environment", (0, 0, 0)), camera), settings
+
+
+def _grid_files(spec, base):
+    """``spec`` with the grid's file names (``[materials.NAME.grid]`` sigma_a, sigma_s) taken
+    relative to the scene file's folder."""
+    if not (isinstance(spec, dict) and isinstance(spec.get("grid"), dict)):
+        return spec
+    grid = dict(spec["grid"])
+    for k in ("sigma_a", "sigma_s"):
+        v = grid.get(k)
+        if isinstance(v, str) and not os.path.isabs(v):
+            grid[k] = os.path.join(base, v)
+    return {**spec, "grid": grid}
 
 
 def _known(d, allowed, where, path):
