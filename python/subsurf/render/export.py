@@ -47,6 +47,11 @@ def _check(m, fmt, unit_mm) -> float:
             f"{fmt} export: material {m.name!r} is layered (a stack of layers per channel); {fmt} has one "
             "homogeneous medium per shape, so it cannot express it (export each layer as a nested shape)"
         )
+    if m.grid is not None:
+        raise _err(
+            f"{fmt} export: material {m.name!r} has a medium grid; this export writes one homogeneous "
+            "medium per shape (a grid would need the format's heterogeneous volume, not written here)"
+        )
     for i, (a, s) in enumerate(zip(m.sigma_a, m.sigma_s)):
         try:
             _core.bssrdf_check_medium(a, s, m.g, m.eta)
