@@ -10,7 +10,9 @@
 use crate::errors::{threads_arg, to_py, u64_arg, IntoPyResult};
 use crate::medium::{stack_from_py, LayerTuple};
 use crate::wait::{interrupted, interruptible, interruptible_ctl};
-use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray4, ToPyArray};
+use numpy::{
+    PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4, ToPyArray,
+};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::sync::atomic::Ordering;
@@ -21,6 +23,7 @@ use subsurf_core::render::camera::RESOLUTION_ALLOWED;
 use subsurf_core::render::driver::{check_spp, SPP_ALLOWED};
 use subsurf_core::render::grid::MediumGrid;
 use subsurf_core::render::shapes::{MAX_SUBDIVISIONS, SUBDIVISIONS_ALLOWED};
+use subsurf_core::render::texture::SurfaceTexture;
 use subsurf_core::render::walk_sim::{simulate, BeamSource, VoxelGrid, WalkConfig};
 use subsurf_core::render::{
     shapes, Camera, Control, HierarchicalParams, Light, LightKind, Material, Mesh, Method, Object, Renderer, Scene,
@@ -40,6 +43,9 @@ struct MeshArgs<'py> {
     positions: PyReadonlyArray2<'py, f64>,
     triangles: PyReadonlyArray2<'py, i64>,
     tint: Option<PyReadonlyArray2<'py, f64>>,
+    /// (u, v) of each triangle's corners, shape (n_triangles, 3, 2).
+    #[pyo3(default)]
+    uv: Option<PyReadonlyArray3<'py, f64>>,
 }
 
 /// Rows of an (n, 3) array; errors name `what`.
@@ -67,7 +73,17 @@ impl MeshArgs<'_> {
             triangles.push(t.map(|k| k as u32));
         }
         let tint = self.tint.as_ref().map(|t| rows3(t, &format!("{name}.tint"))).transpose()?;
-        Mesh::new(name, positions, triangles, tint).py()
+        let mesh = Mesh::new(name, positions, triangles, tint).py()?;
+        let Some(uv) = &self.uv else { return Ok(mesh) };
+        let a = uv.as_array();
+        if a.shape()[1..] != [3, 2] {
+            return Err(invalid(format!(
+                "{name}.uv: expected shape (n_triangles, 3, 2) (u, v per corner), got {:?}",
+                a.shape()
+            )));
+        }
+        let corners = a.outer_iter().map(|t| std::array::from_fn(|c| [t[[c, 0]], t[[c, 1]]])).collect();
+        mesh.with_uv(name, corners).py()
     }
 }
 
@@ -96,6 +112,9 @@ struct TranslucentArgs<'py> {
     reflectance: Option<[f64; 3]>,
     #[pyo3(default)]
     grid: Option<GridArgs<'py>>,
+    /// σs per texel of a surface colour map, shape (height, width, 3), rows from the top.
+    #[pyo3(default)]
+    texture: Option<PyReadonlyArray3<'py, f64>>,
 }
 
 /// A medium grid: `MediumGrid._to_core()` (σa, σs as (nx, ny, nz, 3) arrays, the box in
@@ -177,6 +196,23 @@ impl TranslucentArgs<'_> {
         };
         subsurf_core::bssrdf::Model::from_name(&format!("{ctx}.model"), &self.model).py()?;
         let grid = self.grid.as_ref().map(|g| g.build(&format!("{ctx}.grid"))).transpose()?.map(Arc::new);
+        let texture = match &self.texture {
+            None => None,
+            Some(t) => {
+                let a = t.as_array();
+                let (h, w) = (a.shape()[0], a.shape()[1]);
+                if a.shape()[2] != 3 {
+                    return Err(invalid(format!(
+                        "{ctx}.texture: expected shape (height, width, 3), got {:?}",
+                        a.shape()
+                    )));
+                }
+                let v: Vec<f64> = a.iter().copied().collect();
+                let texels = v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+                let st = std::array::from_fn(|k| self.sigma_a[k] + self.sigma_s[k]);
+                Some(Arc::new(SurfaceTexture::new(&format!("{ctx}.texture"), w, h, texels, st).py()?))
+            }
+        };
         Ok(TranslucentSpec {
             field: ctx,
             sigma_a: self.sigma_a,
@@ -189,6 +225,7 @@ impl TranslucentArgs<'_> {
             reflectance: self.reflectance,
             single_scattering: self.single_scattering,
             grid,
+            texture,
         })
     }
 }

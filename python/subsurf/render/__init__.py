@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import _core
 from .image import Image, read_exr, tonemap, write_exr, write_png
-from .media import MediumGrid
+from .media import MediumGrid, Texture
 from .scene import (
     LIGHTS,
     MODELS,
@@ -118,6 +118,7 @@ __all__ = [
     "RectLight",
     "Scene",
     "SphereLight",
+    "Texture",
     "Translucent",
     "load_scene",
     "read_exr",

@@ -109,3 +109,83 @@ def to_object_map(transform):
     except np.linalg.LinAlgError:
         raise _err("scale: a zero scale flattens the object; its medium grid cannot be placed") from None
     return np.hstack([a, (-a @ t)[:, None]]).tolist()
+
+
+def _srgb_to_linear(c):
+    """IEC 61966-2-1 sRGB decoding of values in [0, 1]."""
+    return np.where(c <= 0.04045, c / 12.92, np.power((c + 0.055) / 1.055, 2.4))
+
+
+class Texture:
+    """A colour (reflectance) map: an image file (PNG, JPEG, … read with Pillow) or an array of
+    shape (height, width, 3) (or (height, width): grey) with values in [0, 1] (or uint8, / 255).
+    Row 0 is the image's top (v = 1). ``srgb``: decode the sRGB transfer curve (the default for
+    image files, whose 8-bit colours are sRGB-encoded; arrays are taken as linear reflectance).
+
+    Give it as the reflectance of :meth:`Translucent.from_reflectance`; the mesh needs texture
+    coordinates (an OBJ/PLY/GLB with UVs, or ``Object(..., uv=)``)."""
+
+    def __init__(self, image, srgb=None):
+        if isinstance(image, (str, os.PathLike)):
+            path = os.fspath(image)
+            if not os.path.exists(path):
+                raise FileNotFoundError(f"texture: image file {path!r} does not exist")
+            try:
+                from PIL import Image as _PIL
+            except ImportError:  # pragma: no cover - Pillow comes with matplotlib
+                raise _err("texture: reading image files needs Pillow (pip install pillow)") from None
+            try:
+                with _PIL.open(path) as im:
+                    a = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
+            except Exception as e:  # Pillow raises many kinds on unreadable files
+                raise _err(f"texture: cannot read image file {path!r}: {e}") from None
+            srgb = True if srgb is None else bool(srgb)
+            self.source = path
+        else:
+            a = np.asarray(image)
+            if a.dtype == np.uint8:
+                a = a / 255.0
+            try:
+                a = np.asarray(a, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise _err("texture: expected an image array of numbers in [0, 1]") from None
+            srgb = bool(srgb)
+            self.source = "array"
+        if a.ndim == 2:
+            a = np.repeat(a[..., None], 3, axis=2)
+        if a.ndim != 3 or a.shape[2] not in (3, 4) or a.shape[0] == 0 or a.shape[1] == 0:
+            raise _err(f"texture: expected an image of shape (height, width, 3), got {a.shape}")
+        a = a[..., :3]
+        bad = ~(np.isfinite(a) & (a >= 0) & (a <= 1))
+        if bad.any():
+            i = tuple(int(x) for x in np.argwhere(bad)[0])
+            raise _err(f"texture[{i[0]}, {i[1]}, {i[2]}] = {a[i]} is out of range: must be a reflectance in [0, 1]")
+        self.reflectance = np.ascontiguousarray(_srgb_to_linear(a) if srgb else a)
+
+    @property
+    def shape(self):
+        """(height, width)."""
+        return self.reflectance.shape[:2]
+
+    def mean(self):
+        """The mean reflectance per channel."""
+        return [float(x) for x in self.reflectance.reshape(-1, 3).mean(axis=0)]
+
+    def invert(self, invert_channel):
+        """σs per texel, (height, width, 3): ``invert_channel(k, values)`` gives σs of channel k
+        for an array of reflectances (the core's inversion); each channel's distinct values are
+        inverted once (an 8-bit image has at most 256), or, beyond 4096 distinct values, a table
+        of 4096 values between the least and the largest, interpolated linearly."""
+        out = np.empty_like(self.reflectance)
+        for k in range(3):
+            ch = self.reflectance[..., k]
+            values, inverse = np.unique(ch, return_inverse=True)
+            if values.size <= 4096:
+                out[..., k] = np.asarray(invert_channel(k, values))[inverse].reshape(ch.shape)
+            else:
+                grid = np.linspace(values[0], values[-1], 4096)
+                out[..., k] = np.interp(ch, grid, np.asarray(invert_channel(k, grid)))
+        return out
+
+    def __repr__(self):
+        return f"Texture({self.source!r}, shape={self.shape})"

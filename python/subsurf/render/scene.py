@@ -16,7 +16,7 @@ import numpy as np
 from .. import _core
 from ..materials import get as _library
 from ..medium import Layer, Stack
-from .media import MediumGrid, to_object_map
+from .media import MediumGrid, Texture, to_object_map
 
 #: The profile models (the core's list, ``subsurf_core::bssrdf::Model``).
 MODELS = tuple(_core.BSSRDF_MODELS)
@@ -108,6 +108,8 @@ class Translucent:
         if grid is not None and not isinstance(grid, MediumGrid):
             raise _err(f"grid = {grid!r}: give a subsurf.render.MediumGrid (or a table in a scene file)")
         self.grid = grid
+        #: The colour map (a :class:`Texture`, set by :meth:`from_reflectance`) and σs per texel.
+        self.texture, self.texel_sigma_s = None, None
 
     @property
     def layered(self) -> bool:
@@ -169,6 +171,9 @@ class Translucent:
         A render of the material under ``model`` shows the reflectance (per incident power)."""
         from .. import bssrdf, diffusion
 
+        if isinstance(reflectance, Texture):
+            opts = dict(eta=eta, g=g, model=model, power=power, mfp_kind=mfp_kind, table=table)
+            return cls._textured(reflectance, mfp, name=name, **opts, **kw)
         refl = _vec3("reflectance", reflectance)
         mfp = _vec3("mfp", mfp)
         layers = bssrdf.material_from_reflectance(
@@ -188,6 +193,40 @@ class Translucent:
         )
 
     @classmethod
+    def _textured(cls, tex, mfp, *, eta, g, model, power, mfp_kind, name, table, **kw):
+        """A material whose reflectance is the :class:`Texture` ``tex``: every texel inverted by
+        :func:`subsurf.bssrdf.material_from_reflectance` at the constant extinction mean free
+        path ``mfp`` (so σt is the same for every texel and only σs follows the map); the
+        material's own σa, σs are those of the map's mean colour."""
+        from .. import bssrdf
+
+        if mfp_kind != "extinction":
+            raise _err(
+                f"mfp_kind = {mfp_kind!r}: a texture needs mfp_kind = 'extinction' (the same σt for "
+                "every texel; the texture sets the albedo of the walk that enters there)"
+            )
+        mfp = _vec3("mfp", mfp)
+        opts = dict(eta=eta, g=g, model=model, power=power, mfp_kind=mfp_kind, table=table)
+
+        def invert(k, values):
+            out = []
+            for i in range(0, len(values), 3):
+                r = [float(x) for x in values[i : i + 3]]
+                r += [r[-1]] * (3 - len(r))
+                try:
+                    layers = bssrdf.material_from_reflectance(r, [mfp[k]] * 3, **opts)
+                except _core.ParameterError as e:
+                    raise _err(f"texture, channel {k}: {e}") from None
+                out += [l.mus for l in layers][: min(3, len(values) - i)]
+            return out
+
+        sigma_s = tex.invert(invert)
+        m = cls.from_reflectance(tex.mean(), mfp, name=name, **opts, **kw)
+        sigma_t = np.add(m.sigma_a, m.sigma_s)  # 1/mfp per channel, as every texel's
+        m.texture, m.texel_sigma_s = tex, np.minimum(sigma_s, sigma_t)  # (rounding at albedo 1)
+        return m
+
+    @classmethod
     def from_color(cls, color, mean_free_path, eta=1.3, g=0.0, model="dipole", name=None, table=None, **kw):
         """Deprecated forwarding alias, kept until the demo that calls it is merged:
         :meth:`from_reflectance` (per incident power, mean free path 1/σt)."""
@@ -196,6 +235,7 @@ class Translucent:
     def _to_core(self, name, to_object=None):
         return {
             "grid": None if self.grid is None else self.grid._to_core(to_object),
+            "texture": None if self.texture is None else self.texel_sigma_s,
             "kind": "translucent",
             "name": name,
             "sigma_a": self.sigma_a,
@@ -302,7 +342,9 @@ class Object:
     ``scale``, ``rotate`` (degrees about x, y, z) transform it; ``tint`` (per-vertex RGB in
     [0, 1]) scales the light leaving a translucent surface."""
 
-    def __init__(self, positions, triangles, material, name=None, tint=None, translate=None, scale=None, rotate=None):
+    def __init__(
+        self, positions, triangles, material, name=None, tint=None, translate=None, scale=None, rotate=None, uv=None
+    ):
         self.positions = _transform(positions, translate, scale, rotate)
         self._placement = (translate, scale, rotate)
         self.triangles = np.asarray(triangles, dtype=np.int64)
@@ -311,6 +353,13 @@ class Object:
         self.tint = None if tint is None else np.asarray(tint, dtype=np.float64)
         if self.tint is not None and self.tint.ndim != 2:
             raise _err(f"tint: expected an array of shape (n_vertices, 3), got shape {self.tint.shape}")
+        self.uv = None if uv is None else np.asarray(uv, dtype=np.float64)
+        if self.uv is not None and self.uv.shape == (len(self.positions), 2):
+            self.uv = self.uv[self.triangles]  # per vertex → per triangle corner
+        if self.uv is not None and self.uv.shape != (len(self.triangles), 3, 2):
+            raise _err(
+                f"uv: expected texture coordinates of shape (n_vertices, 2) or (n_triangles, 3, 2), got {self.uv.shape}"
+            )
 
     @classmethod
     def mesh(cls, source, material, name=None, **kw):
@@ -343,7 +392,16 @@ class Object:
         tint = kw.pop("tint", None)
         if tint is None and getattr(tm.visual, "kind", None) == "vertex":
             tint = np.asarray(tm.visual.vertex_colors, dtype=np.float64)[:, :3] / 255.0
-        return cls(np.asarray(tm.vertices), np.asarray(tm.faces), material, name=name, tint=tint, **kw)
+        vertices, faces = np.asarray(tm.vertices), np.asarray(tm.faces)
+        uv = kw.pop("uv", None)
+        if uv is None and getattr(tm.visual, "uv", None) is not None and len(tm.visual.uv) == len(vertices):
+            # Texture coordinates per corner; vertices split at UV seams are merged again by
+            # position, so the mesh stays closed for the random walk.
+            uv = np.asarray(tm.visual.uv, dtype=np.float64)[faces]
+            vertices, inverse = np.unique(vertices, axis=0, return_inverse=True)
+            faces = inverse.reshape(-1)[faces]
+            tint = None if tint is None else np.asarray(tint)[np.unique(inverse.reshape(-1), return_index=True)[1]]
+        return cls(vertices, faces, material, name=name, tint=tint, uv=uv, **kw)
 
     @classmethod
     def sphere(cls, material, center=(0, 0, 0), radius=1.0, subdivisions=4, name=None, **kw):
@@ -375,7 +433,8 @@ class Object:
         return to_object_map(lambda p: _transform(p, *self._placement))
 
     def _mesh_dict(self, name):
-        return {"name": name, "positions": self.positions, "triangles": self.triangles, "tint": self.tint}
+        d = {"name": name, "positions": self.positions, "triangles": self.triangles, "tint": self.tint}
+        return d if self.uv is None else {**d, "uv": np.ascontiguousarray(self.uv)}
 
 
 # --- lights and camera ------------------------------------------------------------------------

@@ -15,6 +15,7 @@ import os
 import sys
 
 from .. import _core
+from .media import Texture
 from .scene import LIGHT_PARAMS, LIGHTS, Camera, Object, Scene, material
 
 if sys.version_info >= (3, 11):
@@ -172,7 +173,14 @@ def load_scene(path):
 
 def _grid_files(spec, base):
     """``spec`` with the grid's file names (``[materials.NAME.grid]`` sigma_a, sigma_s) taken
-    relative to the scene file's folder."""
+    relative to the scene file's folder, and a ``reflectance`` given as an image file name read
+    as a :class:`~subsurf.render.Texture`."""
+    if isinstance(spec, dict) and isinstance(spec.get("reflectance"), str):
+        img = spec["reflectance"]
+        try:
+            spec = {**spec, "reflectance": Texture(img if os.path.isabs(img) else os.path.join(base, img))}
+        except FileNotFoundError as e:
+            raise FileNotFoundError(f"reflectance: {e}") from None
     if not (isinstance(spec, dict) and isinstance(spec.get("grid"), dict)):
         return spec
     grid = dict(spec["grid"])

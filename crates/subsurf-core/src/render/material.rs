@@ -13,6 +13,7 @@
 
 use super::grid::MediumGrid;
 use super::math::Rgb;
+use super::texture::SurfaceTexture;
 use crate::bssrdf::RadialProfile;
 use crate::error::{check_g, check_index, check_nonneg, Error, Result};
 use crate::medium::{Layer, Stack};
@@ -55,6 +56,9 @@ pub struct Translucent {
     /// The majorant of delta tracking per channel: σt, or for a grid the largest σt of its
     /// voxels and of the material (the walk samples free paths with it).
     pub sigma_bar: Rgb,
+    /// σs per texel of a surface colour map ([`super::texture`]; σt stays the material's), for
+    /// the random walk; `None` for an untextured material.
+    pub texture: Option<Arc<SurfaceTexture>>,
 }
 
 impl Translucent {
@@ -96,6 +100,7 @@ impl Translucent {
             stacks,
             grid: None,
             sigma_bar: std::array::from_fn(|k| sigma_a[k] + sigma_s[k]),
+            texture: None,
         })
     }
 
@@ -142,6 +147,8 @@ pub struct TranslucentSpec {
     pub single_scattering: Option<bool>,
     /// σa, σs on a voxel grid (random walk only; the BSSRDF methods refuse it).
     pub grid: Option<Arc<MediumGrid>>,
+    /// σs per texel of a surface colour map (random walk only; the BSSRDF methods refuse it).
+    pub texture: Option<Arc<SurfaceTexture>>,
 }
 
 impl TranslucentSpec {
@@ -179,10 +186,22 @@ impl TranslucentSpec {
         };
         let ss = self.single_scattering.unwrap_or(ss_default);
         let m = Translucent::new(&self.field, self.sigma_a, self.sigma_s, self.g, self.eta, profs, ss)?;
-        Ok(Some(match &self.grid {
+        if profiles && self.texture.is_some() {
+            return Err(Error::Invalid(format!(
+                "{}.texture: only the random walk (method random_walk, simulate_walk) takes a surface \
+                 texture; the BSSRDF methods need an untextured material",
+                self.field
+            )));
+        }
+        if self.grid.is_some() && self.texture.is_some() {
+            return Err(Error::Invalid(format!("{}: give a medium grid or a surface texture, not both", self.field)));
+        }
+        let mut m = match &self.grid {
             Some(g) => m.with_grid(g.clone()),
             None => m,
-        }))
+        };
+        m.texture = self.texture.clone();
+        Ok(Some(m))
     }
 }
 

@@ -28,6 +28,11 @@ pub struct Mesh {
     pub closed: bool,
     /// Number of edges not shared by exactly two triangles (0 when `closed`).
     pub open_edges: usize,
+    /// Optional texture coordinates (u, v) of each triangle's three corners (a surface
+    /// texture's lookup, [`super::texture`]).
+    pub uv: Option<Vec<[[f64; 2]; 3]>>,
+    /// Whether the triangles were re-oriented outwards (corners 1 and 2 swapped).
+    reoriented: bool,
 }
 
 impl Mesh {
@@ -69,12 +74,48 @@ impl Mesh {
         }
         let open_edges = count_open_edges(&triangles);
         let closed = open_edges == 0;
-        if closed && signed_volume(&positions, &triangles) < 0.0 {
+        let reoriented = closed && signed_volume(&positions, &triangles) < 0.0;
+        if reoriented {
             for t in triangles.iter_mut() {
                 t.swap(1, 2);
             }
         }
-        Ok(Mesh { positions, triangles, tint, closed, open_edges })
+        Ok(Mesh { positions, triangles, tint, closed, open_edges, uv: None, reoriented })
+    }
+
+    /// The mesh with texture coordinates `uv`: (u, v) of each triangle's corners, in the order
+    /// given to [`Mesh::new`]. Errors (naming `name`): a count other than one per triangle, a
+    /// non-finite coordinate.
+    pub fn with_uv(mut self, name: &str, mut uv: Vec<[[f64; 2]; 3]>) -> Result<Mesh> {
+        if uv.len() != self.triangles.len() {
+            return Err(Error::Invalid(format!(
+                "{name}.uv: {} triangles of texture coordinates, one per triangle ({}) needed",
+                uv.len(),
+                self.triangles.len()
+            )));
+        }
+        if let Some(c) = uv.iter().flatten().flatten().find(|c| !c.is_finite()) {
+            return Err(Error::param(format!("{name}.uv"), *c, "finite texture coordinates"));
+        }
+        if self.reoriented {
+            for t in uv.iter_mut() {
+                t.swap(1, 2);
+            }
+        }
+        self.uv = Some(uv);
+        Ok(self)
+    }
+
+    /// (u, v) at barycentric (b1, b2) of triangle `i` ((0, 0) without texture coordinates).
+    pub fn uv_at(&self, i: usize, b1: f64, b2: f64) -> [f64; 2] {
+        match &self.uv {
+            None => [0.0; 2],
+            Some(uv) => {
+                let [a, b, c] = uv[i];
+                let b0 = 1.0 - b1 - b2;
+                std::array::from_fn(|k| b0 * a[k] + b1 * b[k] + b2 * c[k])
+            }
+        }
     }
 
     /// Vertices of triangle `i`.

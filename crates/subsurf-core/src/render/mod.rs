@@ -30,6 +30,7 @@ pub mod random_walk;
 pub mod scene;
 pub mod shade;
 pub mod shapes;
+pub mod texture;
 pub mod walk;
 pub mod walk_sim;
 

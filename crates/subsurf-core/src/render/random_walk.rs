@@ -135,7 +135,9 @@ impl Carrier for Radiance<'_> {
             return None;
         }
         let ratio: Rgb = std::array::from_fn(|k| if sb[k] > 0.0 { (local.sigma_t[k] / sb[k]).min(1.0) } else { 0.0 });
-        let pr = dot(self.beta, ratio) / bsum;
+        // Every channel at its majorant (a constant grid, a texture): real without a draw.
+        let full = (0..3).all(|k| ratio[k] >= 1.0 || self.beta[k] == 0.0);
+        let pr = if full { 1.0 } else { dot(self.beta, ratio) / bsum };
         let real = pr >= 1.0 || (pr > 0.0 && rng.uniform() < pr);
         if real {
             let f = pr.min(1.0);

@@ -57,6 +57,16 @@ impl Scene {
                 )));
             }
         }
+        for o in &objects {
+            let textured = materials[o.material].translucent().is_some_and(|m| m.texture.is_some());
+            if textured && o.mesh.uv.is_none() {
+                return Err(Error::Invalid(format!(
+                    "{}.uv: the material has a surface texture but the mesh has no texture coordinates \
+                     (load an OBJ/PLY/GLB with UVs, or give uv)",
+                    o.name
+                )));
+            }
+        }
         super::light::check_power("environment", environment)?;
         let meshes: Vec<&Mesh> = objects.iter().map(|o| &o.mesh).collect();
         let mut accel = Accel::new(&meshes);

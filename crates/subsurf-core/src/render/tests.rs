@@ -422,6 +422,7 @@ fn mc_spec(photons: u64) -> super::TranslucentSpec {
         reflectance: None,
         single_scattering: None,
         grid: None,
+        texture: None,
     }
 }
 

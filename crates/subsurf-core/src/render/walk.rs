@@ -29,6 +29,8 @@
 //! In a heterogeneous medium (a voxel grid, [`super::grid`]) free paths are sampled with the
 //! majorant σ̄ and each tentative collision is real or null by the carrier's delta tracking
 //! ([`Carrier::delta`]); a null collision leaves the path straight and draws nothing more.
+//! A textured object's medium is the texel where the walk entered it ([`super::texture`]),
+//! through the same hook (σt is the material's, so every collision there is real).
 //!
 //! A collision closer to its start than every surface, by the conservative bound of
 //! [`super::distance`], is taken without casting the ray (the ray could only confirm it).
@@ -42,6 +44,7 @@ use super::grid::Local;
 use super::material::Translucent;
 use super::math::{dot, madd, V3};
 use super::scene::Scene;
+use super::texture::Texels;
 use crate::optics::{fr_dielectric, reflect, refract, spin};
 use crate::rng::PhotonRng;
 
@@ -204,6 +207,9 @@ pub fn walk<C: Carrier>(
     c: &mut C,
     rng: &mut PhotonRng,
 ) {
+    // Surface textures: the texel each textured object was entered at sets its medium.
+    let mut texels = Texels::default();
+    texels.enter(scene, &media, skip, p);
     for _ in 0..MAX_EVENTS {
         let Some(m) = media.medium(scene) else { return c.lost(p, false) };
         let Some(k) = c.channel(rng) else { return };
@@ -223,7 +229,7 @@ pub fn walk<C: Carrier>(
             None => {
                 p = madd(p, d, s);
                 skip = u32::MAX;
-                let real = match super::grid::local(m, p) {
+                let real = match super::grid::local(m, p, texels.get(media.top())) {
                     None => c.collide(scene, m, &media, s, p, d, rng).then_some(true),
                     Some(local) => c.delta(scene, m, &local, &media, s, p, d, rng),
                 };
@@ -254,6 +260,7 @@ pub fn walk<C: Carrier>(
                         if media.is_empty() {
                             return c.exit(scene, &h, d, rng);
                         }
+                        texels.enter_hit(scene, &media, &h);
                     }
                 }
                 c.bounced(&x);
