@@ -44,6 +44,9 @@ def test_constant_colour_map_is_the_untextured_material(channel):
     assert np.allclose(tex.texel_sigma_s, plain.sigma_s, rtol=0, atol=0)
     band = _agree(_walk(_sphere(plain), channel, 1, 10), _walk(_sphere(tex), channel, 2, 10))
     assert band < 0.02
+    # The same seed: the texel's σs is the material's, so the walk is the same, bit for bit.
+    a, b = _walk(_sphere(plain), channel, 7, 10, 500), _walk(_sphere(tex), channel, 7, 10, 500)
+    assert (a["exitance"], a["absorbed"], a["roulette"]) == (b["exitance"], b["absorbed"], b["roulette"])
 
 
 @pytest.mark.slow
