@@ -25,7 +25,7 @@ use crate::error::{unravel, Error, Result};
 
 /// Most voxels per axis.
 pub const MAX_VOXELS_PER_AXIS: usize = 1024;
-/// Most voxels in all (2²⁶: 3 GiB of coefficients).
+/// Most voxels in all (2²⁶: 3 GiB of coefficients, σs and σt per channel).
 pub const MAX_VOXELS: usize = 1 << 26;
 
 /// σa, σs per channel on a voxel grid in object space, with the world → object map.
@@ -36,8 +36,7 @@ pub struct MediumGrid {
     pub hi: V3,
     /// Voxels per axis.
     pub n: [usize; 3],
-    /// σa, σs per voxel (mm⁻¹), numpy C order of an (nx, ny, nz) array (z fastest).
-    sigma_a: Vec<Rgb>,
+    /// σs per voxel (mm⁻¹), numpy C order of an (nx, ny, nz) array (z fastest).
     sigma_s: Vec<Rgb>,
     /// σt per voxel.
     sigma_t: Vec<Rgb>,
@@ -106,7 +105,7 @@ impl MediumGrid {
         let sigma_t: Vec<Rgb> =
             sigma_a.iter().zip(&sigma_s).map(|(a, s)| std::array::from_fn(|k| a[k] + s[k])).collect();
         let max_t = sigma_t.iter().fold([0.0; 3], |m, t| std::array::from_fn(|k| f64::max(m[k], t[k])));
-        Ok(MediumGrid { lo, hi, n, sigma_a, sigma_s, sigma_t, to_object, max_t })
+        Ok(MediumGrid { lo, hi, n, sigma_s, sigma_t, to_object, max_t })
     }
 
     /// Object-space coordinates of the world point `p`.
@@ -145,11 +144,6 @@ impl MediumGrid {
     #[inline]
     pub fn at(&self, p: V3) -> Option<Local> {
         self.voxel(self.object(p)).map(|i| Local { sigma_s: self.sigma_s[i], sigma_t: self.sigma_t[i] })
-    }
-
-    /// σa of voxel `i` (tests).
-    pub fn sigma_a(&self, i: usize) -> Rgb {
-        self.sigma_a[i]
     }
 
     /// ∫ σt ds along the world segment o + s d, s ∈ [0, t] (d a unit vector), per channel,
