@@ -313,6 +313,9 @@ def bssrdf_fit_slab_totals(
 ) -> dict: ...
 
 # --- render (crates/subsurf-py/src/render.rs); scene dicts come from subsurf.render.Scene._to_core
+# (a translucent material's optional "grid": {sigma_a, sigma_s: float64 (nx, ny, nz, 3), lo, hi,
+# to_object: 3 rows of (A | b)} and "texture": σs per texel, float64 (height, width, 3); a mesh's
+# optional "uv": float64 (n_triangles, 3, 2))
 
 #: The render methods (core render::Method), in order.
 RENDER_METHODS: list[str]
