@@ -168,7 +168,9 @@ class Translucent:
         ``model`` by :func:`subsurf.bssrdf.material_from_reflectance` (same parameters: ``power``
         incident or entering, ``mfp_kind`` extinction, transport, diffuse or burley_d; ``table``
         the :class:`~subsurf.bssrdf.ProfileTable` of ``monte_carlo`` and ``normalized_diffusion``).
-        A render of the material under ``model`` shows the reflectance (per incident power)."""
+        A render of the material under ``model`` shows the reflectance (per incident power).
+        ``reflectance`` may be a :class:`Texture` (a colour map for ``random_walk`` and
+        :func:`simulate_walk` on meshes with UVs: each texel inverted, ``mfp_kind`` extinction)."""
         from .. import bssrdf, diffusion
 
         if isinstance(reflectance, Texture):

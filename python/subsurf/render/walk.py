@@ -21,7 +21,9 @@ def simulate_walk(
     voxels=None,
     threads=None,
 ):
-    """Trace ``photons`` packets of one colour ``channel`` (0, 1, 2) of the translucent materials.
+    """Trace ``photons`` packets of one colour ``channel`` (0, 1, 2) of the translucent materials
+    (a material's :class:`~subsurf.render.MediumGrid` gives voxel media, MCX-style, sampled by delta
+    tracking; a colour map, :class:`~subsurf.render.Texture`, the medium of each packet's entry texel).
 
     ``source``: ``"pencil"`` from ``origin`` along ``direction``, or ``"collimated"`` (uniform over
     the scene along ``direction``). ``voxels`` = (lo, hi, (nx, ny, nz)) in mm scores absorption.
