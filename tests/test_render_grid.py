@@ -113,6 +113,10 @@ def test_missing_grid_file_and_bssrdf_methods_are_refused(tmp_path):
         R.MediumGrid(tmp_path / "none.npy", np.ones((2, 2, 2)), BOX)
     with pytest.raises(ParameterError, match="a grid file must be a NumPy .npy file"):
         R.MediumGrid(tmp_path / "a.png", np.ones((2, 2, 2)), BOX)
+    from subsurf.render import export
+
+    with pytest.raises(ParameterError, match="has a medium grid"):
+        export.to_pbrt(R.Translucent(*A, grid=_const()))
     sc = _scene(_const(), camera=R.Camera((0, -20, 0), width=2, height=2))
     with pytest.raises(ParameterError, match="grid: only the random walk"):
         R.render(sc, "hierarchical", spp=1)

@@ -123,6 +123,10 @@ def test_bad_textures_are_refused(tmp_path):
         R.Translucent.from_reflectance(R.Texture(np.full((1, 1, 3), 0.5)), MFP, mfp_kind="transport")
     with pytest.raises(ParameterError, match=r"texture, channel 0: reflectance\[0\] = 0.999 is out of range"):
         R.Translucent.from_reflectance(R.Texture(np.full((1, 1, 3), 0.999)), MFP)
+    from subsurf.render import export
+
+    with pytest.raises(ParameterError, match="has a colour map"):
+        export.to_mitsuba(m)
     sc = R.Scene([_sphere(m)], camera=R.Camera((0, -14, 0), width=2, height=2))
     with pytest.raises(ParameterError, match="texture: only the random walk"):
         R.render(sc, "probe", spp=1)

@@ -47,10 +47,11 @@ def _check(m, fmt, unit_mm) -> float:
             f"{fmt} export: material {m.name!r} is layered (a stack of layers per channel); {fmt} has one "
             "homogeneous medium per shape, so it cannot express it (export each layer as a nested shape)"
         )
-    if m.grid is not None:
+    if m.grid is not None or m.texture is not None:
+        what = "a medium grid" if m.grid is not None else "a colour map (texture)"
         raise _err(
-            f"{fmt} export: material {m.name!r} has a medium grid; this export writes one homogeneous "
-            "medium per shape (a grid would need the format's heterogeneous volume, not written here)"
+            f"{fmt} export: material {m.name!r} has {what}; this export writes one homogeneous "
+            "medium per shape (a grid or a map would need the format's textured media, not written here)"
         )
     for i, (a, s) in enumerate(zip(m.sigma_a, m.sigma_s)):
         try:
