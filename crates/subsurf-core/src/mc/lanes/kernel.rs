@@ -251,11 +251,14 @@ pub(crate) fn trace_range<T: Tally>(
     let lk = LaneKernel::new(k);
     match isa {
         // Safety: an `Isa` other than `Scalar` comes from `Isa::available()`, i.e. its
-        // features were detected on this machine (`RunConfig::validate` checks a forced one).
+        // features were detected on this machine (`RunConfig::validate` and `Isa::forced` check a
+        // forced one).
         #[cfg(target_arch = "x86_64")]
         Isa::Avx512 => unsafe { avx512(&lk, seed, range, tally, cancel) },
         #[cfg(target_arch = "x86_64")]
         Isa::Avx2 => unsafe { avx2(&lk, seed, range, tally, cancel) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Sse4 => unsafe { sse4(&lk, seed, range, tally, cancel) },
         #[cfg(target_arch = "aarch64")]
         Isa::Neon => unsafe { neon(&lk, seed, range, tally, cancel) },
         _ => run_lanes(&lk, seed, range, tally, cancel),
@@ -282,6 +285,7 @@ macro_rules! isa_entry {
 
 isa_entry!("x86_64", avx512, "avx512f,avx512vl,avx512dq,avx2,fma");
 isa_entry!("x86_64", avx2, "avx2,fma");
+isa_entry!("x86_64", sse4, "sse4.1,sse4.2,popcnt");
 isa_entry!("aarch64", neon, "neon");
 
 /// The packet of lane `i`, as the tallies see it.
