@@ -529,7 +529,11 @@ fn run_lanes<T: Tally>(
                 sc.one_minus_cos[i] = (1.0 - lk.mixture[j].sample(u32_to_open01(sc.words[1][i]))) as f32;
             }
         }
-        sample(&st, &mut sc, mixture);
+        if mixture {
+            sample::<true>(&st, &mut sc);
+        } else {
+            sample::<false>(&st, &mut sc);
+        }
         if lk.any_clear {
             advance::<true>(&mut st, &mut sc, T::PENDING);
         } else {

@@ -57,13 +57,15 @@ const SURVIVE_MAX: u32 = (4_294_967_296.0 / ROULETTE_M - 0.5) as u32;
 /// AVX-512 register of f32, where a loop that mixes in f64 runs 8 wide): for every lane,
 /// whether it will use them or not, the fresh optical depth −ln ξ and the direction after a
 /// scattering (1 − cos θ from the lane's Henyey–Greenstein lobe by [`hg_one_minus_cos`], or
-/// `sc.one_minus_cos` when `mixture`; azimuth from its word; MCML's update by
-/// [`spin_word`]), into `sc.tau` and `sc.nx/ny/nz` for [`advance`].
+/// `sc.one_minus_cos` when `MIXTURE`; azimuth from its word; MCML's update by
+/// [`spin_word`]), into `sc.tau` and `sc.nx/ny/nz` for [`advance`]. (`MIXTURE` is a constant
+/// so that the loop holds no branch: with a run-time flag, LLVM kept the loop scalar for
+/// 128-bit vectors — SSE4.2 — judging the vector loop with its predicated load unprofitable.)
 #[inline(always)]
-pub(super) fn sample(st: &Lanes, sc: &mut Scratch, mixture: bool) {
+pub(super) fn sample<const MIXTURE: bool>(st: &Lanes, sc: &mut Scratch) {
     for i in 0..L {
         sc.tau[i] = neg_ln_f32(open01_f32_fine(sc.words[0][i]));
-        let m = if mixture {
+        let m = if MIXTURE {
             sc.one_minus_cos[i]
         } else {
             let hg = &st.l.hg;
