@@ -438,6 +438,12 @@ struct Scratch {
     ox: F,
     oy: F,
     oz: F,
+    /// Fresnel reflectance and cos θt at the interface each lane hit, whether a Fresnel word
+    /// decides (a mask), and that word (`step::interfaces`).
+    fr: F,
+    cos_t: F,
+    need: B,
+    fword: U,
 }
 
 /// Every lane step consumes four words of the lane's stream, drawn here at once whether or

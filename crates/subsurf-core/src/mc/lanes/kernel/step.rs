@@ -161,31 +161,81 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pendi
 /// there makes LLVM emit a masked store, which the next load cannot forward from).
 const SIGN: u64 = 1 << 63;
 
-/// Phase 2: Fresnel reflection or refraction of the lanes that hit an interface.
+/// Phase 2: Fresnel reflection or refraction of the lanes that hit an interface, in three
+/// loops: [`fresnel`] (f64), [`draw_fresnel`] (the lanes' Fresnel words, u32 only) and
+/// [`refract`]. (As one loop — f64, f32 and u32 lanes mixed, a xoshiro step inside — LLVM
+/// vectorised it for 256- and 512-bit vectors but kept it scalar for 128-bit ones.)
 #[inline(always)]
 pub(super) fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) {
+    fresnel::<MATCHED>(st, sc);
+    if !MATCHED {
+        draw_fresnel(st, sc);
+    }
+    refract::<MATCHED>(st, sc, last);
+}
+
+/// Phase 2a: move the lanes that hit an interface onto it, keeping the unused optical depth
+/// (MCML's HitBoundary); Fresnel reflectance R and cos θt into `sc.fr`, `sc.cos_t` (as
+/// `optics::fr_dielectric_cos_t`), and `sc.need` where a Fresnel word decides (0 < R < 1).
+#[inline(always)]
+fn fresnel<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch) {
     for i in 0..L {
         let l = &st.l;
         let h = on(sc.hit[i]);
         let uz = st.uz[i] as f64;
         let (ux, uy) = (st.ux[i] as f64, st.uy[i] as f64);
         let up = uz < 0.0;
-        let n_t = sel(up, l.n_up[i], l.n_down[i]);
-        let eta = sel(up, l.eta_up[i], l.eta_down[i]);
-        let cc = sel(up, l.cc_up[i], l.cc_down[i]);
-        let ni = l.n[i];
-        // Onto the interface ahead, keeping the unused optical depth (MCML's HitBoundary).
         let zb = sel(up, l.z0[i], l.z1[i]);
         let db = (zb - st.z[i]) / uz;
         let d = sel(h, db, 0.0);
         st.x[i] += d * ux;
         st.y[i] += d * uy;
         st.z[i] = sel(h, zb, st.z[i]);
-        st.path[i] += ni * d;
+        st.path[i] += l.n[i] * d;
         st.s_left[i] -= d * l.sigma_t[i];
-        let ci = uz.abs().min(1.0);
         if MATCHED {
-            // Every index equal (`MATCHED`): no reflection, no refraction, no draw.
+            continue; // every index equal: no reflection, no refraction, no draw
+        }
+        let n_t = sel(up, l.n_up[i], l.n_down[i]);
+        let eta = sel(up, l.eta_up[i], l.eta_down[i]);
+        let cc = sel(up, l.cc_up[i], l.cc_down[i]);
+        let ni = l.n[i];
+        let ci = uz.abs().min(1.0);
+        // sin²θt = η²(1 − cos²θi)
+        let st2 = eta * eta * (1.0 - ci * ci).max(0.0);
+        let ct = (1.0 - st2).max(0.0).sqrt();
+        let rs = (ni * ci - n_t * ct) / (ni * ci + n_t * ct);
+        let rp = (n_t * ci - ni * ct) / (n_t * ci + ni * ct);
+        let tir = (ci <= cc) | (st2 >= 1.0);
+        let matched = ni == n_t;
+        let rf = 0.5 * (rs * rs + rp * rp);
+        let r = sel(matched, 0.0, rf);
+        let r = sel(tir, 1.0, r);
+        let cos_t = sel(matched, ci, ct);
+        sc.fr[i] = r;
+        sc.cos_t[i] = sel(tir, 0.0, cos_t);
+        sc.need[i] = mk(h & (r > 0.0) & (r < 1.0));
+    }
+}
+
+/// Phase 2b: the Fresnel word of each lane where `sc.need` (its stream advances only there).
+#[inline(always)]
+fn draw_fresnel(st: &mut Lanes, sc: &mut Scratch) {
+    for i in 0..L {
+        sc.fword[i] = draw(&mut st.s, i, on(sc.need[i]));
+    }
+}
+
+/// Phase 2c: reflection, refraction (the direction back to f32), layer changes and escapes.
+#[inline(always)]
+fn refract<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) {
+    for i in 0..L {
+        let l = &st.l;
+        let h = on(sc.hit[i]);
+        let uz = st.uz[i] as f64;
+        let (ux, uy) = (st.ux[i] as f64, st.uy[i] as f64);
+        let up = uz < 0.0;
+        if MATCHED {
             let layer = st.layer[i];
             let out = (up & (layer == 0)) | (!up & (layer == last));
             let cross = h & !out;
@@ -199,20 +249,9 @@ pub(super) fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, 
             sc.att[i] |= mk(h) & SIGN;
             continue;
         }
-        // Fresnel (as optics::fr_dielectric_cos_t): sin²θt = η²(1 − cos²θi).
-        let st2 = eta * eta * (1.0 - ci * ci).max(0.0);
-        let ct = (1.0 - st2).max(0.0).sqrt();
-        let rs = (ni * ci - n_t * ct) / (ni * ci + n_t * ct);
-        let rp = (n_t * ci - ni * ct) / (n_t * ci + ni * ct);
-        let tir = (ci <= cc) | (st2 >= 1.0);
-        let matched = ni == n_t;
-        let rf = 0.5 * (rs * rs + rp * rp);
-        let r = sel(matched, 0.0, rf);
-        let r = sel(tir, 1.0, r);
-        let cos_t = sel(matched, ci, ct);
-        let cos_t = sel(tir, 0.0, cos_t);
-        let need = h & (r > 0.0) & (r < 1.0);
-        let u = u32_to_open01(draw(&mut st.s, i, need));
+        let eta = sel(up, l.eta_up[i], l.eta_down[i]);
+        let (r, cos_t, need) = (sc.fr[i], sc.cos_t[i], on(sc.need[i]));
+        let u = u32_to_open01(sc.fword[i]);
         let transmit = (r <= 0.0) | (need & (u > r));
         let layer = st.layer[i];
         let out = transmit & ((up & (layer == 0)) | (!up & (layer == last)));
