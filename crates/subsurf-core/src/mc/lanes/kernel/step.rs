@@ -53,6 +53,20 @@ pub(in crate::mc::lanes) fn spin_word(ux: f32, uy: f32, uz: f32, m: f32, word: u
 /// integer comparison, exact).
 const SURVIVE_MAX: u32 = (4_294_967_296.0 / ROULETTE_M - 0.5) as u32;
 
+/// Russian roulette of lane `i`, whose weight `st.w[i]` (after this step's absorption) fell
+/// below its threshold, decided by the step's roulette word: it survives with probability 1/M
+/// with M times its weight, or dies; the zero-mean control term (−(M − 1) w on survival, w on
+/// death) is returned for `Tally::roulette`, with `st.w[i]` already updated. Returns
+/// (control term, survived).
+#[inline(always)]
+pub(super) fn roulette(st: &mut Lanes, sc: &Scratch, i: usize) -> (f64, bool) {
+    let w1 = st.w[i];
+    let survive = sc.words[3][i] <= SURVIVE_MAX;
+    let (control, w) = if survive { (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M) } else { (w1, 0.0) };
+    st.w[i] = w;
+    (control, survive)
+}
+
 /// Phase 1a, a loop over the lanes in f32 only (so that LLVM vectorises it 16 wide, a whole
 /// AVX-512 register of f32, where a loop that mixes in f64 runs 8 wide): for every lane,
 /// whether it will use them or not, the fresh optical depth −ln ξ and the direction after a
@@ -78,8 +92,7 @@ pub(super) fn sample<const MIXTURE: bool>(st: &Lanes, sc: &mut Scratch) {
 /// Phase 1b, one loop over the lanes: step every live lane to its interaction point or to the
 /// interface ahead; a lane that stays inside its layer then interacts: absorption by weight,
 /// scattering into the direction [`sample`] prepared, and roulette. Lanes that hit an
-/// interface go to [`interfaces`]. Counts the scattering events per lane in
-/// `Lanes::events`. (`pending`, whether the tally takes per-lane sums of the deposits, is
+/// interface go to [`interfaces`]. (`pending`, whether the tally takes per-lane sums of the deposits, is
 /// constant per run: its branch is hoisted; `CLEAR` is false when no layer is clear, which
 /// removes the clear-layer rules' masks from the loop.)
 #[inline(always)]
@@ -134,25 +147,18 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pendi
         st.uy[i] = sel_f32(scatter, ny, uy);
         st.uz[i] = sel_f32(scatter, nz, uz);
         st.order[i] = st.order[i].wrapping_add(scatter as u32);
-        st.events[i] += scatter as u64;
-        // Russian roulette below `ROULETTE_THRESHOLD` × the entering weight; its zero-mean
-        // control term goes to `Tally::roulette` (not to absorption), lane by lane.
+        // Russian roulette below `ROULETTE_THRESHOLD` × the entering weight: rare (about once
+        // a history), so it is played lane by lane in the scalar pass ([`roulette`]).
         let low = scatter & (w1 < st.w_min[i]);
-        let survive = sc.words[3][i] <= SURVIVE_MAX;
-        let (kept, boosted) = (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M);
-        let control = sel(survive, kept, w1);
-        sc.rou[i] = sel(low, control, 0.0);
         let dep = sel(it, dw, 0.0);
         sc.dep[i] = dep;
         sc.deposit[i] = mk(dep != 0.0);
         if pending {
             st.absorbed[i] += dep;
         }
-        let w_low = sel(survive, boosted, 0.0);
-        let w2 = sel(low, w_low, w1);
-        st.w[i] = sel(it, w2, w0);
-        let died = it & (absorbed_all | (low & !survive));
-        sc.fate[i] = selq(died, fate::DIED, f);
+        st.w[i] = sel(it, w1, w0);
+        let died = it & absorbed_all;
+        sc.fate[i] = selq(died, fate::DIED, selq(low, fate::ROULETTE, f));
         sc.att[i] = mk(died | clear_down | trapped | bounces | low);
     }
 }
