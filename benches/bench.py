@@ -267,10 +267,12 @@ def run_pmcx(python: str, env: dict, key: str, stack: Stack, seconds: float):
     n = 5000
     while True:
         done, secs, dev = one(n)
-        if secs - t0 >= 0.6 * seconds or n >= 10**8:
+        if secs - t0 >= 0.6 * seconds or secs >= 5 * seconds or n >= 10**8:
             return (n0, t0), (done, secs), dev
+        # (at most 10x per step: under load the pilot's start-up time varies by seconds, and a
+        # difference near 0 once sized a run of 5e7 photons and 226 s)
         rate = max(done - n0, 1) / max(secs - t0, 1e-3)
-        n = int(min(100 * n, max(2 * n, n0 + 1.2 * seconds * rate)))
+        n = int(min(10 * n, max(2 * n, n0 + 1.2 * seconds * rate)))
 
 
 # ------------------------------------------------------------------------------------------------
