@@ -7,8 +7,14 @@
 //! (`if c { a } else { b }` selects, bit tricks, no calls), which LLVM vectorises; the same
 //! code is compiled for each instruction set with std's `#[target_feature]` and chosen at run
 //! time ([`Isa::detect`], cached): AVX-512 (16 f32 or 8 f64 per register), AVX2 + FMA
-//! (8 f32 or 4 f64), NEON on arm64 (4 f32 or 2 f64), and the target's baseline as the
-//! scalar fallback. `std::simd` is unstable;
+//! (8 f32 or 4 f64), SSE4.2 on x86-64 (4 f32 or 2 f64: NEON's width, so that an x86 machine
+//! can measure the narrow path), NEON on arm64, and the target's baseline as the fallback.
+//! The environment variable `SUBSURF_ISA` ([`ISA_ENV`]) forces one for every run that does
+//! not name one ([`Isa::selected`]). LLVM's cost model decides per loop and per width whether
+//! to vectorise: a loop with a run-time branch or with f64, f32 and u32 lanes mixed around a
+//! xoshiro step stayed scalar for 128-bit vectors while it vectorised for 256 and 512 bits, so
+//! the loops are kept uniform (constant flags, one kind of work per loop); the instruction
+//! counts per path are in `docs/architecture.md`. `std::simd` is unstable;
 //! `wide` selects its instructions at *compile* time (no runtime dispatch without building
 //! the crate several times); `pulp` dispatches at run time but offers no gathers nor mixed
 //! u32/f64 lanes, which this kernel needs (per-lane layer tables, 32-bit random words). Plain
