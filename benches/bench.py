@@ -1,7 +1,10 @@
 """Monte Carlo engine benchmark (`make bench`): subsurf side by side with real peers, in one run.
 
 Prints, for the cases (a), (c), (d) below:
-1. subsurf: scattering events/s and photons/s on 1 thread and on all cores, with the totals only,
+1. subsurf, on each instruction-set path of the lane kernel this machine runs (``--isa``; default every
+   one: avx512, avx2, sse — 128-bit lanes, standing in for NEON — as ``_core.mc_isas()`` lists; a path
+   is forced with the environment variable ``SUBSURF_ISA``, as for any run): scattering events/s and
+   photons/s on 1 thread (and, on the best path, on all cores), with the totals only,
    with MCML's tally set (R(r), R(α), R(r,α), T(…), A(z), A(r,z) on MCML's grids, batch-means
    errors) and with that set without errors; wall-clock rates and rates per CPU-second (what a
    core delivers when it is not shared: the machine may be busy);
@@ -24,7 +27,11 @@ Cases (cm in the MCML files; here mm and mm⁻¹):
       (0.02, 12, 0.9, 10);
   (d) n=1.4 in air, μa=0.01, μs=10 /mm, g=0.9, d=100 mm (long histories).
 
-Usage: python benches/bench.py [--seconds S] [--cases acd] [--reps R] [--no-peers] [--no-install]
+Then a path × case table: events/s per CPU-second (totals, 1 thread) and the ratios to MCML per core
+(totals, MCML's tally set, the same without errors) of every path.
+
+Usage: python benches/bench.py [--seconds S] [--cases acd] [--reps R] [--isa all|best|avx2,sse,...]
+                               [--no-peers] [--no-install]
 """
 
 from __future__ import annotations
@@ -90,6 +97,29 @@ def run_ours(stack, n, threads, tallies):
     c0 = time.process_time()
     r = subsurf.simulate(stack, photons=n, seed=1, threads=threads, tallies=tallies)
     return r, time.process_time() - c0
+
+
+def force_isa(isa: str) -> None:
+    """Force the lane kernel's instruction-set path for the next runs (``SUBSURF_ISA``)."""
+    os.environ["SUBSURF_ISA"] = isa
+    if _core.mc_isa() != isa:
+        raise RuntimeError(f"SUBSURF_ISA={isa} ran {_core.mc_isa()}")
+
+
+def pick_isas(spec: str) -> list[str]:
+    """The paths `--isa` names, best first: 'all' (every path this machine runs but the baseline,
+    which is another 128-bit path on x86-64), 'best', or a comma-separated list."""
+    here = _core.mc_isas()
+    if spec == "all":
+        vector = [i for i in here if i != "scalar"]
+        return vector or here
+    if spec == "best":
+        return here[:1]
+    names = [n.strip().lower().replace("baseline", "scalar") for n in spec.split(",") if n.strip()]
+    bad = [n for n in names if n not in here]
+    if bad or not names:
+        raise SystemExit(f"--isa: {spec!r} is not allowed (all, best, or some of {', '.join(here)} on this machine)")
+    return [i for i in here if i in names]
 
 
 def spread(xs) -> str:
@@ -237,53 +267,63 @@ def run_pmcx(python: str, env: dict, key: str, stack: Stack, seconds: float):
     n = 5000
     while True:
         done, secs, dev = one(n)
-        if secs - t0 >= 0.6 * seconds or n >= 10**8:
+        if secs - t0 >= 0.6 * seconds or secs >= 5 * seconds or n >= 10**8:
             return (n0, t0), (done, secs), dev
+        # (at most 10x per step: under load the pilot's start-up time varies by seconds, and a
+        # difference near 0 once sized a run of 5e7 photons and 226 s)
         rate = max(done - n0, 1) / max(secs - t0, 1e-3)
-        n = int(min(100 * n, max(2 * n, n0 + 1.2 * seconds * rate)))
+        n = int(min(10 * n, max(2 * n, n0 + 1.2 * seconds * rate)))
 
 
 # ------------------------------------------------------------------------------------------------
 
 
-def bench_case(key, args, cores, mcml, tmp, peers):
-    """Rounds of case `key` (see main); prints subsurf's rows, fills `peers[key]` with MCML's
-    figures and returns subsurf's medians keyed (case, tallies, threads)."""
+def bench_case(key, args, cores, mcml, tmp, peers, isas):
+    """Rounds of case `key` (see main) on the paths `isas` (best first; all cores on the first
+    only); prints subsurf's rows, fills `peers[key]` with MCML's figures (ratios per path) and
+    returns subsurf's medians keyed (case, tallies, threads, path)."""
     name, stack = CASES[key]
-    sizes = {t: measure(stack, 1, tallies, args.seconds)[0].photons for t, tallies in TALLY_SETS.items()}
+    sizes = {}
+    for isa in isas:
+        force_isa(isa)
+        for t, tallies in TALLY_SETS.items():
+            sizes[(t, isa)] = measure(stack, 1, tallies, args.seconds)[0].photons
     n_mcml = size_mcml(mcml, stack, args.seconds, tmp) if mcml else 0
-    threads = (1, cores) if cores > 1 else (1,)
-    runs = {(t, th): [] for t in TALLY_SETS for th in threads}
+    configs = [(isa, th) for isa in isas for th in (1,)] + ([(isas[0], cores)] if cores > 1 else [])
+    runs = {(t, isa, th): [] for t in TALLY_SETS for isa, th in configs}
     mc = []
     for _ in range(args.reps):
-        for t, tallies in TALLY_SETS.items():
-            for th in threads:
-                r, cpu = run_ours(stack, sizes[t] * th, 1 if th == 1 else None, tallies)
-                runs[(t, th)].append((r, cpu))
+        for isa, th in configs:
+            force_isa(isa)
+            for t, tallies in TALLY_SETS.items():
+                r, cpu = run_ours(stack, sizes[(t, isa)] * th, 1 if th == 1 else None, tallies)
+                runs[(t, isa, th)].append((r, cpu))
         if mcml:
             cpu, wall, rd = mcml_once(mcml, stack, n_mcml, tmp)
             _, wall_n, _ = mcml_once(mcml, stack, n_mcml, tmp, copies=cores)
             mc.append((n_mcml / cpu, cores * wall / wall_n, rd))
     med = statistics.median
     out = {}
-    for t in TALLY_SETS:
-        for th in threads:
-            rs = runs[(t, th)]
-            out[(key, t, th)] = dict(
-                ev=med(r.events / r.elapsed_s for r, _ in rs),
-                ph=med(r.photons / r.elapsed_s for r, _ in rs),
-                ev_cpu=med(r.events / c for r, c in rs),
-                ph_cpu=[r.photons / c for r, c in rs],
-                ev_per_ph=rs[0][0].events / rs[0][0].photons,
-                n=rs[0][0].photons,
-            )
-        one, all_ = runs[(t, 1)], runs[(t, threads[-1])]
-        scaling = [(ra.photons / ra.elapsed_s) / (r1.photons / r1.elapsed_s) for (r1, _), (ra, _) in zip(one, all_)]
-        for th in threads:
-            o = out[(key, t, th)]
-            sc = spread(scaling) if th > 1 else ""
+    for (t, isa, th), rs in runs.items():
+        out[(key, t, th, isa)] = dict(
+            ev=med(r.events / r.elapsed_s for r, _ in rs),
+            ph=med(r.photons / r.elapsed_s for r, _ in rs),
+            ev_cpu=med(r.events / c for r, c in rs),
+            ph_cpu=[r.photons / c for r, c in rs],
+            ev_per_ph=rs[0][0].events / rs[0][0].photons,
+            n=rs[0][0].photons,
+        )
+    for isa, th in configs:
+        for t in TALLY_SETS:
+            o = out[(key, t, th, isa)]
+            sc = ""
+            if th > 1:
+                one, all_ = runs[(t, isa, 1)], runs[(t, isa, th)]
+                sc = spread(
+                    [(ra.photons / ra.elapsed_s) / (r1.photons / r1.elapsed_s) for (r1, _), (ra, _) in zip(one, all_)]
+                )
             print(
-                f"{name:<24} {t:<11} {th:>7} {o['n']:>9} {o['ev']:>10.3e} {o['ph']:>10.3e} "
+                f"{name:<24} {isa:<7} {t:<11} {th:>7} {o['n']:>9} {o['ev']:>10.3e} {o['ph']:>10.3e} "
                 f"{o['ev_cpu']:>10.3e} {med(o['ph_cpu']):>10.3e} {sc:>17}"
             )
     if mcml:
@@ -291,12 +331,37 @@ def bench_case(key, args, cores, mcml, tmp, peers):
         peers[key] = dict(
             n=n_mcml,
             ph=med(ph),
-            ev=med(ph) * out[(key, "totals", 1)]["ev_per_ph"],
+            ev=med(ph) * out[(key, "totals", 1, isas[0])]["ev_per_ph"],
             rd=mc[0][2],
-            x={t: [o / m for o, m in zip(out[(key, t, 1)]["ph_cpu"], ph)] for t in TALLY_SETS},
+            x={
+                (t, isa): [o / m for o, m in zip(out[(key, t, 1, isa)]["ph_cpu"], ph)]
+                for t in TALLY_SETS
+                for isa in isas
+            },
             ceiling=[m[1] for m in mc],
         )
     return out
+
+
+def path_table(keys, isas, ours, peers, have_mcml):
+    """The path × case table: events per CPU-second (totals, 1 thread) and, with MCML, the ratios
+    subsurf / MCML per core (totals, MCML's tally set, the same without errors; medians over the
+    rounds)."""
+    print(
+        "\npath x case, 1 thread: events/CPU-s with the totals; x MCML per core: totals / MCML's tally set / no errors"
+    )
+    print(f"{'path':<7} " + " ".join(f"{CASES[k][0]:>36}" for k in keys))
+    for isa in isas:
+        cells = []
+        for k in keys:
+            ev = ours[(k, "totals", 1, isa)]["ev_cpu"]
+            if have_mcml:
+                x = peers[k]["x"]
+                ratios = "/".join(f"{statistics.median(x[(t, isa)]):.1f}" for t in TALLY_SETS)
+                cells.append(f"{ev:.2e} x {ratios}")
+            else:
+                cells.append(f"{ev:.2e}")
+        print(f"{isa:<7} " + " ".join(f"{c:>36}" for c in cells))
 
 
 def main(argv=None):
@@ -306,6 +371,9 @@ def main(argv=None):
     ap.add_argument("--no-peers", action="store_true", help="skip MCML and pmcxcl")
     ap.add_argument("--no-install", action="store_true", help="never install a missing peer")
     ap.add_argument("--reps", type=int, default=3, help="rounds per case (ratios: median and range)")
+    ap.add_argument(
+        "--isa", default="all", help="lane kernel paths: all (every vector path here), best, or a list like avx2,sse"
+    )
     args = ap.parse_args(argv)
     if args.reps < 1:
         ap.error(f"--reps: {args.reps} is not allowed (an integer >= 1)")
@@ -313,8 +381,11 @@ def main(argv=None):
         ap.error(f"--seconds: {args.seconds} is not allowed (a number > 0)")
     cores = os.cpu_count() or 1
     keys = [k for k in "acd" if k in args.cases]
+    forced = os.environ.get("SUBSURF_ISA")
+    isas = pick_isas(args.isa) if not forced else [_core.mc_isa()]
     print(
-        f"subsurf {subsurf.__version__} Monte Carlo benchmark; {cores} cores; lane kernel on {_core.mc_isa()}; "
+        f"subsurf {subsurf.__version__} Monte Carlo benchmark; {cores} cores; lane kernel paths {', '.join(isas)} "
+        f"(this machine runs {', '.join(_core.mc_isas())}; SUBSURF_ISA={forced!r}); "
         f"load average {os.getloadavg()[0]:.2f} at start (other processes slow these figures)"
     )
     print("rates: wall-clock; 'per CPU-s' = per second of CPU time used (what a core delivers when not shared)")
@@ -326,18 +397,22 @@ def main(argv=None):
     mcml = os.environ.get("MCML_BIN")
     have_mcml = bool(mcml) and os.access(mcml, os.X_OK) and not args.no_peers
     print(
-        f"{'case':<24} {'tallies':<11} {'threads':>7} {'photons':>9} {'events/s':>10} {'photons/s':>10} "
+        f"{'case':<24} {'path':<7} {'tallies':<11} {'threads':>7} {'photons':>9} {'events/s':>10} {'photons/s':>10} "
         f"{'ev/CPU-s':>10} {'ph/CPU-s':>10} {'scaling':>17}"
     )
     ours, peers = {}, {}
     with tempfile.TemporaryDirectory() as tmp:
         for key in keys:
-            ours.update(bench_case(key, args, cores, mcml if have_mcml else None, tmp, peers))
+            ours.update(bench_case(key, args, cores, mcml if have_mcml else None, tmp, peers, isas))
     print(f"load average {os.getloadavg()[0]:.2f} after the subsurf (and MCML) runs")
+    path_table(keys, isas, ours, peers, have_mcml)
     if args.no_peers:
         print(TARGETS)
         return 0
-    print("\nMCML (per core; CPU time of the MCML process; events/s = photons/s x subsurf's events per photon)")
+    print(
+        f"\nMCML (per core; CPU time of the MCML process; events/s = photons/s x subsurf's events per photon; "
+        f"ratios on the {isas[0]} path)"
+    )
     if not have_mcml:
         print(f"  MCML unavailable: set MCML_BIN to an MCML 1.2.x executable (MCML_BIN={mcml!r})")
     else:
@@ -349,7 +424,8 @@ def main(argv=None):
             p = peers[key]
             print(
                 f"{CASES[key][0]:<24} {p['n']:>9} {p['ph']:>10.3e} {p['ev']:>10.3e} {p['rd']:>8.5f} "
-                f"{spread(p['x']['totals']):>17} {spread(p['x']['mcml']):>17} {spread(p['x']['mcml-noerr']):>17} "
+                f"{spread(p['x'][('totals', isas[0])]):>17} {spread(p['x'][('mcml', isas[0])]):>17} "
+                f"{spread(p['x'][('mcml-noerr', isas[0])]):>17} "
                 f"{spread(p['ceiling']):>17}"
             )
         print(
@@ -379,7 +455,7 @@ def main(argv=None):
             ph = (n - n0) / max(secs - t0, 1e-9)
 
             def ratio(t, key=key, ph=ph):
-                return ours[(key, t, cores)]["ph"] / ph
+                return ours[(key, t, cores, isas[0])]["ph"] / ph
 
             pilot = f"{n0} in {t0:.2f}s"
             print(

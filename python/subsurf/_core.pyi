@@ -53,7 +53,12 @@ MC_STATE_SCHEME: str
 MC_TALLY_FIELDS: list[tuple[str, str, Any]]
 
 def mc_isa() -> str:
-    """Instruction set of the Monte Carlo lane kernel on this machine: avx512, avx2, neon or scalar."""
+    """Instruction set of the Monte Carlo lane kernel for the next run: avx512, avx2, sse, neon or scalar (the
+    best this machine has, or the one the environment variable SUBSURF_ISA forces; ValueError when it names an
+    unknown one or one this CPU cannot run)."""
+
+def mc_isas() -> list[str]:
+    """Every instruction set this machine can run the Monte Carlo lane kernel on, best first."""
 
 def mc_validate_source(kind: str, theta: float, phi: float) -> None: ...
 def mc_validate_run(photons: int, seed: int, threads: int | None = None) -> None: ...

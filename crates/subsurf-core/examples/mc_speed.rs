@@ -5,8 +5,8 @@
 //! Usage: `cargo run --release --example mc_speed -- CASE TALLIES PHOTONS THREADS`, CASE one of
 //! a, c, d (benches/bench.py), TALLIES one of totals, mcml, mcml-noerr. With `MC_SPEED_BITS`
 //! set, a run also prints the bits of each total and, with tallies, a hash of the bits of every
-//! histogram value and standard error (to check that a speed-up keeps them); `MC_SPEED_ISA`
-//! (avx512, avx2, neon, scalar) forces the lane kernel's instruction set.
+//! histogram value and standard error (to check that a speed-up keeps them); `SUBSURF_ISA`
+//! (avx512, avx2, sse, neon, baseline) forces the lane kernel's instruction set, as for every run.
 
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::time::Instant;
@@ -51,9 +51,8 @@ fn main() {
     let photons: u64 = arg(3, "1000000").parse().expect("photons");
     let mut cfg = RunConfig::new(photons, 1);
     cfg.threads = Some(arg(4, "1").parse().expect("threads"));
-    if let Ok(name) = std::env::var("MC_SPEED_ISA") {
-        cfg.isa = Some(*Isa::available().iter().find(|i| i.name() == name).expect("MC_SPEED_ISA: not available here"));
-    }
+    cfg.isa = Some(Isa::selected().unwrap_or_else(|e| panic!("{e}")));
+    eprintln!("lane kernel on {}", cfg.isa.map_or("?", |i| i.name()));
     let (cancel, progress) = (AtomicBool::new(false), AtomicU64::new(0));
     let nl = stack.layers.len();
     let (t0, c0) = (Instant::now(), cpu_seconds());

@@ -382,14 +382,23 @@ fn mc_axis_measures<'py>(
 }
 
 /// Name of the instruction set the Monte Carlo lane kernel uses on this machine
-/// (`"avx512"`, `"avx2"`, `"neon"` or `"scalar"`).
+/// (`"avx512"`, `"avx2"`, `"sse"`, `"neon"` or `"scalar"`): the best one, or the one the
+/// environment variable `SUBSURF_ISA` forces (read at each run; an unknown name or one this
+/// CPU cannot run is a `ValueError`).
 #[pyfunction]
-fn mc_isa() -> &'static str {
-    subsurf_core::mc::lanes::Isa::detect().name()
+fn mc_isa() -> PyResult<&'static str> {
+    Ok(subsurf_core::mc::lanes::Isa::selected().py()?.name())
+}
+
+/// Names of every instruction set this machine can run the lane kernel on, best first.
+#[pyfunction]
+fn mc_isas() -> Vec<&'static str> {
+    subsurf_core::mc::lanes::Isa::available().iter().map(|i| i.name()).collect()
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mc_isa, m)?)?;
+    m.add_function(wrap_pyfunction!(mc_isas, m)?)?;
     m.add_function(wrap_pyfunction!(mc_run, m)?)?;
     m.add_function(wrap_pyfunction!(mc_finish, m)?)?;
     m.add_function(wrap_pyfunction!(mc_check_state, m)?)?;

@@ -44,7 +44,8 @@ pub struct RunConfig {
     /// The light source.
     pub source: Source,
     /// Instruction set of the lane kernel; `None` = the best this machine has
-    /// ([`Isa::detect`]). Every choice gives the same bits (see `mc::lanes`).
+    /// ([`Isa::detect`]) or the one the environment variable `SUBSURF_ISA` forces
+    /// ([`Isa::selected`]). Every choice gives the same bits (see `mc::lanes`).
     pub isa: Option<Isa>,
 }
 
@@ -73,6 +74,8 @@ impl RunConfig {
             if !Isa::available().contains(&isa) {
                 return Err(Error::Invalid(format!("isa: {} is not available on this machine", isa.name())));
             }
+        } else {
+            Isa::forced()?; // the environment's choice (`mc::lanes::ISA_ENV`), if any
         }
         self.source.validate()
     }

@@ -225,7 +225,10 @@ where
         return Err(Error::Invalid("state: its tallies differ from this run's".into()));
     }
     let kernel = Kernel::new(stack, cfg.source);
-    let isa = cfg.isa.unwrap_or_else(Isa::detect);
+    let isa = match cfg.isa {
+        Some(isa) => isa,
+        None => Isa::selected()?,
+    };
     let (c0, c1) = (state.end / CHUNK_PHOTONS, end.div_ceil(CHUNK_PHOTONS));
     let (window, cap) = (2 * threads as u64, 3 * threads);
     let next = AtomicU64::new(c0);

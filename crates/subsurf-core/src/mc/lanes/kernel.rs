@@ -5,13 +5,14 @@
 //! the lanes with branch-free bodies (vectorised):
 //! 1. **step and interaction** ([`advance`]): draw an optical depth where the last one is used
 //!    up; a lane whose step stays in its layer moves there and interacts (absorption by
-//!    weight, Henyey–Greenstein cos θ, azimuth, MCML's direction update, Russian roulette
-//!    relative to the entering weight, its control term for `Tally::roulette`);
+//!    weight, Henyey–Greenstein cos θ, azimuth, MCML's direction update; a weight below the
+//!    roulette threshold, relative to the entering weight, is flagged);
 //! 2. **interface** ([`interfaces`], skipped when no lane reached one): move onto it, Fresnel
 //!    reflection or refraction, layer change, escape.
 //!
 //! Then the absorption deposits of all lanes go to the tally at once (`Tally::absorb_lanes`)
-//! and, lane by lane, the rare events: roulette terms, layer changes, escapes, the termination
+//! and, lane by lane, the rare events: Russian roulette (`step::roulette`, its control term
+//! for `Tally::roulette`), layer changes, escapes, the termination
 //! rules of `mc::kernel` (trapped packets, clear-layer bounces), ends of histories and refills
 //! with the next photon index. Each lane computes with the same correctly rounded operations
 //! whatever its neighbours or the instruction set, so a photon's history depends on its own
@@ -29,7 +30,7 @@ use crate::optics::Phase;
 use crate::rng::{philox4x32_10, u32_to_open01, PhotonRng};
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
-use step::{advance, interfaces, sample};
+use step::{advance, interfaces, roulette, sample};
 #[cfg(test)]
 pub(super) use step::{hg_one_minus_cos, spin_word};
 
@@ -149,10 +150,9 @@ struct Lanes {
     refl: U,
     /// Interface hits since the last interaction (see `mc::kernel`'s termination rules).
     hits: U,
-    /// Scattering events of the lane so far (summed at the end of the range: a per-step sum
-    /// of the lanes' counts reloaded the step's narrow stores as one vector, a
-    /// store-forwarding stall that perf put at 4–6 % of the run's time).
-    events: [u64; L],
+    /// Scattering events of the photons that ended: each adds its scattering order when it
+    /// ends (`order` counts exactly the events; no per-step work for the count).
+    events: u64,
     /// Roulette threshold of the lane's photon: `ROULETTE_THRESHOLD` × its entering weight.
     w_min: F,
     /// xoshiro128++ state words s0…s3 of each lane.
@@ -212,6 +212,9 @@ mod fate {
     /// More than `CLEAR_HITS_STEPWISE` hits in a finite clear layer: the rest of its bounces
     /// are sampled at once (`mc::kernel::clear_bounces`), lane by lane.
     pub const BOUNCES: u64 = 7;
+    /// Its weight fell below the roulette threshold: Russian roulette is played lane by lane
+    /// (`step::roulette`), then it keeps moving or died.
+    pub const ROULETTE: u64 = 8;
 }
 
 /// Tables prepared once per run for the lanes.
@@ -251,11 +254,14 @@ pub(crate) fn trace_range<T: Tally>(
     let lk = LaneKernel::new(k);
     match isa {
         // Safety: an `Isa` other than `Scalar` comes from `Isa::available()`, i.e. its
-        // features were detected on this machine (`RunConfig::validate` checks a forced one).
+        // features were detected on this machine (`RunConfig::validate` and `Isa::forced` check a
+        // forced one).
         #[cfg(target_arch = "x86_64")]
         Isa::Avx512 => unsafe { avx512(&lk, seed, range, tally, cancel) },
         #[cfg(target_arch = "x86_64")]
         Isa::Avx2 => unsafe { avx2(&lk, seed, range, tally, cancel) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Sse4 => unsafe { sse4(&lk, seed, range, tally, cancel) },
         #[cfg(target_arch = "aarch64")]
         Isa::Neon => unsafe { neon(&lk, seed, range, tally, cancel) },
         _ => run_lanes(&lk, seed, range, tally, cancel),
@@ -282,6 +288,7 @@ macro_rules! isa_entry {
 
 isa_entry!("x86_64", avx512, "avx512f,avx512vl,avx512dq,avx2,fma");
 isa_entry!("x86_64", avx2, "avx2,fma");
+isa_entry!("x86_64", sse4, "sse4.1,sse4.2,popcnt");
 isa_entry!("aarch64", neon, "neon");
 
 /// The packet of lane `i`, as the tallies see it.
@@ -415,8 +422,6 @@ struct Scratch {
     hit: B,
     fate: [u64; L],
     dep: F,
-    /// Roulette control term of the step (0 where no roulette was played).
-    rou: F,
     /// Lanes that need the scalar pass: a fate other than `MOVING` or a roulette played (set
     /// by [`advance`] and [`interfaces`] from the masks they hold, so the pass reads one array
     /// as wide as it was written).
@@ -434,6 +439,12 @@ struct Scratch {
     ox: F,
     oy: F,
     oz: F,
+    /// Fresnel reflectance and cos θt at the interface each lane hit, whether a Fresnel word
+    /// decides (a mask), and that word (`step::interfaces`).
+    fr: F,
+    cos_t: F,
+    need: B,
+    fword: U,
 }
 
 /// Every lane step consumes four words of the lane's stream, drawn here at once whether or
@@ -525,7 +536,11 @@ fn run_lanes<T: Tally>(
                 sc.one_minus_cos[i] = (1.0 - lk.mixture[j].sample(u32_to_open01(sc.words[1][i]))) as f32;
             }
         }
-        sample(&st, &mut sc, mixture);
+        if mixture {
+            sample::<true>(&st, &mut sc);
+        } else {
+            sample::<false>(&st, &mut sc);
+        }
         if lk.any_clear {
             advance::<true>(&mut st, &mut sc, T::PENDING);
         } else {
@@ -552,10 +567,12 @@ fn run_lanes<T: Tally>(
         while attention != 0 {
             let i = attention.trailing_zeros() as usize;
             attention &= attention - 1;
-            if sc.rou[i] != 0.0 {
-                tally.roulette(i, &packet(&st, i), sc.rou[i]);
+            let mut f = sc.fate[i];
+            if f == fate::ROULETTE {
+                let (control, survived) = roulette(&mut st, &sc, i);
+                tally.roulette(i, &packet(&st, i), control);
+                f = if survived { fate::MOVING } else { fate::DIED };
             }
-            let f = sc.fate[i];
             if f == fate::MOVING {
                 continue;
             }
@@ -590,12 +607,13 @@ fn run_lanes<T: Tally>(
                 _ => {}
             }
             tally.end_photon(i);
+            st.events += st.order[i] as u64;
             if !refill(lk, &mut q, seed, &mut next, range.end, &mut st, i, tally) {
                 n_live -= 1;
             }
         }
         if n_live == 0 {
-            return Some(st.events.iter().sum());
+            return Some(st.events);
         }
     }
 }

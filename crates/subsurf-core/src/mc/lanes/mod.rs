@@ -7,8 +7,14 @@
 //! (`if c { a } else { b }` selects, bit tricks, no calls), which LLVM vectorises; the same
 //! code is compiled for each instruction set with std's `#[target_feature]` and chosen at run
 //! time ([`Isa::detect`], cached): AVX-512 (16 f32 or 8 f64 per register), AVX2 + FMA
-//! (8 f32 or 4 f64), NEON on arm64 (4 f32 or 2 f64), and the target's baseline as the
-//! scalar fallback. `std::simd` is unstable;
+//! (8 f32 or 4 f64), SSE4.2 on x86-64 (4 f32 or 2 f64: NEON's width, so that an x86 machine
+//! can measure the narrow path), NEON on arm64, and the target's baseline as the fallback.
+//! The environment variable `SUBSURF_ISA` ([`ISA_ENV`]) forces one for every run that does
+//! not name one ([`Isa::selected`]). LLVM's cost model decides per loop and per width whether
+//! to vectorise: a loop with a run-time branch or with f64, f32 and u32 lanes mixed around a
+//! xoshiro step stayed scalar for 128-bit vectors while it vectorised for 256 and 512 bits, so
+//! the loops are kept uniform (constant flags, one kind of work per loop); the instruction
+//! counts per path are in `docs/architecture.md`. `std::simd` is unstable;
 //! `wide` selects its instructions at *compile* time (no runtime dispatch without building
 //! the crate several times); `pulp` dispatches at run time but offers no gathers nor mixed
 //! u32/f64 lanes, which this kernel needs (per-lane layer tables, 32-bit random words). Plain
@@ -75,11 +81,20 @@ use kernel::{hg_one_minus_cos, spin_word};
 /// Photon histories traced together by one core.
 pub const LANES: usize = 16;
 
+/// The environment variable that forces the lane kernel's instruction set for every run that
+/// does not name one (`RunConfig::isa`): `avx512`, `avx2`, `sse` (128-bit lanes on x86-64),
+/// `neon`, `baseline` (alias `scalar`); unset or empty: the best this machine has. A name this
+/// machine cannot run, or no name at all, is refused with an error that lists the ones it can.
+pub const ISA_ENV: &str = "SUBSURF_ISA";
+
 /// An instruction set the lane kernel is compiled for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Isa {
     /// The target's baseline (SSE2 on x86-64; also the fallback on every other target).
     Scalar,
+    /// x86-64 SSE4.2 + POPCNT (x86-64-v2): 128-bit vectors (4 f32 or 2 f64 per register), the
+    /// width of arm64's NEON, which it stands in for on x86 machines.
+    Sse4,
     /// x86-64 AVX2 + FMA (x86-64-v3).
     Avx2,
     /// x86-64 AVX-512 F/VL/DQ (x86-64-v4).
@@ -89,31 +104,34 @@ pub enum Isa {
 }
 
 impl Isa {
+    /// Every instruction set the lane kernel knows, best first (whatever this machine runs).
+    pub const ALL: [Isa; 5] = [Isa::Avx512, Isa::Avx2, Isa::Sse4, Isa::Neon, Isa::Scalar];
+
     /// Every instruction set this machine can run, best first.
     pub fn available() -> Vec<Isa> {
-        let mut v = Vec::new();
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f")
-                && std::arch::is_x86_feature_detected!("avx512vl")
-                && std::arch::is_x86_feature_detected!("avx512dq")
-                && std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                v.push(Isa::Avx512);
+        Isa::ALL.into_iter().filter(|i| i.runs_here()).collect()
+    }
+
+    /// Whether this machine can run `self` (its features are detected at run time).
+    pub fn runs_here(self) -> bool {
+        match self {
+            Isa::Scalar => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Sse4 => std::arch::is_x86_feature_detected!("sse4.2") && std::arch::is_x86_feature_detected!("popcnt"),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma"),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => {
+                std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
+                    && std::arch::is_x86_feature_detected!("avx512dq")
+                    && Isa::Avx2.runs_here()
             }
-            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-                v.push(Isa::Avx2);
-            }
+            #[cfg(target_arch = "aarch64")]
+            Isa::Neon => std::arch::is_aarch64_feature_detected!("neon"),
+            #[allow(unreachable_patterns)]
+            _ => false,
         }
-        #[cfg(target_arch = "aarch64")]
-        {
-            if std::arch::is_aarch64_feature_detected!("neon") {
-                v.push(Isa::Neon);
-            }
-        }
-        v.push(Isa::Scalar);
-        v
     }
 
     /// The best instruction set of this machine (detected once).
@@ -122,13 +140,69 @@ impl Isa {
         *BEST.get_or_init(|| Isa::available()[0])
     }
 
-    /// Name as printed by the benchmark (`"avx512"`, `"avx2"`, `"neon"`, `"scalar"`).
+    /// The instruction set a run uses when it names none: the one [`ISA_ENV`] forces, else
+    /// [`Isa::detect`]'s. Errors name the variable, its value and the choices this machine has.
+    pub fn selected() -> crate::Result<Isa> {
+        Ok(Isa::forced()?.unwrap_or_else(Isa::detect))
+    }
+
+    /// The instruction set [`ISA_ENV`] forces (`None` when it is unset or empty).
+    pub fn forced() -> crate::Result<Option<Isa>> {
+        match std::env::var(ISA_ENV) {
+            Ok(v) => Isa::parse_forced(&v),
+            Err(std::env::VarError::NotPresent) => Ok(None),
+            Err(std::env::VarError::NotUnicode(_)) => Isa::parse_forced("(not UTF-8)"),
+        }
+    }
+
+    /// [`Isa::forced`] for the value `value` of [`ISA_ENV`].
+    pub fn parse_forced(value: &str) -> crate::Result<Option<Isa>> {
+        let name = value.trim().to_ascii_lowercase();
+        if name.is_empty() {
+            return Ok(None);
+        }
+        let here = Isa::available().iter().map(|i| i.name()).collect::<Vec<_>>().join(", ");
+        match Isa::from_name(&name) {
+            Some(isa) if isa.runs_here() => Ok(Some(isa)),
+            Some(isa) => Err(crate::Error::Invalid(format!(
+                "{ISA_ENV}: {value:?} ({}) is not supported by this CPU; it runs: {here}",
+                isa.describe()
+            ))),
+            None => Err(crate::Error::Invalid(format!(
+                "{ISA_ENV}: {value:?} is not an instruction set (one of avx512, avx2, sse, neon, baseline); \
+                 this CPU runs: {here}"
+            ))),
+        }
+    }
+
+    /// The instruction set of a [`Isa::name`] (`"scalar"` also as `"baseline"`).
+    pub fn from_name(name: &str) -> Option<Isa> {
+        match name {
+            "baseline" => Some(Isa::Scalar),
+            _ => Isa::ALL.into_iter().find(|i| i.name() == name),
+        }
+    }
+
+    /// Name as printed by the benchmark and read from [`ISA_ENV`] (`"avx512"`, `"avx2"`,
+    /// `"sse"`, `"neon"`, `"scalar"`).
     pub fn name(self) -> &'static str {
         match self {
             Isa::Scalar => "scalar",
+            Isa::Sse4 => "sse",
             Isa::Avx2 => "avx2",
             Isa::Avx512 => "avx512",
             Isa::Neon => "neon",
+        }
+    }
+
+    /// The features and the vector width, in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Isa::Scalar => "the target's baseline: SSE2 on x86-64",
+            Isa::Sse4 => "x86-64 SSE4.2 + POPCNT, 128-bit vectors",
+            Isa::Avx2 => "x86-64 AVX2 + FMA, 256-bit vectors",
+            Isa::Avx512 => "x86-64 AVX-512 F/VL/DQ, 512-bit vectors",
+            Isa::Neon => "arm64 NEON, 128-bit vectors",
         }
     }
 }

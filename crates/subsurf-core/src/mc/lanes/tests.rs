@@ -451,3 +451,25 @@ fn bench_runs() {
         println!("{line}");
     }
 }
+
+/// `SUBSURF_ISA`'s values: every name this machine runs is taken (case and spaces aside, empty
+/// = no choice, `baseline` = `scalar`); an unknown name, and a known one this CPU lacks, are
+/// refused with a message naming the variable, the value and what the CPU runs.
+#[test]
+fn forced_instruction_set_is_parsed_and_checked() {
+    assert_eq!(Isa::parse_forced("").unwrap(), None);
+    assert_eq!(Isa::parse_forced("  ").unwrap(), None);
+    assert_eq!(Isa::parse_forced("baseline").unwrap(), Some(Isa::Scalar));
+    for isa in Isa::available() {
+        assert_eq!(Isa::parse_forced(&format!(" {} ", isa.name().to_uppercase())).unwrap(), Some(isa));
+    }
+    let here = Isa::available().iter().map(|i| i.name()).collect::<Vec<_>>().join(", ");
+    let err = Isa::parse_forced("avx1024").unwrap_err().to_string();
+    assert!(err.contains("SUBSURF_ISA") && err.contains("avx1024") && err.contains(&here), "{err}");
+    for isa in Isa::ALL.into_iter().filter(|i| !i.runs_here()) {
+        let err = Isa::parse_forced(isa.name()).unwrap_err().to_string();
+        assert!(err.contains("not supported by this CPU") && err.contains(&here), "{err}");
+    }
+    #[cfg(target_arch = "x86_64")]
+    assert!(Isa::available().contains(&Isa::Sse4) == std::arch::is_x86_feature_detected!("sse4.2"));
+}

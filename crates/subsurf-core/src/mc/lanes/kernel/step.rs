@@ -53,17 +53,33 @@ pub(in crate::mc::lanes) fn spin_word(ux: f32, uy: f32, uz: f32, m: f32, word: u
 /// integer comparison, exact).
 const SURVIVE_MAX: u32 = (4_294_967_296.0 / ROULETTE_M - 0.5) as u32;
 
+/// Russian roulette of lane `i`, whose weight `st.w[i]` (after this step's absorption) fell
+/// below its threshold, decided by the step's roulette word: it survives with probability 1/M
+/// with M times its weight, or dies; the zero-mean control term (−(M − 1) w on survival, w on
+/// death) is returned for `Tally::roulette`, with `st.w[i]` already updated. Returns
+/// (control term, survived).
+#[inline(always)]
+pub(super) fn roulette(st: &mut Lanes, sc: &Scratch, i: usize) -> (f64, bool) {
+    let w1 = st.w[i];
+    let survive = sc.words[3][i] <= SURVIVE_MAX;
+    let (control, w) = if survive { (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M) } else { (w1, 0.0) };
+    st.w[i] = w;
+    (control, survive)
+}
+
 /// Phase 1a, a loop over the lanes in f32 only (so that LLVM vectorises it 16 wide, a whole
 /// AVX-512 register of f32, where a loop that mixes in f64 runs 8 wide): for every lane,
 /// whether it will use them or not, the fresh optical depth −ln ξ and the direction after a
 /// scattering (1 − cos θ from the lane's Henyey–Greenstein lobe by [`hg_one_minus_cos`], or
-/// `sc.one_minus_cos` when `mixture`; azimuth from its word; MCML's update by
-/// [`spin_word`]), into `sc.tau` and `sc.nx/ny/nz` for [`advance`].
+/// `sc.one_minus_cos` when `MIXTURE`; azimuth from its word; MCML's update by
+/// [`spin_word`]), into `sc.tau` and `sc.nx/ny/nz` for [`advance`]. (`MIXTURE` is a constant
+/// so that the loop holds no branch: with a run-time flag, LLVM kept the loop scalar for
+/// 128-bit vectors — SSE4.2 — judging the vector loop with its predicated load unprofitable.)
 #[inline(always)]
-pub(super) fn sample(st: &Lanes, sc: &mut Scratch, mixture: bool) {
+pub(super) fn sample<const MIXTURE: bool>(st: &Lanes, sc: &mut Scratch) {
     for i in 0..L {
         sc.tau[i] = neg_ln_f32(open01_f32_fine(sc.words[0][i]));
-        let m = if mixture {
+        let m = if MIXTURE {
             sc.one_minus_cos[i]
         } else {
             let hg = &st.l.hg;
@@ -76,8 +92,7 @@ pub(super) fn sample(st: &Lanes, sc: &mut Scratch, mixture: bool) {
 /// Phase 1b, one loop over the lanes: step every live lane to its interaction point or to the
 /// interface ahead; a lane that stays inside its layer then interacts: absorption by weight,
 /// scattering into the direction [`sample`] prepared, and roulette. Lanes that hit an
-/// interface go to [`interfaces`]. Counts the scattering events per lane in
-/// `Lanes::events`. (`pending`, whether the tally takes per-lane sums of the deposits, is
+/// interface go to [`interfaces`]. (`pending`, whether the tally takes per-lane sums of the deposits, is
 /// constant per run: its branch is hoisted; `CLEAR` is false when no layer is clear, which
 /// removes the clear-layer rules' masks from the loop.)
 #[inline(always)]
@@ -132,25 +147,18 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pendi
         st.uy[i] = sel_f32(scatter, ny, uy);
         st.uz[i] = sel_f32(scatter, nz, uz);
         st.order[i] = st.order[i].wrapping_add(scatter as u32);
-        st.events[i] += scatter as u64;
-        // Russian roulette below `ROULETTE_THRESHOLD` × the entering weight; its zero-mean
-        // control term goes to `Tally::roulette` (not to absorption), lane by lane.
+        // Russian roulette below `ROULETTE_THRESHOLD` × the entering weight: rare (about once
+        // a history), so it is played lane by lane in the scalar pass ([`roulette`]).
         let low = scatter & (w1 < st.w_min[i]);
-        let survive = sc.words[3][i] <= SURVIVE_MAX;
-        let (kept, boosted) = (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M);
-        let control = sel(survive, kept, w1);
-        sc.rou[i] = sel(low, control, 0.0);
         let dep = sel(it, dw, 0.0);
         sc.dep[i] = dep;
         sc.deposit[i] = mk(dep != 0.0);
         if pending {
             st.absorbed[i] += dep;
         }
-        let w_low = sel(survive, boosted, 0.0);
-        let w2 = sel(low, w_low, w1);
-        st.w[i] = sel(it, w2, w0);
-        let died = it & (absorbed_all | (low & !survive));
-        sc.fate[i] = selq(died, fate::DIED, f);
+        st.w[i] = sel(it, w1, w0);
+        let died = it & absorbed_all;
+        sc.fate[i] = selq(died, fate::DIED, selq(low, fate::ROULETTE, f));
         sc.att[i] = mk(died | clear_down | trapped | bounces | low);
     }
 }
@@ -159,31 +167,81 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pendi
 /// there makes LLVM emit a masked store, which the next load cannot forward from).
 const SIGN: u64 = 1 << 63;
 
-/// Phase 2: Fresnel reflection or refraction of the lanes that hit an interface.
+/// Phase 2: Fresnel reflection or refraction of the lanes that hit an interface, in three
+/// loops: [`fresnel`] (f64), [`draw_fresnel`] (the lanes' Fresnel words, u32 only) and
+/// [`refract`]. (As one loop — f64, f32 and u32 lanes mixed, a xoshiro step inside — LLVM
+/// vectorised it for 256- and 512-bit vectors but kept it scalar for 128-bit ones.)
 #[inline(always)]
 pub(super) fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) {
+    fresnel::<MATCHED>(st, sc);
+    if !MATCHED {
+        draw_fresnel(st, sc);
+    }
+    refract::<MATCHED>(st, sc, last);
+}
+
+/// Phase 2a: move the lanes that hit an interface onto it, keeping the unused optical depth
+/// (MCML's HitBoundary); Fresnel reflectance R and cos θt into `sc.fr`, `sc.cos_t` (as
+/// `optics::fr_dielectric_cos_t`), and `sc.need` where a Fresnel word decides (0 < R < 1).
+#[inline(always)]
+fn fresnel<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch) {
     for i in 0..L {
         let l = &st.l;
         let h = on(sc.hit[i]);
         let uz = st.uz[i] as f64;
         let (ux, uy) = (st.ux[i] as f64, st.uy[i] as f64);
         let up = uz < 0.0;
-        let n_t = sel(up, l.n_up[i], l.n_down[i]);
-        let eta = sel(up, l.eta_up[i], l.eta_down[i]);
-        let cc = sel(up, l.cc_up[i], l.cc_down[i]);
-        let ni = l.n[i];
-        // Onto the interface ahead, keeping the unused optical depth (MCML's HitBoundary).
         let zb = sel(up, l.z0[i], l.z1[i]);
         let db = (zb - st.z[i]) / uz;
         let d = sel(h, db, 0.0);
         st.x[i] += d * ux;
         st.y[i] += d * uy;
         st.z[i] = sel(h, zb, st.z[i]);
-        st.path[i] += ni * d;
+        st.path[i] += l.n[i] * d;
         st.s_left[i] -= d * l.sigma_t[i];
-        let ci = uz.abs().min(1.0);
         if MATCHED {
-            // Every index equal (`MATCHED`): no reflection, no refraction, no draw.
+            continue; // every index equal: no reflection, no refraction, no draw
+        }
+        let n_t = sel(up, l.n_up[i], l.n_down[i]);
+        let eta = sel(up, l.eta_up[i], l.eta_down[i]);
+        let cc = sel(up, l.cc_up[i], l.cc_down[i]);
+        let ni = l.n[i];
+        let ci = uz.abs().min(1.0);
+        // sin²θt = η²(1 − cos²θi)
+        let st2 = eta * eta * (1.0 - ci * ci).max(0.0);
+        let ct = (1.0 - st2).max(0.0).sqrt();
+        let rs = (ni * ci - n_t * ct) / (ni * ci + n_t * ct);
+        let rp = (n_t * ci - ni * ct) / (n_t * ci + ni * ct);
+        let tir = (ci <= cc) | (st2 >= 1.0);
+        let matched = ni == n_t;
+        let rf = 0.5 * (rs * rs + rp * rp);
+        let r = sel(matched, 0.0, rf);
+        let r = sel(tir, 1.0, r);
+        let cos_t = sel(matched, ci, ct);
+        sc.fr[i] = r;
+        sc.cos_t[i] = sel(tir, 0.0, cos_t);
+        sc.need[i] = mk(h & (r > 0.0) & (r < 1.0));
+    }
+}
+
+/// Phase 2b: the Fresnel word of each lane where `sc.need` (its stream advances only there).
+#[inline(always)]
+fn draw_fresnel(st: &mut Lanes, sc: &mut Scratch) {
+    for i in 0..L {
+        sc.fword[i] = draw(&mut st.s, i, on(sc.need[i]));
+    }
+}
+
+/// Phase 2c: reflection, refraction (the direction back to f32), layer changes and escapes.
+#[inline(always)]
+fn refract<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) {
+    for i in 0..L {
+        let l = &st.l;
+        let h = on(sc.hit[i]);
+        let uz = st.uz[i] as f64;
+        let (ux, uy) = (st.ux[i] as f64, st.uy[i] as f64);
+        let up = uz < 0.0;
+        if MATCHED {
             let layer = st.layer[i];
             let out = (up & (layer == 0)) | (!up & (layer == last));
             let cross = h & !out;
@@ -197,20 +255,9 @@ pub(super) fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, 
             sc.att[i] |= mk(h) & SIGN;
             continue;
         }
-        // Fresnel (as optics::fr_dielectric_cos_t): sin²θt = η²(1 − cos²θi).
-        let st2 = eta * eta * (1.0 - ci * ci).max(0.0);
-        let ct = (1.0 - st2).max(0.0).sqrt();
-        let rs = (ni * ci - n_t * ct) / (ni * ci + n_t * ct);
-        let rp = (n_t * ci - ni * ct) / (n_t * ci + ni * ct);
-        let tir = (ci <= cc) | (st2 >= 1.0);
-        let matched = ni == n_t;
-        let rf = 0.5 * (rs * rs + rp * rp);
-        let r = sel(matched, 0.0, rf);
-        let r = sel(tir, 1.0, r);
-        let cos_t = sel(matched, ci, ct);
-        let cos_t = sel(tir, 0.0, cos_t);
-        let need = h & (r > 0.0) & (r < 1.0);
-        let u = u32_to_open01(draw(&mut st.s, i, need));
+        let eta = sel(up, l.eta_up[i], l.eta_down[i]);
+        let (r, cos_t, need) = (sc.fr[i], sc.cos_t[i], on(sc.need[i]));
+        let u = u32_to_open01(sc.fword[i]);
         let transmit = (r <= 0.0) | (need & (u > r));
         let layer = st.layer[i];
         let out = transmit & ((up & (layer == 0)) | (!up & (layer == last)));
