@@ -188,14 +188,16 @@ pub fn walk<C: Carrier>(
         let st = m.sigma_t[k];
         let s = if st > 0.0 { -(-rng.uniform()).ln_1p() / st } else { f64::INFINITY };
         // The boundary ahead, unless the collision comes first. A collision closer than every
-        // surface (the distance grid's bound) needs no ray: the same path, the same numbers.
+        // surface (the distance grid's bound) needs no ray, and the ray is cut at the collision
+        // (the BVH skips what lies beyond): the same path, the same numbers.
         let ahead = if s < scene.accel.clear_radius(p) {
             None
         } else {
-            let Some(h) = scene.accel.intersect(p, d, f64::INFINITY, skip) else {
+            let h = scene.accel.intersect(p, d, s, skip);
+            if h.is_none() && s == f64::INFINITY {
                 return c.lost(p, false); // numerically leaked out of a closed mesh
-            };
-            (s >= h.t).then_some(h)
+            }
+            h
         };
         match ahead {
             None => {
