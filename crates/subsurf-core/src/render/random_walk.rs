@@ -25,7 +25,8 @@
 //! crossings allowed) that reaches an area light along the very connection the facet search
 //! finds counts nothing (see `exit_counted_by_nee`); other exits (through another facet, or
 //! after an internal reflection) count the light: the two estimators partition the paths, so
-//! nothing is counted twice or lost. Not exact: a connection through an inner interface whose
+//! nothing is counted twice or lost. Connections are made with a probability q from the
+//! distance bound (`nee_draw`) and weighted by 1/q. Not exact: a connection through an inner interface whose
 //! indices differ is not made (it would need a refraction at each interface of the chain); area
 //! lights and the environment stay unbiased there (their exits count), but point and
 //! directional lights, which no exit can reach, miss the light that reaches such collisions.
@@ -45,10 +46,12 @@ use crate::rng::PhotonRng;
 pub struct RandomWalk {
     /// Next-event estimation through facets (off only to test it against plain path tracing).
     pub nee: bool,
+    /// The scale c of the connection probability ([`NEE_SCALE`]; other values in tests).
+    pub nee_scale: f64,
 }
 
 /// The renderer's carrier: RGB throughput β with spectral MIS, the radiance gathered so far,
-/// and the last collision whose connections were made (for the exit/NEE partition).
+/// and the last collision (for the exit/NEE partition).
 struct Radiance<'a> {
     rw: &'a RandomWalk,
     depth: u32,
@@ -56,9 +59,9 @@ struct Radiance<'a> {
     /// The channel-choice probabilities of the current free path.
     w: Rgb,
     l: Rgb,
-    /// Whether the path since the last collision is straight and that collision made its
-    /// connections (then `last` holds its point and media).
-    covered: bool,
+    /// Whether the path since the last collision is straight (no reflection, no refraction at
+    /// a mismatched interface; `last` holds that collision's point and media).
+    straight: bool,
     last: (V3, Media),
 }
 
@@ -96,11 +99,11 @@ impl Carrier for Radiance<'_> {
             return false;
         }
         self.beta = std::array::from_fn(|k| self.beta[k] * m.sigma_s[k] * tr[k] / pbar);
-        let q = if self.rw.nee { self.rw.nee_probability(scene, m, media, p) } else { 0.0 };
-        self.covered = q > 0.0 && rng.uniform() < q;
-        if self.covered {
+        let q = self.rw.nee_draw(scene, m, p, rng);
+        self.straight = true;
+        self.last = (p, *media);
+        if let Some(q) = q {
             self.l = add(self.l, mul(self.beta, self.rw.nee(scene, m, media, p, d, q, rng)));
-            self.last = (p, *media);
         }
         true
     }
@@ -127,14 +130,14 @@ impl Carrier for Radiance<'_> {
     }
 
     fn bounced(&mut self, crossing: &Crossing) {
-        // An index-matched crossing keeps the path straight: the last connection still covers it.
+        // An index-matched crossing keeps the path straight.
         if !matches!(crossing, Crossing::Transmitted { matched: true, .. }) {
-            self.covered = false;
+            self.straight = false;
         }
     }
 
     fn exit(&mut self, scene: &Scene, h: &Hit, d: V3, rng: &mut PhotonRng) {
-        if self.covered && self.rw.exit_counted_by_nee(scene, &self.last, h, d) {
+        if self.rw.nee && self.straight && self.rw.exit_counted_by_nee(scene, &self.last, h, d) {
             return;
         }
         if self.depth < MAX_DEPTH {
@@ -147,15 +150,16 @@ impl Carrier for Radiance<'_> {
 
 impl RandomWalk {
     pub fn new(_scene: &Scene) -> RandomWalk {
-        RandomWalk { nee: true }
+        RandomWalk { nee: true, nee_scale: NEE_SCALE }
     }
 
     /// Whether a straight exit (from the collision `last` = (point, media) through the
     /// boundary at `h`, leaving along `d`) reaches an area light along a connection that
-    /// next-event estimation at that collision already counted: the facet search from the
-    /// collision to the light point found this very facet. Those exits count nothing; every
-    /// other exit (other facets, failed searches) counts the light, so the two estimators
-    /// partition the paths exactly.
+    /// next-event estimation at that collision counts: the facet search from the collision to
+    /// the light point finds this very facet. Those exits count nothing, whether or not the
+    /// collision made its connections (made with probability q, they are weighted by 1/q);
+    /// every other exit (other facets, failed searches, exits after a reflection) counts the
+    /// light, so the two estimators partition the paths exactly.
     fn exit_counted_by_nee(&self, scene: &Scene, last: &(V3, Media), h: &Hit, d: V3) -> bool {
         let tmax = scene.accel.intersect(h.p, d, f64::INFINITY, h.tri).map_or(f64::INFINITY, |x| x.t);
         let Some((tl, _)) = scene.light_hit(h.p, d, tmax) else { return false };
@@ -163,44 +167,30 @@ impl RandomWalk {
         facet_nee::point(scene, &last.1, last.0, y).is_some_and(|c| c.hit.tri == h.tri)
     }
 
-    /// The probability q of making the connections at this collision: 1 within a few mean free
-    /// paths of the boundary towards the lights, 20 e^{−τ} beyond (τ: the least optical depth,
-    /// over channels and lights, of the straight line to the outer boundary towards the light,
-    /// through index-matched interfaces; or σt,min × the distance to the first boundary where
-    /// that line meets a mismatched one), so deep collisions, whose connections are attenuated
-    /// by e^{−τ}, mostly skip the rays. (Measured and not kept: q from the distance bound r
-    /// alone, 20 e^{−σt,min r} when < 1, saves these rays but, being larger, makes more
-    /// connections: +14 % instructions in next-event estimation on a marble sphere, and the
-    /// walk gained 8 % instead of the 18 % of the free-path skip alone.) Area lights are not reweighted: a collision without
-    /// connections leaves its exits to count them (`covered` false), so each path is counted by
-    /// exactly one estimator. Delta lights, which no exit can reach, are weighted by 1/q. Both
-    /// are unbiased.
-    fn nee_probability(&self, scene: &Scene, m: &Translucent, media: &Media, v: V3) -> f64 {
+    /// Whether the connections are made at the collision `p` (in `m`): with probability
+    /// q = min(1, c e^{−σt,min r}) (c = `nee_scale`, r the distance bound of
+    /// [`super::distance`], σt,min the least σt of `m` over channels), drawn with one ξ; no ray
+    /// is cast to decide. Returns q where they are made ([`Self::nee`] weights them by 1/q).
+    /// Every connection runs at least r through `m`, so its transmittance is at most
+    /// e^{−σt,min r} ≤ q/c: the weighted connections of deep collisions stay bounded, and no exit
+    /// counts what they count (see `exit_counted_by_nee`). (Measured and replaced: q from τ of
+    /// the straight line to each light's centre, with area lights left to the exits of
+    /// collisions that skipped their connections. It cost a ray per light and collision, and it
+    /// was far below the transmittance of refracted connections through nearby facets facing
+    /// away from the light: those exits carried 30 % of a marble sphere's light as rare, bright
+    /// hits on the area light, > 90 % of the squared error.)
+    fn nee_draw(&self, scene: &Scene, m: &Translucent, p: V3, rng: &mut PhotonRng) -> Option<f64> {
+        if !self.nee || scene.lights.is_empty() {
+            return None;
+        }
         let st = m.sigma_t[0].min(m.sigma_t[1]).min(m.sigma_t[2]);
-        let mut tau = f64::INFINITY;
-        for light in &scene.lights {
-            let dir = match *light {
-                Light::Directional { to_light, .. } => to_light,
-                Light::Point { position, .. } => normalize(sub(position, v)),
-                Light::Sphere { center, .. } => normalize(sub(center, v)),
-                Light::Rect { center, .. } => normalize(sub(center, v)),
-            };
-            let t = match facet_nee::chain(scene, media, v, dir) {
-                Some(c) => c.tau[0].min(c.tau[1]).min(c.tau[2]),
-                None => scene.accel.intersect(v, dir, f64::INFINITY, u32::MAX).map_or(f64::INFINITY, |h| st * h.t),
-            };
-            tau = tau.min(t);
-        }
-        if tau.is_finite() {
-            (20.0 * (-tau).exp()).min(1.0)
-        } else {
-            0.0
-        }
+        let q = (self.nee_scale * (-st * scene.accel.clear_radius(p)).exp()).min(1.0);
+        (rng.uniform() < q).then_some(q)
     }
 
     /// Next-event estimation of every light from the collision at `p` (camera path direction
     /// `d`) in the medium `m` on top of `media`, through the boundaries ([`super::facet_nee`]);
-    /// area lights by one uniformly sampled point each; delta lights weighted by 1/`q` (the
+    /// area lights by one uniformly sampled point each; every light weighted by 1/`q` (the
     /// probability the connections are made here). Returns the in-scattered radiance per unit
     /// β, times 1/η² (η of the collision's medium: the radiance change from there to the outside
     /// at x_o, which the walk's paired entry/exit factors otherwise cancel).
@@ -210,11 +200,9 @@ impl RandomWalk {
         for light in &scene.lights {
             let (conn, power): (Option<Connection>, Rgb) = match *light {
                 Light::Directional { to_light, irradiance } => {
-                    (facet_nee::directional(scene, media, p, to_light), scale(irradiance, 1.0 / q))
+                    (facet_nee::directional(scene, media, p, to_light), irradiance)
                 }
-                Light::Point { position, intensity } => {
-                    (facet_nee::point(scene, media, p, position), scale(intensity, 1.0 / q))
-                }
+                Light::Point { position, intensity } => (facet_nee::point(scene, media, p, position), intensity),
                 Light::Sphere { .. } | Light::Rect { .. } => {
                     let Some((y, ny, le, pdf)) = light.sample_point(rng.uniform(), rng.uniform()) else { continue };
                     let Some(c) = facet_nee::point(scene, media, p, y) else { continue };
@@ -229,9 +217,14 @@ impl RandomWalk {
             let w = c.factor * m.phase.eval(dot(c.d_in, neg(d))) / (m.eta * m.eta);
             l = add(l, std::array::from_fn(|k| w * power[k] * (-c.tau[k]).exp()));
         }
-        l
+        scale(l, 1.0 / q)
     }
 }
+
+/// The scale c of the connection probability q = min(1, c e^{−σt,min r}) (measured: on the
+/// marble sphere c = 1 has the noise of c = 4 and 20 without their fireflies' share, at 23 % and
+/// 39 % fewer walk instructions; docs/render.md, "Random walk speed").
+pub const NEE_SCALE: f64 = 1.0;
 
 impl Translucency for RandomWalk {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
@@ -245,7 +238,7 @@ impl Translucency for RandomWalk {
             beta: [1.0; 3],
             w: [0.0; 3],
             l: [0.0; 3],
-            covered: false,
+            straight: false,
             last: (hit.p, Media::empty()),
         };
         walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);

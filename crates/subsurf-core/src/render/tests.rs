@@ -319,32 +319,37 @@ fn image_sum_stats(r: &Renderer, n: u32) -> ([f64; 3], [f64; 3]) {
 /// Next-event estimation through facets changes the noise, not the answer: random_walk with
 /// and without it (the area light then reached only by exits) agree within 4σ on a tessellated
 /// sphere under an 8 × 8 mm light 2 mm above its top (large and close, so that exits find it
-/// often and both estimators converge). Power: the 4σ band is below 3 % of the radiance in every
-/// channel (checked), so a 3 % bias of the facet connections (geometry factor, Fresnel, phase,
-/// attenuation) fails the test; a factor 1.05 on `facet_nee::point` did.
+/// often and both estimators converge). With the default connection probability, and with one
+/// 5 times smaller (q ≤ 0.2 everywhere: connections weighted by 1/q ≥ 5 at every collision,
+/// and the exits' partition decided for collisions that made none), so that a wrong weight or
+/// partition of skipped connections shows. Power: each 4σ band is below 3 % of the radiance in
+/// every channel (checked), so a 3 % bias of the facet connections (geometry factor, Fresnel,
+/// phase, attenuation) fails the test; a factor 1.05 on `facet_nee::point` did.
 #[test]
 fn random_walk_nee_through_facets_is_unbiased_slow() {
-    use super::random_walk::RandomWalk;
+    use super::random_walk::{RandomWalk, NEE_SCALE};
     let m = test_material([0.5; 3], 1.0, [0.2, 0.3, 0.5], [2.0; 3], 0.5, 1.4, false);
     let rect = Light::rect("l", [0.0, 0.0, 7.0], [4.0, 0.0, 0.0], [0.0, -4.0, 0.0], [1000.0; 3]).unwrap();
     let cam = Camera::new([0.0, 0.0, 6.0], [0.0; 3], [0.0, 1.0, 0.0], 30.0, 10, 10).unwrap();
     let s = scene(vec![icosphere([0.0; 3], 5.0, 3).unwrap()], m, vec![rect], [0.0; 3], Some(cam));
-    let with = Renderer::from_parts(s.clone(), Box::new(RandomWalk { nee: true }), 3);
-    let without = Renderer::from_parts(s.clone(), Box::new(RandomWalk { nee: false }), 4);
-    let (a, sa) = image_sum_stats(&with, 1000);
+    let without = Renderer::from_parts(s.clone(), Box::new(RandomWalk { nee: false, nee_scale: NEE_SCALE }), 4);
     let (b, sb) = image_sum_stats(&without, 2500);
-    for k in 0..3 {
-        let band = 4.0 * (sa[k] * sa[k] + sb[k] * sb[k]).sqrt();
-        println!(
-            "channel {k}: NEE {:.4} ± {:.4}, no NEE {:.4} ± {:.4}, 4σ band {:.2} %",
-            a[k],
-            sa[k],
-            b[k],
-            sb[k],
-            100.0 * band / b[k]
-        );
-        assert!(band < 0.03 * b[k], "channel {k}: too noisy to catch a 3 % bias");
-        assert!((a[k] - b[k]).abs() < band, "channel {k}");
+    for (scale, seed, n) in [(NEE_SCALE, 3, 1000), (0.2 * NEE_SCALE, 5, 2000)] {
+        let with = Renderer::from_parts(s.clone(), Box::new(RandomWalk { nee: true, nee_scale: scale }), seed);
+        let (a, sa) = image_sum_stats(&with, n);
+        for k in 0..3 {
+            let band = 4.0 * (sa[k] * sa[k] + sb[k] * sb[k]).sqrt();
+            println!(
+                "c = {scale}, channel {k}: NEE {:.4} ± {:.4}, no NEE {:.4} ± {:.4}, 4σ band {:.2} %",
+                a[k],
+                sa[k],
+                b[k],
+                sb[k],
+                100.0 * band / b[k]
+            );
+            assert!(band < 0.03 * b[k], "c = {scale}, channel {k}: too noisy to catch a 3 % bias");
+            assert!((a[k] - b[k]).abs() < band, "c = {scale}, channel {k}");
+        }
     }
 }
 
