@@ -140,20 +140,33 @@ fn point_geometry(eta: f64, d1: f64, d2: f64, cos1: f64, cos2: f64) -> f64 {
     1.0 / ((d1 + d2 / eta) * (d1 * cos2 / cos1 + d2 * cos1 / (eta * cos2)))
 }
 
-/// The t ∈ [0, D] minimising η√(t² + h_v²) + √((D − t)² + h_y²) (bisection on the derivative,
-/// which increases monotonically from negative at 0 to positive at D).
+/// The t ∈ [0, D] minimising η√(t² + h_v²) + √((D − t)² + h_y²): the root of the derivative
+/// g(t) = ηt/√(t² + h_v²) − (D − t)/√((D − t)² + h_y²), which increases monotonically from
+/// negative at 0 to positive at D, by Newton's method from the straight line's t (the root at
+/// η = 1) safeguarded by bisection (a step leaving the bracket is replaced by its midpoint):
+/// about 5 steps instead of bisection's 64 (−7 % walk instructions on the marble sphere).
 fn fermat_t(eta: f64, hv: f64, hy: f64, big_d: f64) -> f64 {
     let (mut lo, mut hi) = (0.0, big_d);
+    let mut t = if hv + hy > 0.0 { big_d * hv / (hv + hy) } else { 0.5 * big_d };
     for _ in 0..64 {
-        let t = 0.5 * (lo + hi);
-        let g = eta * t / (t * t + hv * hv).sqrt() - (big_d - t) / ((big_d - t).powi(2) + hy * hy).sqrt();
+        let (a, b) = ((t * t + hv * hv).sqrt(), ((big_d - t).powi(2) + hy * hy).sqrt());
+        let g = eta * t / a - (big_d - t) / b;
         if g > 0.0 {
             hi = t;
         } else {
             lo = t;
         }
+        let dg = eta * hv * hv / (a * a * a) + hy * hy / (b * b * b);
+        let mut next = t - g / dg;
+        if !(next > lo && next < hi) {
+            next = 0.5 * (lo + hi);
+        }
+        if (next - t).abs() <= 1e-15 * big_d {
+            return next;
+        }
+        t = next;
     }
-    0.5 * (lo + hi)
+    t
 }
 
 fn blocked(scene: &Scene, h: &Hit, dir: V3, dist: f64) -> bool {
