@@ -31,11 +31,12 @@
 //! lights and the environment stay unbiased there (their exits count), but point and
 //! directional lights, which no exit can reach, miss the light that reaches such collisions.
 
-use super::accel::Hit;
+use super::accel::{Hit, Tri};
+use super::distance::DistanceGrid;
 use super::facet_nee::{self, Connection};
 use super::light::Light;
 use super::material::{Material, Translucent};
-use super::math::{add, dot, max3, mul, neg, normalize, scale, sub, Rgb, V3};
+use super::math::{add, dot, madd, max3, mul, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{tint, trace, Translucency, MAX_DEPTH};
 use super::walk::{walk, Carrier, Crossing, Media};
@@ -48,6 +49,10 @@ pub struct RandomWalk {
     pub nee: bool,
     /// The scale c of the connection probability ([`NEE_SCALE`]; other values in tests).
     pub nee_scale: f64,
+    /// A distance bound to the facets that can face a light (None: use the scene's bound).
+    facing: Option<DistanceGrid>,
+    /// The least σt over the translucent materials and channels, mm⁻¹.
+    sigma_t_min: f64,
 }
 
 /// The renderer's carrier: RGB throughput β with spectral MIS, the radiance gathered so far,
@@ -149,8 +154,26 @@ impl Carrier for Radiance<'_> {
 }
 
 impl RandomWalk {
-    pub fn new(_scene: &Scene) -> RandomWalk {
-        RandomWalk { nee: true, nee_scale: NEE_SCALE }
+    pub fn new(scene: &Scene) -> RandomWalk {
+        RandomWalk::variant(scene, true, NEE_SCALE)
+    }
+
+    /// The method with next-event estimation on or off and a connection-probability scale c
+    /// (tests compare variants). Builds the distance bound to the facets that can face a light.
+    pub fn variant(scene: &Scene, nee: bool, nee_scale: f64) -> RandomWalk {
+        let sigma_t_min = scene
+            .materials
+            .iter()
+            .filter_map(|m| m.translucent())
+            .flat_map(|m| m.sigma_t)
+            .fold(f64::INFINITY, f64::min);
+        let facing = (nee && !scene.lights.is_empty()).then(|| scene.translucent_box()).flatten().map(|(lo, hi)| {
+            let tol = 1e-6 * scene.accel.extent;
+            let tris: Vec<Tri> =
+                scene.accel.tris.iter().filter(|t| scene.lights.iter().any(|l| may_face(l, t, tol))).copied().collect();
+            DistanceGrid::new(&tris, lo, hi)
+        });
+        RandomWalk { nee, nee_scale, facing, sigma_t_min }
     }
 
     /// Whether a straight exit (from the collision `last` = (point, media) through the
@@ -168,23 +191,29 @@ impl RandomWalk {
     }
 
     /// Whether the connections are made at the collision `p` (in `m`): with probability
-    /// q = min(1, c e^{−σt,min r}) (c = `nee_scale`, r the distance bound of
-    /// [`super::distance`], σt,min the least σt of `m` over channels), drawn with one ξ; no ray
-    /// is cast to decide. Returns q where they are made ([`Self::nee`] weights them by 1/q).
-    /// Every connection runs at least r through `m`, so its transmittance is at most
-    /// e^{−σt,min r} ≤ q/c: the weighted connections of deep collisions stay bounded, and no exit
-    /// counts what they count (see `exit_counted_by_nee`). (Measured and replaced: q from τ of
-    /// the straight line to each light's centre, with area lights left to the exits of
-    /// collisions that skipped their connections. It cost a ray per light and collision, and it
-    /// was far below the transmittance of refracted connections through nearby facets facing
-    /// away from the light: those exits carried 30 % of a marble sphere's light as rare, bright
-    /// hits on the area light, > 90 % of the squared error.)
+    /// q = min(1, c e^{−τ_lb}), τ_lb = max(σt,min(m) r, σt,min r_f) (c = `nee_scale`; r the
+    /// scene's distance bound to every surface, [`super::distance`]; r_f the bound to the facets
+    /// that can face a light, the only ones the facet search connects through; σt,min(m) the
+    /// least σt of `m`, σt,min that of every medium, which a connection may cross through
+    /// index-matched interfaces), drawn with one ξ; no ray is cast to decide. Returns q where
+    /// they are made ([`Self::nee`] weights them by 1/q). Every connection's optical depth is at
+    /// least τ_lb, so its transmittance is at most q/c: the weighted connections of deep
+    /// collisions stay bounded, and no exit counts what they count (see `exit_counted_by_nee`).
+    /// (Measured and replaced: q from τ of the straight line to each light's centre, with area
+    /// lights left to the exits of collisions that skipped their connections. It cost a ray per
+    /// light and collision, and it was far below the transmittance of refracted connections
+    /// through nearby facets facing away from the light: those exits carried 30 % of a marble
+    /// sphere's light as rare, bright hits on the area light, > 90 % of the squared error.)
     fn nee_draw(&self, scene: &Scene, m: &Translucent, p: V3, rng: &mut PhotonRng) -> Option<f64> {
         if !self.nee || scene.lights.is_empty() {
             return None;
         }
         let st = m.sigma_t[0].min(m.sigma_t[1]).min(m.sigma_t[2]);
-        let q = (self.nee_scale * (-st * scene.accel.clear_radius(p)).exp()).min(1.0);
+        let mut tau = st * scene.accel.clear_radius(p);
+        if let Some(g) = &self.facing {
+            tau = tau.max(self.sigma_t_min * g.bound(p));
+        }
+        let q = (self.nee_scale * (-tau).exp()).min(1.0);
         (rng.uniform() < q).then_some(q)
     }
 
@@ -218,6 +247,21 @@ impl RandomWalk {
             l = add(l, std::array::from_fn(|k| w * power[k] * (-c.tau[k]).exp()));
         }
         scale(l, 1.0 / q)
+    }
+}
+
+/// Whether triangle `t`'s plane may have a point of `light` in front of it (the facet search
+/// connects only through such facets: [`facet_nee::point`] needs h_y > 0, a directional
+/// connection cos θ > 0); `tol` (mm) widens the test.
+fn may_face(light: &Light, t: &Tri, tol: f64) -> bool {
+    let front = |y: V3| dot(sub(y, t.v0), t.n) > -tol;
+    match *light {
+        Light::Directional { to_light, .. } => dot(to_light, t.n) > -1e-9,
+        Light::Point { position, .. } => front(position),
+        Light::Sphere { center, radius, .. } => dot(sub(center, t.v0), t.n) > -radius - tol,
+        Light::Rect { center, u, v, .. } => [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)]
+            .iter()
+            .any(|&(a, b)| front(madd(madd(center, u, a), v, b))),
     }
 }
 

@@ -61,16 +61,9 @@ fn image_sum_stats(r: &Renderer, n: u32) -> (Rgb, Rgb) {
 /// issue measured −72 %, −72 %, −15 %, −19 % for point, directional, sphere and rectangle
 /// lights before collisions in inner media connected to lights).
 fn nested_matches_single(name: &str, light: Option<Light>, env: Rgb, n: u32, seed: u64) {
-    let a = Renderer::from_parts(
-        spheres(false, light.clone(), env),
-        Box::new(RandomWalk { nee: true, nee_scale: NEE_SCALE }),
-        seed,
-    );
-    let b = Renderer::from_parts(
-        spheres(true, light, env),
-        Box::new(RandomWalk { nee: true, nee_scale: NEE_SCALE }),
-        seed + 1,
-    );
+    let (sa, sb) = (spheres(false, light.clone(), env), spheres(true, light, env));
+    let a = Renderer::from_parts(sa.clone(), Box::new(RandomWalk::new(&sa)), seed);
+    let b = Renderer::from_parts(sb.clone(), Box::new(RandomWalk::new(&sb)), seed + 1);
     let ((ma, sa), (mb, sb)) = (image_sum_stats(&a, n), image_sum_stats(&b, n));
     let (mut powerless, mut failed) = (false, false);
     for k in 0..3 {
@@ -197,7 +190,8 @@ fn marble(grid: bool) -> Arc<Scene> {
 #[test]
 fn distance_bound_changes_no_number() {
     let img = |grid: bool| {
-        let r = Renderer::from_parts(marble(grid), Box::new(RandomWalk { nee: false, nee_scale: NEE_SCALE }), 5);
+        let s = marble(grid);
+        let r = Renderer::from_parts(s.clone(), Box::new(RandomWalk::variant(&s, false, NEE_SCALE)), 5);
         (0..12 * 12).map(|i| r.sample(i % 12, i / 12, 0)).collect::<Vec<Rgb>>()
     };
     assert_eq!(img(true), img(false));
@@ -221,7 +215,8 @@ fn distance_bound_changes_no_number() {
 #[ignore]
 fn marble_workload() {
     let grid = std::env::var_os("SUBSURF_WALK_NO_GRID").is_none();
-    let r = Renderer::from_parts(marble(grid), Box::new(RandomWalk { nee: true, nee_scale: NEE_SCALE }), 9);
+    let s = marble(grid);
+    let r = Renderer::from_parts(s.clone(), Box::new(RandomWalk::new(&s)), 9);
     let (m, s) = image_sum_stats(&r, 8);
     println!("grid {grid}: {m:?} ± {s:?}");
 }
