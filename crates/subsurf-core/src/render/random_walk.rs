@@ -187,7 +187,7 @@ impl RandomWalk {
         let tmax = scene.accel.intersect(h.p, d, f64::INFINITY, h.tri).map_or(f64::INFINITY, |x| x.t);
         let Some((tl, _)) = scene.light_hit(h.p, d, tmax) else { return false };
         let y = super::math::madd(h.p, d, tl);
-        facet_nee::point(scene, &last.1, last.0, y).is_some_and(|c| c.hit.tri == h.tri)
+        facet_nee::points(scene, &last.1, last.0, y).iter().flatten().any(|c| c.hit.tri == h.tri)
     }
 
     /// Whether the connections are made at the collision `p` (in `m`): with probability
@@ -225,26 +225,34 @@ impl RandomWalk {
     /// at x_o, which the walk's paired entry/exit factors otherwise cancel).
     #[allow(clippy::too_many_arguments)]
     fn nee(&self, scene: &Scene, m: &Translucent, media: &Media, p: V3, d: V3, q: f64, rng: &mut PhotonRng) -> Rgb {
+        // One connection's in-scattered radiance per unit β.
+        let through = |c: &Connection, power: Rgb| -> Rgb {
+            let w = c.factor * m.phase.eval(dot(c.d_in, neg(d))) / (m.eta * m.eta);
+            std::array::from_fn(|k| w * power[k] * (-c.tau[k]).exp())
+        };
         let mut l = [0.0; 3];
         for light in &scene.lights {
-            let (conn, power): (Option<Connection>, Rgb) = match *light {
+            match *light {
                 Light::Directional { to_light, irradiance } => {
-                    (facet_nee::directional(scene, media, p, to_light), irradiance)
+                    if let Some(c) = facet_nee::directional(scene, media, p, to_light) {
+                        l = add(l, through(&c, irradiance));
+                    }
                 }
-                Light::Point { position, intensity } => (facet_nee::point(scene, media, p, position), intensity),
+                Light::Point { position, intensity } => {
+                    for c in facet_nee::points(scene, media, p, position).iter().flatten() {
+                        l = add(l, through(c, intensity));
+                    }
+                }
                 Light::Sphere { .. } | Light::Rect { .. } => {
                     let Some((y, ny, le, pdf)) = light.sample_point(rng.uniform(), rng.uniform()) else { continue };
-                    let Some(c) = facet_nee::point(scene, media, p, y) else { continue };
-                    let cos_l = dot(ny, normalize(sub(c.hit.p, y)));
-                    if cos_l <= 0.0 {
-                        continue;
+                    for c in facet_nee::points(scene, media, p, y).iter().flatten() {
+                        let cos_l = dot(ny, normalize(sub(c.hit.p, y)));
+                        if cos_l > 0.0 {
+                            l = add(l, through(c, scale(le, cos_l / pdf)));
+                        }
                     }
-                    (Some(c), scale(le, cos_l / pdf))
                 }
-            };
-            let Some(c) = conn else { continue };
-            let w = c.factor * m.phase.eval(dot(c.d_in, neg(d))) / (m.eta * m.eta);
-            l = add(l, std::array::from_fn(|k| w * power[k] * (-c.tau[k]).exp()));
+            }
         }
         scale(l, 1.0 / q)
     }
