@@ -68,6 +68,9 @@ pub struct Accel {
     /// A conservative distance-to-surface bound over the translucent objects (set by
     /// [`super::scene::Scene::new`]; None: every collision casts its ray).
     pub distance: Option<DistanceGrid>,
+    /// Per triangle, the triangles of the same object sharing each edge (v0v1, v1v2, v2v0;
+    /// `u32::MAX` where there is none or more than one).
+    pub neighbours: Vec<[u32; 3]>,
 }
 
 impl Accel {
@@ -75,6 +78,7 @@ impl Accel {
     /// out of the BVH (they cannot be hit).
     pub fn new(meshes: &[&Mesh]) -> Accel {
         let mut tris = Vec::new();
+        let mut edges: std::collections::HashMap<(usize, u32, u32), Vec<u32>> = Default::default();
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
         for (o, m) in meshes.iter().enumerate() {
             for i in 0..m.triangles.len() {
@@ -83,6 +87,11 @@ impl Accel {
                 let nn = cross(e1, e2);
                 if !(length(nn) > 0.0) {
                     continue;
+                }
+                let vi = m.triangles[i];
+                for k in 0..3 {
+                    let (x, y) = (vi[k], vi[(k + 1) % 3]);
+                    edges.entry((o, x.min(y), x.max(y))).or_default().push(tris.len() as u32);
                 }
                 for p in [a, b, c] {
                     for k in 0..3 {
@@ -93,6 +102,25 @@ impl Accel {
                 tris.push(Tri { v0: a, e1, e2, n: normalize(nn), object: o as u32, local: i as u32 });
             }
         }
+        let neighbours = (0..tris.len())
+            .map(|g| {
+                let t: &Tri = &tris[g];
+                let vi = meshes[t.object as usize].triangles[t.local as usize];
+                std::array::from_fn(|k| {
+                    let (x, y) = (vi[k], vi[(k + 1) % 3]);
+                    match edges[&(t.object as usize, x.min(y), x.max(y))].as_slice() {
+                        [p, q] => {
+                            if *p == g as u32 {
+                                *q
+                            } else {
+                                *p
+                            }
+                        }
+                        _ => u32::MAX,
+                    }
+                })
+            })
+            .collect();
         let extent = length(sub(hi, lo)).max(1e-12);
         let pad = (extent * 1e-6) as f32;
         let boxes: Vec<Padded> = tris
@@ -106,7 +134,7 @@ impl Accel {
             })
             .collect();
         let bvh = build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
-        Accel { tris, bvh, extent, lo, hi, distance: None }
+        Accel { tris, bvh, extent, lo, hi, distance: None, neighbours }
     }
 
     /// Möller–Trumbore in f64: (t, b1, b2) for a hit with t in (tmin, tmax), else None.
@@ -270,6 +298,14 @@ mod tests {
             assert!(dot(h.n, d) > 0.0, "the exit face points along the ray");
             assert!(!acc.occluded(o, d, h.t * (1.0 - 1e-9), u32::MAX));
             assert!(acc.occluded(o, d, h.t * (1.0 + 1e-9), u32::MAX));
+        }
+        // Edge neighbours of a closed mesh: three per triangle, mutual, sharing an edge.
+        for (g, nb) in acc.neighbours.iter().enumerate() {
+            for (k, &o) in nb.iter().enumerate() {
+                assert!(o != u32::MAX && acc.neighbours[o as usize].contains(&(g as u32)), "{g} {nb:?}");
+                let (t, u) = (m.triangles[g], m.triangles[o as usize]);
+                assert!(u.contains(&t[k]) && u.contains(&t[(k + 1) % 3]), "edge {k} of {g}");
+            }
         }
         // Directions with exactly zero components (axis-aligned and facet normals).
         for d in [[0.0, 0.0, 1.0], [-0.0, -0.8960683512224559, -0.4439161068687069], [1.0, 0.0, -0.0]] {

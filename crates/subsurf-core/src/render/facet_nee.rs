@@ -103,36 +103,92 @@ pub fn directional(scene: &Scene, media: &Media, v: V3, to_light: V3) -> Option<
 /// The connection from `v` (inside `media`) to the point `y` outside.
 pub fn point(scene: &Scene, media: &Media, v: V3, y: V3) -> Option<Connection> {
     let eta = media.index(scene);
-    let mut h = chain(scene, media, v, normalize(sub(y, v)))?.hit;
+    let mut tri = chain(scene, media, v, normalize(sub(y, v)))?.hit.tri;
     for _ in 0..4 {
-        let n = h.n;
-        let q = scene.accel.tris[h.tri as usize].v0;
-        let (hv, hy) = (dot(sub(q, v), n), dot(sub(y, q), n));
-        if !(hv > 0.0 && hy > 0.0) {
-            return None;
+        match attempt(scene, media, eta, v, y, tri, false) {
+            Attempt::Found(c) => return Some(c),
+            Attempt::Next(t) => tri = t,
+            Attempt::Fail => return None,
         }
-        let (pv, py) = (madd(v, n, hv), madd(y, n, -hy));
-        let dd = sub(py, pv);
-        let big_d = dot(dd, dd).sqrt();
-        let t = if big_d > 1e-300 { fermat_t(eta, hv, hy, big_d) } else { 0.0 };
-        let p = if big_d > 1e-300 { madd(pv, dd, t / big_d) } else { pv };
-        let to_p = sub(p, v);
-        let d2 = dot(to_p, to_p).sqrt();
-        let c2 = chain(scene, media, v, scale(to_p, 1.0 / d2))?;
-        if c2.hit.tri == h.tri {
-            let h2 = c2.hit;
-            let d1 = ((big_d - t).powi(2) + hy * hy).sqrt();
-            let (cos1, cos2) = (hy / d1, hv / d2);
-            let out = scale(sub(y, h2.p), 1.0 / d1);
-            if blocked(scene, &h2, out, d1) {
-                return None;
-            }
-            let factor = (1.0 - fr_dielectric(cos1, 1.0, eta)) * point_geometry(eta, d1, d2, cos1, cos2);
-            return Some(Connection { hit: h2, d_in: scale(to_p, -1.0 / d2), tau: c2.tau, factor });
-        }
-        h = c2.hit;
     }
     None
+}
+
+/// Most connections [`points`] returns: the facet search's and its three edge neighbours'.
+pub const MAX_POINTS: usize = 4;
+
+/// Every connection from `v` to `y` through the facet [`point`] finds and through those of its
+/// edge neighbours whose plane also holds a solution inside the triangle: on a tessellated
+/// surface a large light is refracted towards one point by several adjacent facets, and those
+/// paths would otherwise be left to exits (rare, bright hits on the light).
+pub fn points(scene: &Scene, media: &Media, v: V3, y: V3) -> [Option<Connection>; MAX_POINTS] {
+    let mut out = [None, None, None, None];
+    let Some(c) = point(scene, media, v, y) else { return out };
+    let eta = media.index(scene);
+    let nbs = scene.accel.neighbours[c.hit.tri as usize];
+    out[0] = Some(c);
+    for (k, nb) in nbs.into_iter().enumerate() {
+        if nb != u32::MAX {
+            if let Attempt::Found(c) = attempt(scene, media, eta, v, y, nb, true) {
+                out[k + 1] = Some(c);
+            }
+        }
+    }
+    out
+}
+
+enum Attempt {
+    Found(Connection),
+    /// The refracted connection crosses this other facet first.
+    Next(u32),
+    Fail,
+}
+
+/// The connection from `v` to `y` refracted at the plane of facet `tri` (Fermat point p), if
+/// the line from `v` to p crosses that facet first and nothing blocks p → `y`. With `inside`
+/// the ray is cast only when p lies inside the triangle (neighbour facets: most fail there).
+fn attempt(scene: &Scene, media: &Media, eta: f64, v: V3, y: V3, tri: u32, inside: bool) -> Attempt {
+    let tr = &scene.accel.tris[tri as usize];
+    let (n, q) = (tr.n, tr.v0);
+    let (hv, hy) = (dot(sub(q, v), n), dot(sub(y, q), n));
+    if !(hv > 0.0 && hy > 0.0) {
+        return Attempt::Fail;
+    }
+    let (pv, py) = (madd(v, n, hv), madd(y, n, -hy));
+    let dd = sub(py, pv);
+    let big_d = dot(dd, dd).sqrt();
+    let t = if big_d > 1e-300 { fermat_t(eta, hv, hy, big_d) } else { 0.0 };
+    let p = if big_d > 1e-300 { madd(pv, dd, t / big_d) } else { pv };
+    if inside && !in_triangle(tr, p) {
+        return Attempt::Fail;
+    }
+    let to_p = sub(p, v);
+    let d2 = dot(to_p, to_p).sqrt();
+    let Some(c2) = chain(scene, media, v, scale(to_p, 1.0 / d2)) else { return Attempt::Fail };
+    if c2.hit.tri != tri {
+        return Attempt::Next(c2.hit.tri);
+    }
+    let h2 = c2.hit;
+    let d1 = ((big_d - t).powi(2) + hy * hy).sqrt();
+    let (cos1, cos2) = (hy / d1, hv / d2);
+    let out = scale(sub(y, h2.p), 1.0 / d1);
+    if blocked(scene, &h2, out, d1) {
+        return Attempt::Fail;
+    }
+    let factor = (1.0 - fr_dielectric(cos1, 1.0, eta)) * point_geometry(eta, d1, d2, cos1, cos2);
+    Attempt::Found(Connection { hit: h2, d_in: scale(to_p, -1.0 / d2), tau: c2.tau, factor })
+}
+
+/// Whether `p` (on the plane of `t`) lies in the triangle, with a relative margin of 10⁻⁹ (a
+/// point the margin wrongly admits only costs a ray: the chain decides).
+fn in_triangle(t: &super::accel::Tri, p: V3) -> bool {
+    let w = sub(p, t.v0);
+    let (d00, d01, d11) = (dot(t.e1, t.e1), dot(t.e1, t.e2), dot(t.e2, t.e2));
+    let (d20, d21) = (dot(w, t.e1), dot(w, t.e2));
+    let den = d00 * d11 - d01 * d01;
+    let (b1, b2) = ((d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den);
+    let eps = 1e-9;
+    b1 >= -eps && b2 >= -eps && b1 + b2 <= 1.0 + eps
 }
 
 /// The ray-tube geometry factor of a point source seen through a flat interface (module docs):
@@ -142,20 +198,33 @@ fn point_geometry(eta: f64, d1: f64, d2: f64, cos1: f64, cos2: f64) -> f64 {
     1.0 / ((d1 + d2 / eta) * (d1 * cos2 / cos1 + d2 * cos1 / (eta * cos2)))
 }
 
-/// The t ∈ [0, D] minimising η√(t² + h_v²) + √((D − t)² + h_y²) (bisection on the derivative,
-/// which increases monotonically from negative at 0 to positive at D).
+/// The t ∈ [0, D] minimising η√(t² + h_v²) + √((D − t)² + h_y²): the root of the derivative
+/// g(t) = ηt/√(t² + h_v²) − (D − t)/√((D − t)² + h_y²), which increases monotonically from
+/// negative at 0 to positive at D, by Newton's method from the straight line's t (the root at
+/// η = 1) safeguarded by bisection (a step leaving the bracket is replaced by its midpoint):
+/// about 5 steps instead of bisection's 64 (−7 % walk instructions on the marble sphere).
 fn fermat_t(eta: f64, hv: f64, hy: f64, big_d: f64) -> f64 {
     let (mut lo, mut hi) = (0.0, big_d);
+    let mut t = if hv + hy > 0.0 { big_d * hv / (hv + hy) } else { 0.5 * big_d };
     for _ in 0..64 {
-        let t = 0.5 * (lo + hi);
-        let g = eta * t / (t * t + hv * hv).sqrt() - (big_d - t) / ((big_d - t).powi(2) + hy * hy).sqrt();
+        let (a, b) = ((t * t + hv * hv).sqrt(), ((big_d - t).powi(2) + hy * hy).sqrt());
+        let g = eta * t / a - (big_d - t) / b;
         if g > 0.0 {
             hi = t;
         } else {
             lo = t;
         }
+        let dg = eta * hv * hv / (a * a * a) + hy * hy / (b * b * b);
+        let mut next = t - g / dg;
+        if !(next > lo && next < hi) {
+            next = 0.5 * (lo + hi);
+        }
+        if (next - t).abs() <= 1e-15 * big_d {
+            return next;
+        }
+        t = next;
     }
-    0.5 * (lo + hi)
+    t
 }
 
 fn blocked(scene: &Scene, h: &Hit, dir: V3, dist: f64) -> bool {

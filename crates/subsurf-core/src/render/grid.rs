@@ -44,6 +44,8 @@ pub struct MediumGrid {
     to_object: [[f64; 4]; 3],
     /// Largest σt per channel over the voxels.
     pub max_t: Rgb,
+    /// Least σt over the voxels and channels.
+    pub min_t: f64,
 }
 
 /// The coefficients at a point (mm⁻¹).
@@ -105,7 +107,8 @@ impl MediumGrid {
         let sigma_t: Vec<Rgb> =
             sigma_a.iter().zip(&sigma_s).map(|(a, s)| std::array::from_fn(|k| a[k] + s[k])).collect();
         let max_t = sigma_t.iter().fold([0.0; 3], |m, t| std::array::from_fn(|k| f64::max(m[k], t[k])));
-        Ok(MediumGrid { lo, hi, n, sigma_s, sigma_t, to_object, max_t })
+        let min_t = sigma_t.iter().flatten().fold(f64::INFINITY, |m, &t| m.min(t));
+        Ok(MediumGrid { lo, hi, n, sigma_s, sigma_t, to_object, max_t, min_t })
     }
 
     /// Object-space coordinates of the world point `p`.

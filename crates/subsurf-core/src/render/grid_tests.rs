@@ -83,8 +83,10 @@ fn camera() -> Option<Camera> {
 /// Power: every band is asserted below 5 % of the mean, so a 5 % bias cannot pass.
 fn images_agree(name: &str, a: Form, b: Form, light: Option<Light>, env: Rgb, n: u32) {
     let lights: Vec<Light> = light.into_iter().collect();
-    let ra = Renderer::from_parts(cube(a, lights.clone(), env, camera()), Box::new(RandomWalk { nee: true }), 11);
-    let rb = Renderer::from_parts(cube(b, lights, env, camera()), Box::new(RandomWalk { nee: true }), 12);
+    let (scene_a, scene_b) = (cube(a, lights.clone(), env, camera()), cube(b, lights, env, camera()));
+    let (wa, wb) = (RandomWalk::new(&scene_a), RandomWalk::new(&scene_b));
+    let ra = Renderer::from_parts(scene_a, Box::new(wa), 11);
+    let rb = Renderer::from_parts(scene_b, Box::new(wb), 12);
     let ((ma, sa), (mb, sb)) = (image_sum_stats(&ra, n), image_sum_stats(&rb, n));
     let (mut powerless, mut failed) = (false, false);
     for k in 0..3 {

@@ -111,6 +111,13 @@ impl Translucent {
         self.grid = Some(grid);
         self
     }
+
+    /// The least σt (mm⁻¹) anywhere in the material: over the channels and, with a grid, its
+    /// voxels (a lower bound for the optical depth of any path through it).
+    pub fn sigma_t_floor(&self) -> f64 {
+        let st = self.sigma_t[0].min(self.sigma_t[1]).min(self.sigma_t[2]);
+        self.grid.as_ref().map_or(st, |g| st.min(g.min_t))
+    }
 }
 
 impl Translucent {

@@ -32,17 +32,19 @@
 //! crossings allowed) that reaches an area light along the very connection the facet search
 //! finds counts nothing (see `exit_counted_by_nee`); other exits (through another facet, or
 //! after an internal reflection) count the light: the two estimators partition the paths, so
-//! nothing is counted twice or lost. Not exact: a connection through an inner interface whose
+//! nothing is counted twice or lost. Connections are made with a probability q from the
+//! distance bound (`nee_draw`) and weighted by 1/q. Not exact: a connection through an inner interface whose
 //! indices differ is not made (it would need a refraction at each interface of the chain); area
 //! lights and the environment stay unbiased there (their exits count), but point and
 //! directional lights, which no exit can reach, miss the light that reaches such collisions.
 
-use super::accel::Hit;
+use super::accel::{Hit, Tri};
+use super::distance::DistanceGrid;
 use super::facet_nee::{self, Connection};
 use super::grid::Local;
 use super::light::Light;
 use super::material::{Material, Translucent};
-use super::math::{add, dot, max3, mul, neg, normalize, scale, sub, Rgb, V3};
+use super::math::{add, dot, madd, max3, mul, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{tint, trace, Translucency, MAX_DEPTH};
 use super::walk::{walk, Carrier, Crossing, Media};
@@ -53,10 +55,16 @@ use crate::rng::PhotonRng;
 pub struct RandomWalk {
     /// Next-event estimation through facets (off only to test it against plain path tracing).
     pub nee: bool,
+    /// The scale c of the connection probability ([`NEE_SCALE`]; other values in tests).
+    pub nee_scale: f64,
+    /// A distance bound to the facets that can face a light (None: use the scene's bound).
+    facing: Option<DistanceGrid>,
+    /// The least σt over the translucent materials and channels, mm⁻¹.
+    sigma_t_min: f64,
 }
 
 /// The renderer's carrier: RGB throughput β with spectral MIS, the radiance gathered so far,
-/// and the last collision whose connections were made (for the exit/NEE partition).
+/// and the last collision (for the exit/NEE partition).
 struct Radiance<'a> {
     rw: &'a RandomWalk,
     depth: u32,
@@ -64,9 +72,9 @@ struct Radiance<'a> {
     /// The channel-choice probabilities of the current free path.
     w: Rgb,
     l: Rgb,
-    /// Whether the path since the last collision is straight and that collision made its
-    /// connections (then `last` holds its point and media).
-    covered: bool,
+    /// Whether the path since the last collision is straight (no reflection, no refraction at
+    /// a mismatched interface; `last` holds that collision's point and media).
+    straight: bool,
     last: (V3, Media),
 }
 
@@ -145,7 +153,7 @@ impl Carrier for Radiance<'_> {
                 std::array::from_fn(|k| if sb[k] > 0.0 { self.beta[k] * local.sigma_s[k] / (sb[k] * f) } else { 0.0 });
             self.connect(scene, m, media, p, d, rng);
         } else {
-            // A null collision keeps the path straight: the last connection still covers it.
+            // A null collision keeps the path straight (`last` stays the last real collision).
             self.beta = std::array::from_fn(|k| self.beta[k] * (1.0 - ratio[k]) / (1.0 - pr));
         }
         Some(real)
@@ -173,14 +181,14 @@ impl Carrier for Radiance<'_> {
     }
 
     fn bounced(&mut self, crossing: &Crossing) {
-        // An index-matched crossing keeps the path straight: the last connection still covers it.
+        // An index-matched crossing keeps the path straight.
         if !matches!(crossing, Crossing::Transmitted { matched: true, .. }) {
-            self.covered = false;
+            self.straight = false;
         }
     }
 
     fn exit(&mut self, scene: &Scene, h: &Hit, d: V3, rng: &mut PhotonRng) {
-        if self.covered && self.rw.exit_counted_by_nee(scene, &self.last, h, d) {
+        if self.rw.nee && self.straight && self.rw.exit_counted_by_nee(scene, &self.last, h, d) {
             return;
         }
         if self.depth < MAX_DEPTH {
@@ -194,102 +202,138 @@ impl Carrier for Radiance<'_> {
 impl Radiance<'_> {
     /// Next-event estimation at a (real) collision, made with probability q.
     fn connect(&mut self, scene: &Scene, m: &Translucent, media: &Media, p: V3, d: V3, rng: &mut PhotonRng) {
-        let q = if self.rw.nee { self.rw.nee_probability(scene, m, media, p) } else { 0.0 };
-        self.covered = q > 0.0 && rng.uniform() < q;
-        if self.covered {
+        let q = self.rw.nee_draw(scene, m, p, rng);
+        self.straight = true;
+        self.last = (p, *media);
+        if let Some(q) = q {
             self.l = add(self.l, mul(self.beta, self.rw.nee(scene, m, media, p, d, q, rng)));
-            self.last = (p, *media);
         }
     }
 }
 
 impl RandomWalk {
-    pub fn new(_scene: &Scene) -> RandomWalk {
-        RandomWalk { nee: true }
+    pub fn new(scene: &Scene) -> RandomWalk {
+        RandomWalk::variant(scene, true, NEE_SCALE)
+    }
+
+    /// The method with next-event estimation on or off and a connection-probability scale c
+    /// (tests compare variants). Builds the distance bound to the facets that can face a light.
+    pub fn variant(scene: &Scene, nee: bool, nee_scale: f64) -> RandomWalk {
+        let sigma_t_min = scene
+            .materials
+            .iter()
+            .filter_map(|m| m.translucent())
+            .map(Translucent::sigma_t_floor)
+            .fold(f64::INFINITY, f64::min);
+        let facing = (nee && !scene.lights.is_empty()).then(|| scene.translucent_box()).flatten().map(|(lo, hi)| {
+            let tol = 1e-6 * scene.accel.extent;
+            let tris: Vec<Tri> =
+                scene.accel.tris.iter().filter(|t| scene.lights.iter().any(|l| may_face(l, t, tol))).copied().collect();
+            DistanceGrid::new(&tris, lo, hi)
+        });
+        RandomWalk { nee, nee_scale, facing, sigma_t_min }
     }
 
     /// Whether a straight exit (from the collision `last` = (point, media) through the
     /// boundary at `h`, leaving along `d`) reaches an area light along a connection that
-    /// next-event estimation at that collision already counted: the facet search from the
-    /// collision to the light point found this very facet. Those exits count nothing; every
-    /// other exit (other facets, failed searches) counts the light, so the two estimators
-    /// partition the paths exactly.
+    /// next-event estimation at that collision counts: the facet search from the collision to
+    /// the light point finds this very facet. Those exits count nothing, whether or not the
+    /// collision made its connections (made with probability q, they are weighted by 1/q);
+    /// every other exit (other facets, failed searches, exits after a reflection) counts the
+    /// light, so the two estimators partition the paths exactly.
     fn exit_counted_by_nee(&self, scene: &Scene, last: &(V3, Media), h: &Hit, d: V3) -> bool {
         let tmax = scene.accel.intersect(h.p, d, f64::INFINITY, h.tri).map_or(f64::INFINITY, |x| x.t);
         let Some((tl, _)) = scene.light_hit(h.p, d, tmax) else { return false };
         let y = super::math::madd(h.p, d, tl);
-        facet_nee::point(scene, &last.1, last.0, y).is_some_and(|c| c.hit.tri == h.tri)
+        facet_nee::points(scene, &last.1, last.0, y).iter().flatten().any(|c| c.hit.tri == h.tri)
     }
 
-    /// The probability q of making the connections at this collision: 1 within a few mean free
-    /// paths of the boundary towards the lights, 20 e^{−τ} beyond (τ: the least optical depth,
-    /// over channels and lights, of the straight line to the outer boundary towards the light,
-    /// through index-matched interfaces; or σt,min × the distance to the first boundary where
-    /// that line meets a mismatched one), so deep collisions, whose connections are attenuated
-    /// by e^{−τ}, mostly skip the rays. (Measured and not kept: q from the distance bound r
-    /// alone, 20 e^{−σt,min r} when < 1, saves these rays but, being larger, makes more
-    /// connections: +14 % instructions in next-event estimation on a marble sphere, and the
-    /// walk gained 8 % instead of the 18 % of the free-path skip alone.) Area lights are not reweighted: a collision without
-    /// connections leaves its exits to count them (`covered` false), so each path is counted by
-    /// exactly one estimator. Delta lights, which no exit can reach, are weighted by 1/q. Both
-    /// are unbiased.
-    fn nee_probability(&self, scene: &Scene, m: &Translucent, media: &Media, v: V3) -> f64 {
-        let st = m.sigma_t[0].min(m.sigma_t[1]).min(m.sigma_t[2]);
-        let mut tau = f64::INFINITY;
-        for light in &scene.lights {
-            let dir = match *light {
-                Light::Directional { to_light, .. } => to_light,
-                Light::Point { position, .. } => normalize(sub(position, v)),
-                Light::Sphere { center, .. } => normalize(sub(center, v)),
-                Light::Rect { center, .. } => normalize(sub(center, v)),
-            };
-            let t = match facet_nee::chain(scene, media, v, dir) {
-                Some(c) => c.tau[0].min(c.tau[1]).min(c.tau[2]),
-                None => scene.accel.intersect(v, dir, f64::INFINITY, u32::MAX).map_or(f64::INFINITY, |h| st * h.t),
-            };
-            tau = tau.min(t);
+    /// Whether the connections are made at the collision `p` (in `m`): with probability
+    /// q = min(1, c e^{−τ_lb}), τ_lb = max(σt,min(m) r, σt,min r_f) (c = `nee_scale`; r the
+    /// scene's distance bound to every surface, [`super::distance`]; r_f the bound to the facets
+    /// that can face a light, the only ones the facet search connects through; σt,min(m) the
+    /// least σt of `m`, σt,min that of every medium, which a connection may cross through
+    /// index-matched interfaces), drawn with one ξ; no ray is cast to decide. Returns q where
+    /// they are made ([`Self::nee`] weights them by 1/q). Every connection's optical depth is at
+    /// least τ_lb, so its transmittance is at most q/c: the weighted connections of deep
+    /// collisions stay bounded, and no exit counts what they count (see `exit_counted_by_nee`).
+    /// (Measured and replaced: q from τ of the straight line to each light's centre, with area
+    /// lights left to the exits of collisions that skipped their connections. It cost a ray per
+    /// light and collision, and it was far below the transmittance of refracted connections
+    /// through nearby facets facing away from the light: those exits carried 30 % of a marble
+    /// sphere's light as rare, bright hits on the area light, > 90 % of the squared error.)
+    fn nee_draw(&self, scene: &Scene, m: &Translucent, p: V3, rng: &mut PhotonRng) -> Option<f64> {
+        if !self.nee || scene.lights.is_empty() {
+            return None;
         }
-        if tau.is_finite() {
-            (20.0 * (-tau).exp()).min(1.0)
-        } else {
-            0.0
+        let mut tau = m.sigma_t_floor() * scene.accel.clear_radius(p);
+        if let Some(g) = &self.facing {
+            tau = tau.max(self.sigma_t_min * g.bound(p));
         }
+        let q = (self.nee_scale * (-tau).exp()).min(1.0);
+        (rng.uniform() < q).then_some(q)
     }
 
     /// Next-event estimation of every light from the collision at `p` (camera path direction
     /// `d`) in the medium `m` on top of `media`, through the boundaries ([`super::facet_nee`]);
-    /// area lights by one uniformly sampled point each; delta lights weighted by 1/`q` (the
+    /// area lights by one uniformly sampled point each; every light weighted by 1/`q` (the
     /// probability the connections are made here). Returns the in-scattered radiance per unit
     /// β, times 1/η² (η of the collision's medium: the radiance change from there to the outside
     /// at x_o, which the walk's paired entry/exit factors otherwise cancel).
     #[allow(clippy::too_many_arguments)]
     fn nee(&self, scene: &Scene, m: &Translucent, media: &Media, p: V3, d: V3, q: f64, rng: &mut PhotonRng) -> Rgb {
+        // One connection's in-scattered radiance per unit β.
+        let through = |c: &Connection, power: Rgb| -> Rgb {
+            let w = c.factor * m.phase.eval(dot(c.d_in, neg(d))) / (m.eta * m.eta);
+            std::array::from_fn(|k| w * power[k] * (-c.tau[k]).exp())
+        };
         let mut l = [0.0; 3];
         for light in &scene.lights {
-            let (conn, power): (Option<Connection>, Rgb) = match *light {
+            match *light {
                 Light::Directional { to_light, irradiance } => {
-                    (facet_nee::directional(scene, media, p, to_light), scale(irradiance, 1.0 / q))
+                    if let Some(c) = facet_nee::directional(scene, media, p, to_light) {
+                        l = add(l, through(&c, irradiance));
+                    }
                 }
                 Light::Point { position, intensity } => {
-                    (facet_nee::point(scene, media, p, position), scale(intensity, 1.0 / q))
+                    for c in facet_nee::points(scene, media, p, position).iter().flatten() {
+                        l = add(l, through(c, intensity));
+                    }
                 }
                 Light::Sphere { .. } | Light::Rect { .. } => {
                     let Some((y, ny, le, pdf)) = light.sample_point(rng.uniform(), rng.uniform()) else { continue };
-                    let Some(c) = facet_nee::point(scene, media, p, y) else { continue };
-                    let cos_l = dot(ny, normalize(sub(c.hit.p, y)));
-                    if cos_l <= 0.0 {
-                        continue;
+                    for c in facet_nee::points(scene, media, p, y).iter().flatten() {
+                        let cos_l = dot(ny, normalize(sub(c.hit.p, y)));
+                        if cos_l > 0.0 {
+                            l = add(l, through(c, scale(le, cos_l / pdf)));
+                        }
                     }
-                    (Some(c), scale(le, cos_l / pdf))
                 }
-            };
-            let Some(c) = conn else { continue };
-            let w = c.factor * m.phase.eval(dot(c.d_in, neg(d))) / (m.eta * m.eta);
-            l = add(l, std::array::from_fn(|k| w * power[k] * (-c.tau[k]).exp()));
+            }
         }
-        l
+        scale(l, 1.0 / q)
     }
 }
+
+/// Whether triangle `t`'s plane may have a point of `light` in front of it (the facet search
+/// connects only through such facets: [`facet_nee::point`] needs h_y > 0, a directional
+/// connection cos θ > 0); `tol` (mm) widens the test.
+fn may_face(light: &Light, t: &Tri, tol: f64) -> bool {
+    let front = |y: V3| dot(sub(y, t.v0), t.n) > -tol;
+    match *light {
+        Light::Directional { to_light, .. } => dot(to_light, t.n) > -1e-9,
+        Light::Point { position, .. } => front(position),
+        Light::Sphere { center, radius, .. } => dot(sub(center, t.v0), t.n) > -radius - tol,
+        Light::Rect { center, u, v, .. } => [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)]
+            .iter()
+            .any(|&(a, b)| front(madd(madd(center, u, a), v, b))),
+    }
+}
+
+/// The scale c of the connection probability q = min(1, c e^{−σt,min r}) (measured: on the
+/// marble sphere c = 1 has the noise of c = 4 and 20 without their fireflies' share, at 23 % and
+/// 39 % fewer walk instructions; docs/render.md, "Random walk speed").
+pub const NEE_SCALE: f64 = 1.0;
 
 impl Translucency for RandomWalk {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
@@ -303,7 +347,7 @@ impl Translucency for RandomWalk {
             beta: [1.0; 3],
             w: [0.0; 3],
             l: [0.0; 3],
-            covered: false,
+            straight: false,
             last: (hit.p, Media::empty()),
         };
         walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);

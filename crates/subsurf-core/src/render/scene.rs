@@ -69,18 +69,11 @@ impl Scene {
         }
         super::light::check_power("environment", environment)?;
         let meshes: Vec<&Mesh> = objects.iter().map(|o| &o.mesh).collect();
-        let mut accel = Accel::new(&meshes);
-        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        for o in objects.iter().filter(|o| matches!(materials[o.material], Material::Translucent(_))) {
-            for p in &o.mesh.positions {
-                lo = std::array::from_fn(|k| lo[k].min(p[k]));
-                hi = std::array::from_fn(|k| hi[k].max(p[k]));
-            }
+        let accel = Accel::new(&meshes);
+        let mut scene = Scene { objects, materials, lights, environment, camera, accel };
+        if let Some((lo, hi)) = scene.translucent_box() {
+            scene.accel.distance = Some(DistanceGrid::new(&scene.accel.tris, lo, hi));
         }
-        if lo[0] <= hi[0] {
-            accel.distance = Some(DistanceGrid::new(&accel.tris, lo, hi));
-        }
-        let scene = Scene { objects, materials, lights, environment, camera, accel };
         if let Some(cam) = &scene.camera {
             if let Some(name) = scene.enclosing_object(cam.position) {
                 return Err(Error::Invalid(format!(
@@ -89,6 +82,19 @@ impl Scene {
             }
         }
         Ok(scene)
+    }
+
+    /// The bounding box (lo, hi) of the translucent objects (where walks run; None if there
+    /// are none).
+    pub fn translucent_box(&self) -> Option<(V3, V3)> {
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for o in self.objects.iter().filter(|o| matches!(self.materials[o.material], Material::Translucent(_))) {
+            for p in &o.mesh.positions {
+                lo = std::array::from_fn(|k| lo[k].min(p[k]));
+                hi = std::array::from_fn(|k| hi[k].max(p[k]));
+            }
+        }
+        (lo[0] <= hi[0]).then_some((lo, hi))
     }
 
     /// Warnings about lights that cannot light anything: a point, sphere or rectangle light inside

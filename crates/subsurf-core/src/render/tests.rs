@@ -318,33 +318,48 @@ fn image_sum_stats(r: &Renderer, n: u32) -> ([f64; 3], [f64; 3]) {
 
 /// Next-event estimation through facets changes the noise, not the answer: random_walk with
 /// and without it (the area light then reached only by exits) agree within 4σ on a tessellated
-/// sphere under an 8 × 8 mm light 2 mm above its top (large and close, so that exits find it
-/// often and both estimators converge). Power: the 4σ band is below 3 % of the radiance in every
-/// channel (checked), so a 3 % bias of the facet connections (geometry factor, Fresnel, phase,
-/// attenuation) fails the test; a factor 1.05 on `facet_nee::point` did.
+/// sphere (R 5 mm) seen from above, under an 8 × 8 mm light 2 mm above its top (large and
+/// close, so that exits find it often and both estimators converge): with the default
+/// connection probability, and with one 5 times smaller (q ≤ 0.2 everywhere: connections
+/// weighted by 1/q ≥ 5 at every collision, and the exits' partition decided for collisions that
+/// made none), so that a wrong weight or partition of skipped connections shows. (Any q > 0
+/// gives the same mean; the law of q, distance bounds included, changes only the noise.)
+/// Power: each 4σ band is below 3 % of the radiance in every channel (checked), so a 3 % bias of
+/// the facet connections (geometry factor, Fresnel, phase, attenuation) fails the test; a
+/// factor 1.05 on `facet_nee::point` did.
 #[test]
 fn random_walk_nee_through_facets_is_unbiased_slow() {
-    use super::random_walk::RandomWalk;
+    use super::random_walk::NEE_SCALE;
+    let top = Light::rect("l", [0.0, 0.0, 7.0], [4.0, 0.0, 0.0], [0.0, -4.0, 0.0], [1000.0; 3]).unwrap();
+    nee_matches_path_tracing("top", top, &[(NEE_SCALE, 3, 1000), (0.2 * NEE_SCALE, 5, 2000)], 2500);
+}
+
+/// random_walk with next-event estimation (one renderer per (scale c, seed, samples) in
+/// `cases`) against random_walk without it (`n` samples) under `light` (see
+/// `random_walk_nee_through_facets_is_unbiased_slow`).
+fn nee_matches_path_tracing(name: &str, light: Light, cases: &[(f64, u64, u32)], n: u32) {
+    use super::random_walk::{RandomWalk, NEE_SCALE};
     let m = test_material([0.5; 3], 1.0, [0.2, 0.3, 0.5], [2.0; 3], 0.5, 1.4, false);
-    let rect = Light::rect("l", [0.0, 0.0, 7.0], [4.0, 0.0, 0.0], [0.0, -4.0, 0.0], [1000.0; 3]).unwrap();
     let cam = Camera::new([0.0, 0.0, 6.0], [0.0; 3], [0.0, 1.0, 0.0], 30.0, 10, 10).unwrap();
-    let s = scene(vec![icosphere([0.0; 3], 5.0, 3).unwrap()], m, vec![rect], [0.0; 3], Some(cam));
-    let with = Renderer::from_parts(s.clone(), Box::new(RandomWalk { nee: true }), 3);
-    let without = Renderer::from_parts(s.clone(), Box::new(RandomWalk { nee: false }), 4);
-    let (a, sa) = image_sum_stats(&with, 1000);
-    let (b, sb) = image_sum_stats(&without, 2500);
-    for k in 0..3 {
-        let band = 4.0 * (sa[k] * sa[k] + sb[k] * sb[k]).sqrt();
-        println!(
-            "channel {k}: NEE {:.4} ± {:.4}, no NEE {:.4} ± {:.4}, 4σ band {:.2} %",
-            a[k],
-            sa[k],
-            b[k],
-            sb[k],
-            100.0 * band / b[k]
-        );
-        assert!(band < 0.03 * b[k], "channel {k}: too noisy to catch a 3 % bias");
-        assert!((a[k] - b[k]).abs() < band, "channel {k}");
+    let s = scene(vec![icosphere([0.0; 3], 5.0, 3).unwrap()], m, vec![light], [0.0; 3], Some(cam));
+    let without = Renderer::from_parts(s.clone(), Box::new(RandomWalk::variant(&s, false, NEE_SCALE)), 4);
+    let (b, sb) = image_sum_stats(&without, n);
+    for &(scale, seed, n) in cases {
+        let with = Renderer::from_parts(s.clone(), Box::new(RandomWalk::variant(&s, true, scale)), seed);
+        let (a, sa) = image_sum_stats(&with, n);
+        for k in 0..3 {
+            let band = 4.0 * (sa[k] * sa[k] + sb[k] * sb[k]).sqrt();
+            println!(
+                "{name}, c = {scale}, channel {k}: NEE {:.4} ± {:.4}, no NEE {:.4} ± {:.4}, 4σ band {:.2} %",
+                a[k],
+                sa[k],
+                b[k],
+                sb[k],
+                100.0 * band / b[k]
+            );
+            assert!(band < 0.03 * b[k], "{name}, c = {scale}, channel {k}: too noisy to catch a 3 % bias");
+            assert!((a[k] - b[k]).abs() < band, "{name}, c = {scale}, channel {k}");
+        }
     }
 }
 

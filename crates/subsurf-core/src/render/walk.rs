@@ -217,6 +217,10 @@ pub fn walk<C: Carrier>(
         let s = if st > 0.0 { -(-rng.uniform()).ln_1p() / st } else { f64::INFINITY };
         // The boundary ahead, unless the collision comes first. A collision closer than every
         // surface (the distance grid's bound) needs no ray: the same path, the same numbers.
+        // (Measured and not kept: cutting the ray at the collision saves 9.4 % of the walk's
+        // instructions, but a walker that leaked numerically out of a closed mesh (about 10⁻⁴
+        // of the weight at a cuboid's edges) then goes on colliding outside it instead of
+        // being booked as lost.)
         let ahead = if s < scene.accel.clear_radius(p) {
             None
         } else {

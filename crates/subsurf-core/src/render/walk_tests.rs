@@ -7,7 +7,7 @@ use super::driver::Renderer;
 use super::light::Light;
 use super::material::{Material, TestProfile, Translucent};
 use super::math::{add, Rgb};
-use super::random_walk::RandomWalk;
+use super::random_walk::{RandomWalk, NEE_SCALE};
 use super::scene::{Object, Scene};
 use super::shapes::{cuboid, icosphere};
 use super::walk_sim::{simulate, BeamSource, WalkConfig};
@@ -61,8 +61,9 @@ pub(super) fn image_sum_stats(r: &Renderer, n: u32) -> (Rgb, Rgb) {
 /// issue measured −72 %, −72 %, −15 %, −19 % for point, directional, sphere and rectangle
 /// lights before collisions in inner media connected to lights).
 fn nested_matches_single(name: &str, light: Option<Light>, env: Rgb, n: u32, seed: u64) {
-    let a = Renderer::from_parts(spheres(false, light.clone(), env), Box::new(RandomWalk { nee: true }), seed);
-    let b = Renderer::from_parts(spheres(true, light, env), Box::new(RandomWalk { nee: true }), seed + 1);
+    let (sa, sb) = (spheres(false, light.clone(), env), spheres(true, light, env));
+    let a = Renderer::from_parts(sa.clone(), Box::new(RandomWalk::new(&sa)), seed);
+    let b = Renderer::from_parts(sb.clone(), Box::new(RandomWalk::new(&sb)), seed + 1);
     let ((ma, sa), (mb, sb)) = (image_sum_stats(&a, n), image_sum_stats(&b, n));
     let (mut powerless, mut failed) = (false, false);
     for k in 0..3 {
@@ -182,12 +183,15 @@ fn marble(grid: bool) -> Arc<Scene> {
     Arc::new(s)
 }
 
-/// The distance bound only skips rays that could not change the path: images and simulation
+/// The distance bound only skips free-path rays that could not change the path: images without
+/// next-event estimation (whose connection probability the bound also sets, tested for
+/// unbiasedness in `tests::random_walk_nee_through_facets_is_unbiased_slow`) and simulation
 /// tallies are bit-identical with and without it.
 #[test]
 fn distance_bound_changes_no_number() {
     let img = |grid: bool| {
-        let r = Renderer::from_parts(marble(grid), Box::new(RandomWalk { nee: true }), 5);
+        let s = marble(grid);
+        let r = Renderer::from_parts(s.clone(), Box::new(RandomWalk::variant(&s, false, NEE_SCALE)), 5);
         (0..12 * 12).map(|i| r.sample(i % 12, i / 12, 0)).collect::<Vec<Rgb>>()
     };
     assert_eq!(img(true), img(false));
@@ -211,7 +215,8 @@ fn distance_bound_changes_no_number() {
 #[ignore]
 fn marble_workload() {
     let grid = std::env::var_os("SUBSURF_WALK_NO_GRID").is_none();
-    let r = Renderer::from_parts(marble(grid), Box::new(RandomWalk { nee: true }), 9);
+    let s = marble(grid);
+    let r = Renderer::from_parts(s.clone(), Box::new(RandomWalk::new(&s)), 9);
     let (m, s) = image_sum_stats(&r, 8);
     println!("grid {grid}: {m:?} ± {s:?}");
 }
