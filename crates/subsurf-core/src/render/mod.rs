@@ -20,6 +20,7 @@ pub mod distance;
 pub mod driver;
 pub mod facet_nee;
 pub mod hierarchical;
+pub mod irradiance;
 pub mod light;
 pub mod material;
 pub mod math;
