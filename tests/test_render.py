@@ -46,6 +46,20 @@ def test_every_profile_model_renders():
         assert np.all(np.isfinite(img.array)) and img.array.mean() > 0, model
 
 
+@pytest.mark.parametrize("name", ["cream", "spectralon"])
+def test_library_materials_render_with_photon_beam_diffusion(name):
+    """Issue 20: photon beam diffusion's totals were above 1 for these (cream 1.0125, spectralon
+    1.035 in every channel, σa = 0) and the renderer refused them; now at most 1 (exactly 1
+    without absorption)."""
+    mat = R.Translucent.library(name, model="photon_beam_diffusion")
+    img = R.render(small_scene(mat, width=12), "hierarchical", spp=1)
+    assert np.all(np.isfinite(img.array)) and img.array.mean() > 0
+    sa, ss = mat.sigma_a, mat.sigma_s
+    for k in range(3):
+        t = subsurf.bssrdf.Profile.from_model("photon_beam_diffusion", sa[k], ss[k], 0.0, mat.eta).total()
+        assert t <= 1.0 + 1e-9, (k, t)
+
+
 def test_exr_png_and_partial(tmp_path):
     sc = small_scene()
 
