@@ -110,7 +110,7 @@ fn length(kind: MeanFreePath, model: Model, m: &Medium, a_enter: f64) -> f64 {
 /// conventions and every kind of mean free path (g = 0.6, η = 1.4, two reflectances, one for
 /// photon beam diffusion): the
 /// total reproduces the reflectance and the layer has the requested length, within the
-/// numerical method's tolerance (see [`forward_total`]; lengths are arithmetic: 1e-12).
+/// numerical method's tolerance (see [`forward_total`]; lengths are arithmetic: 1e-12, Burley's d 1e-9).
 #[test]
 fn reflectance_round_trips_every_model_and_convention_slow() {
     let (g, eta) = (0.6, 1.4);
@@ -139,7 +139,10 @@ fn reflectance_round_trips_every_model_and_convention_slow() {
                     worst[mi] = worst[mi].max(err);
                     assert!(err < tol, "{model:?} {power:?} {kind:?}: total {shown} vs {r}");
                     let len = length(kind, model, &m, inc / enter);
-                    assert!((len / 1.7 - 1.0).abs() < 1e-12, "{model:?} {power:?} {kind:?}: length {len} vs 1.7");
+                    // Burley's d is photon beam diffusion's tabulated median, scale-equivariant
+                    // only to the rounding of its quadrature (measured 1.4e-11)
+                    let ltol = if kind == MeanFreePath::BurleyD { 1e-9 } else { 1e-12 };
+                    assert!((len / 1.7 - 1.0).abs() < ltol, "{model:?} {power:?} {kind:?}: length {len} vs 1.7");
                 }
             }
         }
