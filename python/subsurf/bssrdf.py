@@ -433,8 +433,9 @@ def material_from_reflectance(
     - ``mfp_kind`` (:data:`MFP_KINDS`): ``"extinction"`` 1/σt (pbrt's ``mfp``),
       ``"transport"`` 1/σt', ``"diffuse"`` 1/σtr with the model's diffusion coefficient (Jensen &
       Buhler 2002, §4: 1/(3σt'); Grosjean's (2σa + σs')/(3σt'²) for ``better_dipole`` and
-      ``photon_beam_diffusion``), or ``"burley_d"`` Christensen & Burley's (2015) d = ℓ_d/s(A),
-      eq. (8), the d of the ``normalized_diffusion`` profile a render builds;
+      ``photon_beam_diffusion``), or ``"burley_d"`` Christensen & Burley's (2015) d, the d of the
+      ``normalized_diffusion`` profile a render builds (its median radius, 1.5522 d, is the
+      medium's photon beam diffusion median; finite without absorption);
     - ``table``: the :class:`ProfileTable` for (g, eta) of the two table models (built with
       default settings — on a Dask ``client`` if given — and cached in memory if not given).
 

@@ -10,6 +10,9 @@
 //!   eq. (6) diffuse surface transmission, ℓ the mean free path: s = 1.9 − A + 3.5 (A − 0.8)²;
 //!   eq. (8) searchlight with ℓ the diffuse mean free path: s = 3.5 + 100 (A − 0.33)⁴.
 //!
+//! From a medium ([`from_medium`], [`with_albedo`]) d is set by the median radius of the medium's
+//! photon beam diffusion profile, not by a fit of s(A) (see [`with_albedo`]).
+//!
 //! CDF C(r) = 1 − ¼e^{−r/d} − ¾e^{−r/(3d)} in closed form; it is inverted exactly: with
 //! y = e^{−r/(3d)} and v = 1 − u, y³ + 3y = 4v (Cardano), y = a − 1/a, a = ∛(2v + √(4v² + 1)),
 //! written without cancellation (see [`NormalizedDiffusion::sample_r`]).
@@ -116,11 +119,11 @@ impl RadialProfile for NormalizedDiffusion {
 }
 
 /// From physical parameters: A = the total of photon beam diffusion for the same medium (the
-/// best analytic total available here; [`with_albedo`] takes A given), shape by
-/// [`with_albedo`].
+/// best analytic total available here; [`with_albedo`] takes A given) and d from its median
+/// radius, as [`with_albedo`].
 pub fn from_medium(m: &Medium) -> Result<NormalizedDiffusion> {
-    let a = super::photon_beam_diffusion::profile(m)?.total();
-    with_albedo(m, a.clamp(0.0, 1.0))
+    let p = super::photon_beam_diffusion::profile(m)?;
+    with_median(p.total().clamp(0.0, 1.0), p.radius_for_fraction(0.5))
 }
 
 /// The profile a renderer uses for a material made from a `reflectance` per unit *incident*
@@ -138,28 +141,40 @@ pub fn from_reflectance(m: &Medium, reflectance: f64) -> Result<NormalizedDiffus
     with_albedo(m, a)
 }
 
-/// The profile of medium `m` with surface albedo `a` (its total reflectance, e.g. the colour a
-/// material was made from): eq. (8) with ℓ = the diffuse mean free path 1/σtr,
-/// σtr = √(3σa σt'), σt' = σa + σs(1 − g) (eq. (5) with ℓ = 1/σt' where σa = 0).
-///
-/// Why not eq. (5) with ℓ = 1/σt: the authors fitted s(A) to Monte Carlo profiles of
-/// *index-matched, isotropic* media (mean free path 1, g = 0). Measured against this engine
-/// (radii holding 25/50/75/90 % of the energy, model/MC, same A; α ∈ {0.6, 0.9, 0.99, 0.999}):
-/// eq. (5) with 1/σt is 0.88–1.04 for η = 1, g = 0, α ≤ 0.99, but 0.03–0.13 for g = 0.8–0.9,
-/// η = 1.33–1.4, α ≥ 0.9 (1/σt is not the length that sets the width of anisotropic media),
-/// 0.31–0.60 there with 1/σt' (similarity), and 0.42–0.64 for η = 1.4, g = 0 (a refractive
-/// boundary widens the profile; the fits ignore it). Eq. (8) with 1/σtr is 0.43–0.96 over those
-/// g = 0.8–0.9 cases, 0.69–0.98 for η = 1.4, g = 0, 0.84–1.0 for η = 1, g = 0, α ≤ 0.99, and
-/// 0.70–0.81 on Jensen's marble (η = 1.5; eq. (5): 0.38–0.43). The remaining narrowing with
-/// η > 1 and g > 0 is the model's limit (`docs/profiles.md`).
-pub fn with_albedo(m: &Medium, a: f64) -> Result<NormalizedDiffusion> {
-    let stp = m.sigma_a + m.sigma_s_prime();
-    let s_tr = (3.0 * m.sigma_a * stp).sqrt();
-    if s_tr > 0.0 {
-        NormalizedDiffusion::new(a, 1.0 / s_tr, ShapeFit::SearchlightDmfp)
-    } else {
-        NormalizedDiffusion::new(a, 1.0 / stp, ShapeFit::Searchlight)
+/// The median radius of the profile in units of d: C(r) = ½ at r = 3d·(−ln y), y³ + 3y = 2
+/// (1.5522…).
+pub fn median_over_d() -> f64 {
+    NormalizedDiffusion { a: 1.0, d: 1.0 }.sample_r(0.5)
+}
+
+/// The profile of surface albedo `a` whose median radius is `median` (mm): d = median/1.5522….
+pub fn with_median(a: f64, median: f64) -> Result<NormalizedDiffusion> {
+    if !(a.is_finite() && (0.0..=1.0).contains(&a)) {
+        return Err(Error::param("albedo", a, "a finite number in [0, 1] (the surface albedo A)"));
     }
+    if !(median.is_finite() && median > 0.0) {
+        return Err(Error::param("median radius", median, "a finite number > 0 (mm)"));
+    }
+    Ok(NormalizedDiffusion { a, d: median / median_over_d() })
+}
+
+/// The profile of medium `m` with surface albedo `a` (its total reflectance, e.g. the colour a
+/// material was made from): Christensen & Burley's shape with its scale d set so that the
+/// median radius is that of the medium's photon beam diffusion profile
+/// ([`super::photon_beam_diffusion::profile`]: Habel et al.'s single + multiple scattering,
+/// energy-conserving; its median is continuous as σa → 0 and within 5 % of the engine's).
+///
+/// Why not the paper's fits of s(A): they take a length ℓ and were fitted to Monte Carlo
+/// profiles of index-matched, isotropic media. Median radii model/engine (20k photons, same
+/// A): eq. (8) with ℓ = 1/σtr (used here before) 0.68 on Jensen's marble (η 1.5), 0.64 at
+/// σa 10⁻³, σs 1, η 1.3, 1.14 at σa 10⁻⁴, then 10.2 at 10⁻⁶ and infinite as σa → 0 (1/σtr → ∞
+/// while s(A) stays finite; at σa = 0 it switched to eq. (5) with 1/σt': a median of 1.71 mm
+/// at σa = 0, 1,200 mm at 10⁻⁹; a sphere of σa 10⁻⁹ rendered black). Eq. (5) with ℓ = 1/σt:
+/// 0.41 on marble (the fits ignore a refractive boundary and anisotropy, `docs/profiles.md`).
+/// Photon beam diffusion's median: 0.94–1.04 of the engine's on those media and at g = 0.9,
+/// η = 1 (the table in `docs/profiles.md`).
+pub fn with_albedo(m: &Medium, a: f64) -> Result<NormalizedDiffusion> {
+    with_median(a, super::photon_beam_diffusion::profile(m)?.radius_for_fraction(0.5))
 }
 
 #[cfg(test)]
@@ -190,5 +205,43 @@ mod tests {
         }
         assert!((p.cdf(p.sample_r(1.0 - 1e-12)) - (1.0 - 1e-12)).abs() < 1e-15);
         assert!(NormalizedDiffusion::new(1.2, 1.0, ShapeFit::Searchlight).is_err());
+    }
+
+    /// The median radius is 1.5522… d: y = e^{−r/(3d)} solves y³ + 3y = 2, y = a − 1/a with
+    /// a = ∛(1 + √2) (Cardano), so r = −3d ln y.
+    #[test]
+    fn median_in_units_of_d() {
+        let a = (1.0 + 2f64.sqrt()).cbrt();
+        let want = -3.0 * (a - 1.0 / a).ln();
+        assert!((median_over_d() - want).abs() < 1e-13 && (want - 1.55218).abs() < 1e-5, "{want}");
+        let p = with_median(0.7, 2.0).unwrap();
+        assert!((p.cdf(2.0) - 0.5).abs() < 1e-13 && p.total() == 0.7);
+        assert!(with_median(0.7, 0.0).is_err() && with_median(1.1, 1.0).is_err());
+    }
+
+    /// Continuous as σa → 0 (issue 20: median 1.71 mm at σa = 0, 1,200 mm at 10⁻⁹, 37.9 mm at
+    /// 10⁻⁶ before): the median radius and the total at σa/σs' = 10⁻¹², 10⁻⁹, 10⁻⁶ move from
+    /// σa = 0's by at most 10 √(σa/σs') relative — diffusion theory's rate (Jensen et al.
+    /// 2001's total R_d = (α'/2)(1 + e^{−(4/3)A√(3(1 − α'))}) e^{−√(3(1 − α'))} falls as
+    /// √(3σa/σt') when α' → 1; constant ≈ 3 measured here: 2.6 % at g = 0.9, σa/σs' = 10⁻⁵) —
+    /// the same through `with_albedo`.
+    #[test]
+    fn continuous_as_absorption_vanishes() {
+        for &(g, eta) in &[(0.0, 1.3), (0.9, 1.4), (0.0, 1.0)] {
+            let ssp = 1.0 - g;
+            let at = |sa: f64| from_medium(&Medium::new(sa, 1.0, g, eta).unwrap()).unwrap();
+            let p0 = at(0.0);
+            let m0 = p0.radius_for_fraction(0.5);
+            assert!((p0.total() - 1.0).abs() < 1e-9, "{}", p0.total());
+            for &x in &[1e-12, 1e-9, 1e-6] {
+                let (sa, tol) = (x * ssp, 10.0 * x.sqrt());
+                let p = at(sa);
+                let m = p.radius_for_fraction(0.5);
+                println!("g {g} eta {eta} sigma_a {sa:e}: median {m:.4} mm vs {m0:.4}, A {:.6}", p.a);
+                assert!((m / m0 - 1.0).abs() < tol && (p.a - p0.a).abs() < tol, "sigma_a {sa}: {m} vs {m0}");
+                let q = with_albedo(&Medium::new(sa, 1.0, g, eta).unwrap(), 0.8).unwrap();
+                assert!((q.radius_for_fraction(0.5) / m0 - 1.0).abs() < tol && q.a == 0.8);
+            }
+        }
     }
 }

@@ -6,8 +6,12 @@
 //!    carrying the sub-triangle's area. The spacing Δ is `spacing` × the smallest median
 //!    radius of the object's profiles (the radius holding half of R_d's energy), so the
 //!    density follows the mean free path as in the paper (§3.1).
-//! 2. The transmitted irradiance E_t = ∫ F_t L_i cos dω at each sample from every light
-//!    (shadow rays, `light_samples` each) and the environment (`env_samples` cosine rays).
+//! 2. The transmitted irradiance E_t = ∫ F_t L_i cos dω at each sample
+//!    ([`super::irradiance`]): every light by shadow rays (`light_samples` each) and the rest
+//!    (the visible environment, light reflected by other surfaces) by `env_samples` cosine
+//!    gathering rays. Translucent surfaces those rays reach are black in a first gathering; if
+//!    any ray reached one, the samples are gathered again with the first trees as their
+//!    radiance (one bounce of light between translucent surfaces).
 //! 3. An octree over the samples; each node keeps its area, its power Σ E_t A per channel and
 //!    the power-weighted centroid (§3.2).
 //! 4. At a shading point x_o the tree is walked: a node is used as a whole when its solid
@@ -18,10 +22,11 @@
 
 use super::accel::Hit;
 use super::driver::Control;
+use super::irradiance::{transmitted_irradiance, Unlit};
 use super::material::Translucent;
 use super::math::{add, dot, length, madd, mul, scale, sub, Rgb, V3};
 use super::scene::Scene;
-use super::shade::{direct_irradiance, ft, single_scattering, tint, Translucency};
+use super::shade::{ft, single_scattering, tint, Translucency};
 use crate::error::{Error, Result};
 use crate::rng::PhotonRng;
 use rayon::prelude::*;
@@ -35,7 +40,8 @@ pub struct HierarchicalParams {
     pub spacing: f64,
     /// Largest solid angle (sr) of a node used as a cluster.
     pub epsilon: f64,
-    /// Cosine-weighted environment rays per irradiance sample.
+    /// Cosine-weighted gathering rays per irradiance sample (environment and light reflected
+    /// by other surfaces; see [`super::irradiance`]).
     pub env_samples: u32,
     /// Samples of each light per irradiance sample.
     pub light_samples: u32,
@@ -228,14 +234,15 @@ pub struct Hierarchical {
 
 impl Hierarchical {
     /// Place the samples, compute their irradiance (in parallel, reproducibly: sample j uses
-    /// the stream (seed ⊕ 0x4a42_2002, j)) and build the trees.
+    /// the stream (seed ⊕ 0x4a42_2002, j), in the second gathering (seed ⊕ 0x4a42_2003, j)) and
+    /// build the trees.
     pub fn new(scene: &Scene, params: &HierarchicalParams, seed: u64) -> Result<Hierarchical> {
         Ok(Self::new_with(scene, params, seed, &Control::default())?.expect("never cancelled"))
     }
 
-    /// [`new`](Self::new), cancellable: adds the number of irradiance samples to `ctl.total`,
-    /// counts the finished ones in `ctl.done` and polls `ctl.cancel` before each; `None` when
-    /// cancelled.
+    /// [`new`](Self::new), cancellable: adds the number of irradiance samples to `ctl.total`
+    /// (again before a second gathering), counts the finished ones in `ctl.done` and polls
+    /// `ctl.cancel` before each; `None` when cancelled.
     pub fn new_with(
         scene: &Scene,
         params: &HierarchicalParams,
@@ -257,38 +264,55 @@ impl Hierarchical {
             .collect();
         let n_all: usize = spots.iter().flatten().map(|(s, _)| s.len()).sum();
         ctl.total.fetch_add(n_all as u64, Ordering::Relaxed);
-        let mut trees = Vec::with_capacity(scene.objects.len());
-        let mut base = 0u64;
-        for (oi, spot) in spots.into_iter().enumerate() {
-            let (Some(m), Some((spots, delta))) = (scene.material(oi).translucent(), spot) else {
-                trees.push(None);
-                continue;
-            };
-            let n = spots.len() as u64;
-            let samples: Option<Vec<Sample>> = spots
-                .into_par_iter()
-                .enumerate()
-                .map(|(j, (h, area))| {
-                    if ctl.cancel.load(Ordering::Relaxed) {
-                        return None;
-                    }
-                    let mut rng = PhotonRng::new(seed ^ 0x4a42_2002, base + j as u64);
-                    let mut e = [0.0; 3];
-                    for _ in 0..params.light_samples {
-                        e = add(e, direct_irradiance(scene, &h, Some(m.eta), true, 0, &mut rng));
-                    }
-                    e = scale(e, 1.0 / params.light_samples as f64);
-                    let env = direct_irradiance(scene, &h, Some(m.eta), false, params.env_samples, &mut rng);
-                    ctl.done.fetch_add(1, Ordering::Relaxed);
-                    Some(Sample { p: h.p, area, e: add(e, env) })
-                })
-                .collect();
-            let Some(samples) = samples else { return Ok(None) };
-            base += n;
-            trees.push(Some(Tree::build(samples, delta)));
+        // First gathering: translucent surfaces black; again with that estimate if a ray saw one.
+        let unlit = Unlit::default();
+        let Some(trees) = gather(scene, params, &spots, seed ^ 0x4a42_2002, ctl, &unlit) else { return Ok(None) };
+        let mut h = Hierarchical { trees, params: *params };
+        if unlit.reached.load(Ordering::Relaxed) {
+            ctl.total.fetch_add(n_all as u64, Ordering::Relaxed);
+            let Some(trees) = gather(scene, params, &spots, seed ^ 0x4a42_2003, ctl, &h) else { return Ok(None) };
+            h.trees = trees;
         }
-        Ok(Some(Hierarchical { trees, params: *params }))
+        Ok(Some(h))
     }
+}
+
+/// The trees of every translucent object, its samples' irradiance from
+/// [`transmitted_irradiance`] with `tr` for the translucent surfaces the gathering rays reach
+/// (sample j of all objects in order uses the stream (`key`, j)); `None` when cancelled.
+fn gather(
+    scene: &Scene,
+    params: &HierarchicalParams,
+    spots: &[Option<(Spots, f64)>],
+    key: u64,
+    ctl: &Control,
+    tr: &dyn Translucency,
+) -> Option<Vec<Option<Tree>>> {
+    let mut trees = Vec::with_capacity(scene.objects.len());
+    let mut base = 0u64;
+    for (oi, spot) in spots.iter().enumerate() {
+        let (Some(m), Some((spots, delta))) = (scene.material(oi).translucent(), spot) else {
+            trees.push(None);
+            continue;
+        };
+        let samples: Option<Vec<Sample>> = spots
+            .par_iter()
+            .enumerate()
+            .map(|(j, (h, area))| {
+                if ctl.cancel.load(Ordering::Relaxed) {
+                    return None;
+                }
+                let mut rng = PhotonRng::new(key, base + j as u64);
+                let (nl, nr) = (params.light_samples, params.env_samples);
+                let e = transmitted_irradiance(scene, h, m.eta, nl, nr, 0, &mut rng, tr);
+                ctl.done.fetch_add(1, Ordering::Relaxed);
+                Some(Sample { p: h.p, area: *area, e })
+            })
+            .collect();
+        base += spots.len() as u64;
+        trees.push(Some(Tree::build(samples?, *delta)));
+    }
+    Some(trees)
 }
 
 /// Irradiance sample positions (as hits) with their areas (mm²).
@@ -372,7 +396,7 @@ fn morton(acc: &super::accel::Accel, p: V3) -> u64 {
 }
 
 impl Translucency for Hierarchical {
-    fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, _depth: u32, rng: &mut PhotonRng) -> Rgb {
+    fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
         let (Some(m), Some(tree)) = (scene.material(hit.object).translucent(), self.trees[hit.object].as_ref()) else {
             return [0.0; 3];
         };
@@ -380,7 +404,7 @@ impl Translucency for Hierarchical {
         let f = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm);
         let mut l = scale(mul(mo, tint(scene, hit)), f);
         if m.single_scattering {
-            l = add(l, single_scattering(scene, m, hit, wo, rng));
+            l = add(l, single_scattering(scene, m, hit, wo, depth, rng, self));
         }
         l
     }

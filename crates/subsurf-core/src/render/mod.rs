@@ -21,6 +21,7 @@ pub mod driver;
 pub mod facet_nee;
 pub mod grid;
 pub mod hierarchical;
+pub mod irradiance;
 pub mod light;
 pub mod material;
 pub mod math;

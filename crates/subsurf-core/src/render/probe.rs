@@ -19,12 +19,15 @@
 //! two other axes' segments are cast too, so the estimator is unbiased (up to the 10⁻⁴ of
 //! each profile beyond R). The estimate of the translucent
 //! radiance is F_t(η, ω_o) R_d(‖x_o − x_i‖) E_t(x_i) / (π c(η) p(x_i)) per channel, E_t from
-//! one shadow-ray sample of each light and one cosine-weighted environment ray.
+//! one shadow-ray sample of each light and one cosine-weighted gathering ray (environment, light
+//! reflected by other surfaces, translucent surfaces by this method at depth + 1;
+//! [`super::irradiance`]).
 
 use super::accel::Hit;
+use super::irradiance::transmitted_irradiance;
 use super::math::{add, dot, length, madd, max3, mul, scale, sub, Frame, Rgb, V3};
 use super::scene::Scene;
-use super::shade::{direct_irradiance, ft, single_scattering, tint, Translucency};
+use super::shade::{ft, single_scattering, tint, Translucency};
 use crate::rng::PhotonRng;
 use std::f64::consts::PI;
 
@@ -73,11 +76,11 @@ impl Probe {
 }
 
 impl Translucency for Probe {
-    fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, _depth: u32, rng: &mut PhotonRng) -> Rgb {
+    fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
         let Some(m) = scene.material(hit.object).translucent() else { return [0.0; 3] };
         let (u_axis, u_ch, u_r, u_phi, u_pick) =
             (rng.uniform(), rng.uniform(), rng.uniform(), rng.uniform(), rng.uniform());
-        let s1 = if m.single_scattering { single_scattering(scene, m, hit, wo, rng) } else { [0.0; 3] };
+        let s1 = if m.single_scattering { single_scattering(scene, m, hit, wo, depth, rng, self) } else { [0.0; 3] };
         let r_max = self.r_max[hit.object];
         let chans: Vec<usize> = (0..3).filter(|&k| r_max[k] > 0.0).collect();
         if chans.is_empty() {
@@ -138,7 +141,7 @@ impl Translucency for Probe {
         }
         let dist = length(dx);
         let rd: Rgb = std::array::from_fn(|k| m.profiles()[k].rd(dist));
-        let e = direct_irradiance(scene, &hi, Some(m.eta), true, 1, rng);
+        let e = transmitted_irradiance(scene, &hi, m.eta, 1, 1, depth, rng, self);
         let w = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm * pdf);
         add(scale(mul(mul(rd, e), tint(scene, hit)), w), s1)
     }

@@ -3,9 +3,12 @@
 //! reflection off translucent surfaces), direct (transmitted) irradiance at a surface point,
 //! and the single-scattering term S⁽¹⁾.
 //!
-//! Light transport outside the objects is direct lighting: lights and the environment seen
-//! with shadow rays, plus the specular paths of the smooth dielectric boundaries (up to
-//! [`MAX_DEPTH`] bounces). Each method supplies the translucent term through [`Translucency`].
+//! Light transport outside the objects: Lambertian surfaces are lit directly (lights and the
+//! environment seen with shadow rays), plus the specular paths of the smooth dielectric
+//! boundaries (up to [`MAX_DEPTH`] bounces). Light arriving at a translucent surface is gathered
+//! with [`trace_unlit`] beside next-event estimation of the lights (see
+//! [`super::irradiance`]), so it includes what other surfaces reflect, as the random walk's exits
+//! see it. Each method supplies the translucent term through [`Translucency`].
 
 use super::accel::Hit;
 use super::material::{Material, Translucent};
@@ -34,6 +37,32 @@ pub fn trace(scene: &Scene, o: V3, d: V3, skip: u32, depth: u32, rng: &mut Photo
     if let Some((_, le)) = scene.light_hit(o, d, tmax) {
         return le;
     }
+    shade(scene, hit, d, depth, rng, tr)
+}
+
+/// [`trace`] without the lights seen directly along the ray (area-light emission counts 0): the
+/// radiance a gathering ray adds to next-event estimation of every light (as in
+/// [`direct_irradiance`]), so each light path is counted once.
+pub fn trace_unlit(
+    scene: &Scene,
+    o: V3,
+    d: V3,
+    skip: u32,
+    depth: u32,
+    rng: &mut PhotonRng,
+    tr: &dyn Translucency,
+) -> Rgb {
+    let hit = scene.accel.intersect(o, d, f64::INFINITY, skip);
+    let tmax = hit.map_or(f64::INFINITY, |h| h.t);
+    if scene.light_hit(o, d, tmax).is_some() {
+        return [0.0; 3];
+    }
+    shade(scene, hit, d, depth, rng, tr)
+}
+
+/// Radiance leaving the first surface `hit` of the ray along `d` (the environment if none),
+/// lights along the ray not counted.
+fn shade(scene: &Scene, hit: Option<Hit>, d: V3, depth: u32, rng: &mut PhotonRng, tr: &dyn Translucency) -> Rgb {
     let Some(h) = hit else {
         return scene.environment;
     };
@@ -103,8 +132,19 @@ pub fn direct_irradiance(
 
 /// The single-scattering radiance S⁽¹⁾ at `hit` towards `wo`: the Hanrahan–Krueger
 /// first-order BRDF of the semi-infinite medium (Jensen et al. 2001 §2.3, evaluated with the
-/// local tangent plane) under the direct lights and the environment (one cosine sample).
-pub fn single_scattering(scene: &Scene, m: &Translucent, hit: &Hit, wo: V3, rng: &mut PhotonRng) -> Rgb {
+/// local tangent plane) under the lights (one shadow-ray sample each) and one cosine-weighted
+/// gathering ray ([`trace_unlit`] at `depth` + 1: the environment, light reflected by other
+/// surfaces and translucent objects through `tr`; the environment alone, occluded, at
+/// [`MAX_DEPTH`]).
+pub fn single_scattering(
+    scene: &Scene,
+    m: &Translucent,
+    hit: &Hit,
+    wo: V3,
+    depth: u32,
+    rng: &mut PhotonRng,
+    tr: &dyn Translucency,
+) -> Rgb {
     let f = Frame::new(hit.n);
     let wo_l = f.to_local(wo);
     if wo_l[2] <= 0.0 {
@@ -122,12 +162,17 @@ pub fn single_scattering(scene: &Scene, m: &Translucent, hit: &Hit, wo: V3, rng:
         }
         l = add(l, scale(mul(brdf(wi_l), ls.value), wi_l[2]));
     }
-    if scene.environment != [0.0; 3] {
-        let w = sample_cosine_hemisphere(rng.uniform(), rng.uniform());
-        let wi = f.to_world(w);
-        if !scene.accel.occluded(p, wi, f64::INFINITY, hit.tri) && scene.light_hit(p, wi, f64::INFINITY).is_none() {
-            l = add(l, scale(mul(brdf(w), scene.environment), PI));
-        }
+    let w = sample_cosine_hemisphere(rng.uniform(), rng.uniform());
+    let wi = f.to_world(w);
+    let li = if depth < MAX_DEPTH {
+        trace_unlit(scene, p, wi, hit.tri, depth + 1, rng, tr)
+    } else if !scene.accel.occluded(p, wi, f64::INFINITY, hit.tri) && scene.light_hit(p, wi, f64::INFINITY).is_none() {
+        scene.environment
+    } else {
+        [0.0; 3]
+    };
+    if li != [0.0; 3] {
+        l = add(l, scale(mul(brdf(w), li), PI));
     }
     l
 }

@@ -12,7 +12,7 @@
 //!   literature and pbrt's ρ_eff). Under a normal beam incident = (1 − R_sp) × entering
 //!   ([`entering_fraction`]; ignoring it made materials 2.8 % dark at η = 1.4, 4 % at 1.5);
 //! - [`MeanFreePath`]: which length `mfp` is — 1/σt (pbrt), 1/σt' (transport), 1/σtr (Jensen &
-//!   Buhler 2002, §4) or Christensen & Burley's d (2015, eq. (8)).
+//!   Buhler 2002, §4) or Christensen & Burley's d (2015; the renderer's normalized diffusion).
 //!
 //! The single-scattering albedo α (σs = ασt, σa = (1 − α)σt) comes from each model's total,
 //! an exhaustive `match` on the model (`single_scattering_albedo`):
@@ -31,7 +31,7 @@
 //! The models' materials reproduce the reflectance under the model; the engine's reflectance
 //! of them differs by the model's error (`docs/profiles.md`).
 
-use crate::bssrdf::normalized_diffusion::ShapeFit;
+use crate::bssrdf::normalized_diffusion;
 use crate::bssrdf::photon_beam_diffusion;
 use crate::bssrdf::table::ProfileTable;
 use crate::bssrdf::{Medium, Model, RadialProfile};
@@ -70,9 +70,10 @@ pub enum MeanFreePath {
     /// D = (2σa + σs')/(3σt'²) (d'Eon 2012) for `better_dipole` and `photon_beam_diffusion`
     /// (whose kernel is the better dipole).
     Diffuse,
-    /// Christensen & Burley's (2015) d = ℓ_d/s(A), eq. (8): ℓ_d = 1/√(3σaσt'),
-    /// s = 3.5 + 100(A − 0.33)⁴ with A the reflectance per entering power — the d of the
-    /// `normalized_diffusion` profile a renderer builds for the material.
+    /// Christensen & Burley's (2015) scale d — the d of the `normalized_diffusion` profile a
+    /// renderer builds for the material: its median radius (1.5522 d) is that of the medium's
+    /// photon beam diffusion profile ([`normalized_diffusion::with_albedo`]); finite without
+    /// absorption.
     BurleyD,
 }
 
@@ -110,22 +111,26 @@ impl MeanFreePath {
         }
     }
 
-    /// This length × σt for a medium of single-scattering albedo `alpha`, HG `g`, whose
-    /// reflectance per entering power is `a_enter`, under `model` (see the variants): k with
-    /// ℓ = 1/(k σt). 0 where the length is infinite (no absorption for the diffuse lengths).
-    pub fn sigma_ratio(self, model: Model, alpha: f64, g: f64, a_enter: f64) -> f64 {
+    /// This length × σt for a medium of single-scattering albedo `alpha`, HG `g`, relative
+    /// index `eta`, whose reflectance per entering power is `a_enter`, under `model` (see the
+    /// variants): k with ℓ = 1/(k σt). 0 where the length is infinite (no absorption for the
+    /// diffuse length).
+    pub fn sigma_ratio(self, model: Model, alpha: f64, g: f64, eta: f64, a_enter: f64) -> Result<f64> {
         let (sa, sp) = (1.0 - alpha, alpha * (1.0 - g)); // σa/σt, σs'/σt
         let stp = sa + sp; // σt'/σt = 1 − αg
         let classical = (3.0 * sa * stp).sqrt();
-        match self {
+        Ok(match self {
             MeanFreePath::Extinction => 1.0,
             MeanFreePath::Transport => stp,
             MeanFreePath::Diffuse => match model {
                 Model::Dipole | Model::Multipole | Model::NormalizedDiffusion | Model::MonteCarlo => classical,
                 Model::BetterDipole | Model::PhotonBeamDiffusion => (3.0 * sa * stp * stp / (2.0 * sa + sp)).sqrt(),
             },
-            MeanFreePath::BurleyD => classical * ShapeFit::SearchlightDmfp.s(a_enter),
-        }
+            MeanFreePath::BurleyD => {
+                // d of the medium with σt = 1 (lengths scale as 1/σt).
+                1.0 / normalized_diffusion::with_albedo(&Medium::new(sa, alpha, g, eta)?, a_enter.clamp(0.0, 1.0))?.d
+            }
+        })
     }
 }
 
@@ -274,13 +279,13 @@ pub fn material_from_reflectance(
                 Power::Entering => rd,
             };
             let a = single_scattering_albedo(model, total, (g, eta), table, (&field, rd, conv.power))?;
-            let k = conv.mfp_kind.sigma_ratio(model, a, g, total);
+            let k = conv.mfp_kind.sigma_ratio(model, a, g, eta, total)?;
             if !(k > 0.0) {
                 return Err(Error::param(
                     &field,
                     rd,
-                    "a reflectance below that of a non-absorbing medium when mfp is a diffuse length \
-                     (mfp_kind \"diffuse\" or \"burley_d\": no absorption makes it infinite)",
+                    "a reflectance below that of a non-absorbing medium when mfp is the diffuse length \
+                     (mfp_kind \"diffuse\": no absorption makes it infinite)",
                 ));
             }
             let st = 1.0 / (l * k);

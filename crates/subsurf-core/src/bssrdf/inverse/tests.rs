@@ -76,8 +76,11 @@ fn forward_total(model: Model, m: &Medium, table: &ProfileTable, refl_incident: 
             (kind.total_rd(m.sigma_s_prime() / (m.sigma_a + m.sigma_s_prime()), m.eta).unwrap(), 1e-12)
         }
         // The tabulated quadrature of R_d(r) (agrees with closed forms to ~1e-12, `Tabulated`);
-        // photon beam diffusion's root on α stops at |Δtotal| < 1e-13 or a bracket of 1e-11.
-        Model::Multipole | Model::PhotonBeamDiffusion => (medium_profile(model, m).unwrap().total(), 1e-10),
+        // photon beam diffusion's root on α stops at |Δtotal| < 1e-13 or a bracket of 1e-11, and
+        // its total carries the weight k, a ratio of two more tabulated totals: the material's
+        // scale (σt ≠ 1) changes it by the quadrature's rounding (measured 7.8e-10).
+        Model::Multipole => (medium_profile(model, m).unwrap().total(), 1e-10),
+        Model::PhotonBeamDiffusion => (medium_profile(model, m).unwrap().total(), 2e-9),
         // ρ_eff of the table (per incident power), inverted by bisection to 1e-14 in ln(1 − α).
         Model::MonteCarlo => (table.rho_eff(m.sigma_s / m.sigma_t()).unwrap() / enter, 1e-10),
         // The renderer's profile for the material: its total is A = reflectance / (1 − R_sp).
@@ -110,7 +113,7 @@ fn length(kind: MeanFreePath, model: Model, m: &Medium, a_enter: f64) -> f64 {
 /// conventions and every kind of mean free path (g = 0.6, η = 1.4, two reflectances, one for
 /// photon beam diffusion): the
 /// total reproduces the reflectance and the layer has the requested length, within the
-/// numerical method's tolerance (see [`forward_total`]; lengths are arithmetic: 1e-12).
+/// numerical method's tolerance (see [`forward_total`]; lengths are arithmetic: 1e-12, Burley's d 1e-9).
 #[test]
 fn reflectance_round_trips_every_model_and_convention_slow() {
     let (g, eta) = (0.6, 1.4);
@@ -139,7 +142,10 @@ fn reflectance_round_trips_every_model_and_convention_slow() {
                     worst[mi] = worst[mi].max(err);
                     assert!(err < tol, "{model:?} {power:?} {kind:?}: total {shown} vs {r}");
                     let len = length(kind, model, &m, inc / enter);
-                    assert!((len / 1.7 - 1.0).abs() < 1e-12, "{model:?} {power:?} {kind:?}: length {len} vs 1.7");
+                    // Burley's d is photon beam diffusion's tabulated median, scale-equivariant
+                    // only to the rounding of its quadrature (measured 1.4e-11)
+                    let ltol = if kind == MeanFreePath::BurleyD { 1e-9 } else { 1e-12 };
+                    assert!((len / 1.7 - 1.0).abs() < ltol, "{model:?} {power:?} {kind:?}: length {len} vs 1.7");
                 }
             }
         }
