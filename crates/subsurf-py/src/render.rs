@@ -93,6 +93,8 @@ struct TranslucentArgs<'py> {
     mc_seed: Bound<'py, PyAny>,
     single_scattering: Option<bool>,
     reflectance: Option<[f64; 3]>,
+    #[pyo3(default)]
+    adaptive_table: Option<Py<crate::adaptive::PyAdaptiveTable>>,
 }
 
 /// An opaque Lambertian material: `Lambertian._to_core()`.
@@ -144,6 +146,7 @@ impl TranslucentArgs<'_> {
             mc,
             reflectance: self.reflectance,
             single_scattering: self.single_scattering,
+            adaptive: self.adaptive_table.as_ref().map(|t| t.get().inner.clone()),
         })
     }
 }

@@ -200,6 +200,16 @@ class Translucent:
             "reflectance": self.reflectance,
         }
 
+    def adaptive_table(self, threads=None, progress=None):
+        """The ``adaptive`` model's :class:`subsurf.bssrdf.AdaptiveTable` of this material (its
+        channel stacks, ``mc_photons`` per node and ``mc_seed``), from the on-disk cache or built
+        and cached (:meth:`subsurf.bssrdf.AdaptiveTable.cached`)."""
+        from ..adaptive_table import AdaptiveTable
+
+        return AdaptiveTable.cached(
+            self.channel_stacks(), photons=self.mc_photons, seed=self.mc_seed, threads=threads, progress=progress
+        )
+
     def __repr__(self):
         return (
             f"Translucent(name={self.name!r}, sigma_a={self.sigma_a}, sigma_s={self.sigma_s}, g={self.g}, "
@@ -473,9 +483,14 @@ class Scene:
         for i, o in enumerate(self.objects):
             k = next(k for k, m in enumerate(mats) if m is o.material)
             objs.append({"mesh": o._mesh_dict(o.name or f"objects[{i}]"), "material": k})
+        cores = [m._to_core(n) for m, n in zip(mats, names)]
+        if method != "random_walk":  # the adaptive model's tables, from the on-disk cache
+            for m, c in zip(mats, cores):
+                if isinstance(m, Translucent) and m.model == "adaptive":
+                    c["adaptive_table"] = m.adaptive_table()._t
         return {
             "objects": objs,
-            "materials": [m._to_core(n) for m, n in zip(mats, names)],
+            "materials": cores,
             "lights": [l._to_core(i) for i, l in enumerate(self.lights)],
             "environment": _vec3("environment", self.environment),
             "camera": None if self.camera is None else self.camera._to_core(),

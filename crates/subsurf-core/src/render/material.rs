@@ -12,7 +12,8 @@
 //! once more; see `diffusion::bssrdf`).
 
 use super::math::Rgb;
-use crate::bssrdf::RadialProfile;
+use crate::bssrdf::adaptive::{AdaptiveSettings, AdaptiveTable};
+use crate::bssrdf::{Model, RadialProfile};
 use crate::error::{check_g, check_index, check_nonneg, Error, Result};
 use crate::medium::{Layer, Stack};
 use crate::optics::{diffuse_fresnel_reflectance, Phase};
@@ -48,6 +49,8 @@ pub struct Translucent {
     pub sigma_t: Rgb,
     /// One semi-infinite [`Stack`] per channel for the single-scattering BRDF.
     pub stacks: [Stack; 3],
+    /// The finite-slab tables of `model = "adaptive"` (`render::adaptive`); `None` otherwise.
+    pub adaptive: Option<Arc<AdaptiveTable>>,
 }
 
 impl Translucent {
@@ -87,6 +90,7 @@ impl Translucent {
             phase: Phase::hg(g)?,
             sigma_t: std::array::from_fn(|k| sigma_a[k] + sigma_s[k]),
             stacks,
+            adaptive: None,
         })
     }
 }
@@ -123,14 +127,20 @@ pub struct TranslucentSpec {
     pub reflectance: Option<Rgb>,
     /// Whether the BSSRDF methods add S⁽¹⁾ (`None`: the model's default, see [`channel_profiles`]).
     pub single_scattering: Option<bool>,
+    /// A prebuilt table of `model = "adaptive"` for `stacks` (e.g. from the on-disk cache);
+    /// `None`: [`build`](Self::build) traces it with the `mc` photons and seed.
+    pub adaptive: Option<Arc<AdaptiveTable>>,
 }
 
 impl TranslucentSpec {
     /// Photons its profiles trace: 3 × `mc.photons` for `monte_carlo`, else 0 (the progress
     /// total of [`build`](Self::build)).
     pub fn photons(&self) -> u64 {
-        match crate::bssrdf::Model::from_name("model", &self.model) {
-            Ok(crate::bssrdf::Model::MonteCarlo) => self.mc.photons.saturating_mul(3),
+        match Model::from_name("model", &self.model) {
+            Ok(Model::MonteCarlo) => self.mc.photons.saturating_mul(3),
+            Ok(Model::Adaptive) if self.adaptive.is_none() => {
+                AdaptiveTable::photons(&self.stacks, &AdaptiveSettings::from_mc(&self.mc))
+            }
             _ => 0,
         }
     }
@@ -140,6 +150,9 @@ impl TranslucentSpec {
     /// and counts its photons in `progress`; `None` when `cancel` stopped it.
     pub fn build(&self, profiles: bool, cancel: &AtomicBool, progress: &AtomicU64) -> Result<Option<Translucent>> {
         let within = |e: Error| Error::Invalid(format!("{}: {e}", self.field));
+        if profiles && Model::from_name("model", &self.model).ok() == Some(Model::Adaptive) {
+            return self.build_adaptive(cancel, progress).map_err(within);
+        }
         let (profs, ss_default) = if profiles {
             match channel_profiles(&self.model, &self.stacks, &self.mc, self.reflectance.as_ref(), cancel, progress)
                 .map_err(within)?
@@ -153,6 +166,33 @@ impl TranslucentSpec {
         };
         let ss = self.single_scattering.unwrap_or(ss_default);
         Translucent::new(&self.field, self.sigma_a, self.sigma_s, self.g, self.eta, profs, ss).map(Some)
+    }
+}
+
+impl TranslucentSpec {
+    /// The `adaptive` material: its table (given or traced here) and, as the profiles every
+    /// method's set-up uses (sample spacing, probe radii, importance sampling), the table's
+    /// semi-infinite node.
+    fn build_adaptive(&self, cancel: &AtomicBool, progress: &AtomicU64) -> Result<Option<Translucent>> {
+        let table = match &self.adaptive {
+            Some(t) if t.channels() == 3 => t.clone(),
+            Some(t) => return Err(Error::Invalid(format!("the adaptive table has {} channels, not 3", t.channels()))),
+            None => match AdaptiveTable::build(&self.stacks, &AdaptiveSettings::from_mc(&self.mc), cancel, progress)? {
+                Some(t) => Arc::new(t),
+                None => return Ok(None),
+            },
+        };
+        let profs: Vec<Arc<dyn RadialProfile>> = (0..3)
+            .map(|k| {
+                let semi = table.reflection(k, table.local(k, f64::INFINITY));
+                Arc::new(RdTable::new(Box::new(semi), 1.0)) as Arc<dyn RadialProfile>
+            })
+            .collect();
+        let profs: Profiles = [profs[0].clone(), profs[1].clone(), profs[2].clone()];
+        let ss = self.single_scattering.unwrap_or(false);
+        let mut t = Translucent::new(&self.field, self.sigma_a, self.sigma_s, self.g, self.eta, Some(profs), ss)?;
+        t.adaptive = Some(table);
+        Ok(Some(t))
     }
 }
 

@@ -137,7 +137,10 @@ impl Translucency for Probe {
             return s1;
         }
         let dist = length(dx);
-        let rd: Rgb = std::array::from_fn(|k| m.profiles()[k].rd(dist));
+        let rd: Rgb = match &m.adaptive {
+            Some(t) => super::adaptive::Kernel::at(scene, t, hit).value(hi.p),
+            None => std::array::from_fn(|k| m.profiles()[k].rd(dist)),
+        };
         let e = direct_irradiance(scene, &hi, Some(m.eta), true, 1, rng);
         let w = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm * pdf);
         add(scale(mul(mul(rd, e), tint(scene, hit)), w), s1)

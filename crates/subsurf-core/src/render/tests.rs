@@ -421,6 +421,7 @@ fn mc_spec(photons: u64) -> super::TranslucentSpec {
         mc: crate::bssrdf::monte_carlo::McSettings { photons, ..Default::default() },
         reflectance: None,
         single_scattering: None,
+        adaptive: None,
     }
 }
 

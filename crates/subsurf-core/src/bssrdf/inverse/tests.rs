@@ -78,8 +78,9 @@ fn forward_total(model: Model, m: &Medium, table: &ProfileTable, refl_incident: 
         // The tabulated quadrature of R_d(r) (agrees with closed forms to ~1e-12, `Tabulated`);
         // photon beam diffusion's root on α stops at |Δtotal| < 1e-13 or a bracket of 1e-11.
         Model::Multipole | Model::PhotonBeamDiffusion => (medium_profile(model, m).unwrap().total(), 1e-10),
-        // ρ_eff of the table (per incident power), inverted by bisection to 1e-14 in ln(1 − α).
-        Model::MonteCarlo => (table.rho_eff(m.sigma_s / m.sigma_t()).unwrap() / enter, 1e-10),
+        // ρ_eff of the table (per incident power), inverted by bisection to 1e-14 in ln(1 − α)
+        // (adaptive inverts a colour as the semi-infinite Monte Carlo profile).
+        Model::MonteCarlo | Model::Adaptive => (table.rho_eff(m.sigma_s / m.sigma_t()).unwrap() / enter, 1e-10),
         // The renderer's profile for the material: its total is A = reflectance / (1 − R_sp).
         Model::NormalizedDiffusion => {
             (normalized_diffusion::from_reflectance(m, refl_incident).unwrap().total(), 1e-14)
@@ -97,7 +98,9 @@ fn length(kind: MeanFreePath, model: Model, m: &Medium, a_enter: f64) -> f64 {
         MeanFreePath::Extinction => 1.0 / m.sigma_t(),
         MeanFreePath::Transport => 1.0 / (sa + ssp),
         MeanFreePath::Diffuse => match model {
-            Model::Dipole | Model::Multipole | Model::NormalizedDiffusion | Model::MonteCarlo => classical(),
+            Model::Dipole | Model::Multipole | Model::NormalizedDiffusion | Model::MonteCarlo | Model::Adaptive => {
+                classical()
+            }
             Model::BetterDipole | Model::PhotonBeamDiffusion => {
                 1.0 / diffusion::BetterDipole::new(sa, ssp, m.eta).unwrap().sigma_tr
             }
