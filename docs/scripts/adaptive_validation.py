@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 
 import numpy as np
@@ -123,17 +124,29 @@ def run_case(shape, material, scale, a):
         if shape != "sphere":
             return None
         walk_objs = skin_walk(scale)
-    t0 = time.monotonic()
-    ref = R.render(scene(walk_objs, extent, backlit), "random_walk", spp=a.spp_ref, seed=1).array
-    t_ref = time.monotonic() - t0
+
+    def walk(spp, seed):
+        """A random_walk image and its time, from ``--ref-cache`` if it holds it."""
+        path = f"{a.ref_cache}/{shape}_{material}_{scale}_{SIZE}_{spp}_{seed}.npz" if a.ref_cache else None
+        if path and os.path.exists(path):
+            z = np.load(path)
+            return z["img"], float(z["s"])
+        t0 = time.monotonic()
+        img = R.render(scene(walk_objs, extent, backlit), "random_walk", spp=spp, seed=seed).array
+        dt = time.monotonic() - t0
+        if path:
+            os.makedirs(a.ref_cache, exist_ok=True)
+            np.savez(path, img=img, s=dt)
+        return img, dt
+
+    ref, t_ref = walk(a.spp_ref, 1)
     rows = {}
-    t0 = time.monotonic()
-    again = R.render(scene(walk_objs, extent, backlit), "random_walk", spp=a.spp_ref, seed=7).array
-    rows["random_walk (noise floor)"] = (*stats(again, ref, mk), time.monotonic() - t0)
-    t0 = time.monotonic()
-    low = R.render(scene(walk_objs, extent, backlit), "random_walk", spp=a.spp_low, seed=9).array
-    rows[f"random_walk {a.spp_low} spp"] = (*stats(low, ref, mk), time.monotonic() - t0)
-    for model, method in (("monte_carlo", "hierarchical"), ("adaptive", "hierarchical"), ("adaptive", "probe")):
+    again, dt = walk(a.spp_ref, 7)
+    rows["random_walk (noise floor)"] = (*stats(again, ref, mk), dt)
+    low, dt = walk(a.spp_low, 9)
+    rows[f"random_walk {a.spp_low} spp"] = (*stats(low, ref, mk), dt)
+    for spec in a.models.split(","):
+        method, model = spec.split(":")
         m = mat(model)
         if model == "adaptive":
             m.adaptive_table()  # build or load the table outside the timing (cached on disk)
@@ -175,6 +188,12 @@ def main():
         help="shape:material:scale, comma-separated (shapes: " + ", ".join(SHAPES) + ")",
     )
     ap.add_argument("--json", help="write the numbers here")
+    ap.add_argument(
+        "--models",
+        default="hierarchical:monte_carlo,hierarchical:adaptive,probe:adaptive",
+        help="method:model pairs to compare, comma-separated",
+    )
+    ap.add_argument("--ref-cache", help="keep the random_walk images here (re-runs only render the BSSRDFs)")
     a = ap.parse_args()
     SIZE = a.size
     out = {}

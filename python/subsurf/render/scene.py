@@ -206,9 +206,13 @@ class Translucent:
         and cached (:meth:`subsurf.bssrdf.AdaptiveTable.cached`)."""
         from ..adaptive_table import AdaptiveTable
 
-        return AdaptiveTable.cached(
-            self.channel_stacks(), photons=self.mc_photons, seed=self.mc_seed, threads=threads, progress=progress
-        )
+        key = (repr(self.channel_stacks()), self.mc_photons, self.mc_seed)
+        if getattr(self, "_adaptive", (None,))[0] != key:  # kept while the material is unchanged
+            t = AdaptiveTable.cached(
+                self.channel_stacks(), photons=self.mc_photons, seed=self.mc_seed, threads=threads, progress=progress
+            )
+            self._adaptive = (key, t)
+        return self._adaptive[1]
 
     def __repr__(self):
         return (

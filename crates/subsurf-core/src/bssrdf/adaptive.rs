@@ -222,6 +222,8 @@ struct ChannelTable {
 /// The per-channel tables (see the module docs).
 #[derive(Clone)]
 pub struct AdaptiveTable {
+    /// The largest median radius (mm) of the semi-infinite profiles: the renderer's curvature step.
+    pub median_radius: f64,
     channels: Vec<ChannelTable>,
     data: Vec<Vec<SlabData>>,
     settings: AdaptiveSettings,
@@ -281,7 +283,14 @@ impl AdaptiveTable {
             let entering = 1.0 / (1.0 - crate::optics::fr_dielectric(1.0, stack.n_above, top.n));
             channels.push(ChannelTable { d: nodes.iter().map(|n| n.d).collect(), r, t, entering });
         }
-        Ok(AdaptiveTable { channels, data, settings })
+        let median_radius = channels
+            .iter()
+            .map(|c| {
+                let semi = Mix::new([Some(c.r[c.r.len() - 1].clone()), None], 0.0, 1.0);
+                semi.radius_for_fraction(0.5)
+            })
+            .fold(0.0, f64::max);
+        Ok(AdaptiveTable { median_radius, channels, data, settings })
     }
 
     /// Build every node here, channel by channel (each run uses the settings' threads); `None`
