@@ -120,7 +120,7 @@ fn reflectance_round_trips_every_model_and_convention_slow() {
     let enter = appearance::entering_fraction(eta);
     let table = small_table(g, eta, table_albedos(), 5_000);
     let (lo, hi) = (table.rho_eff(table_albedos()[0]).unwrap(), table.rho_eff(table_albedos()[7]).unwrap());
-    let mut worst = [0.0f64; 6];
+    let mut worst = [0.0f64; Model::ALL.len()];
     for (mi, &model) in Model::ALL.iter().enumerate() {
         for power in [Power::Incident, Power::Entering] {
             for kind in
