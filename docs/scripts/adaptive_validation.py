@@ -50,7 +50,7 @@ def skin_stacks(scale):
     ]
 
 
-def skin2(scale, model, photons):
+def skin_layered(scale, model, photons):
     return R.Translucent.from_stacks(skin_stacks(scale), model=model, mc_photons=photons, mc_seed=3)
 
 
@@ -112,15 +112,15 @@ def stats(arr, ref, mk):
 
 def run_case(shape, material, scale, a):
     def mat(model):
-        if material == "skin2":
-            return skin2(scale, model, a.table_photons)
+        if material == "skin_layered":
+            return skin_layered(scale, model, a.table_photons)
         return library(material, scale, model, a.table_photons)
 
     backlit = shape == "slab"
     objs, extent = SHAPES[shape](mat("monte_carlo"))
     mk = object_mask(objs, extent)
     walk_objs = objs
-    if material == "skin2":  # random_walk: the epidermis as a shell around the dermis
+    if material == "skin_layered":  # random_walk: the epidermis as a shell around the dermis
         if shape != "sphere":
             return None
         walk_objs = skin_walk(scale)
@@ -184,7 +184,7 @@ def main():
     ap.add_argument("--table-photons", type=int, default=20000)
     ap.add_argument(
         "--cases",
-        default="sphere:marble:1,sphere:marble:0.25,sphere:marble:4,slab:marble:1,lens:skin1:1,sphere:skin2:1",
+        default="sphere:marble:1,sphere:marble:0.25,sphere:marble:4,slab:marble:1,lens:skin1:1,sphere:skin_layered:1",
         help="shape:material:scale, comma-separated (shapes: " + ", ".join(SHAPES) + ")",
     )
     ap.add_argument("--json", help="write the numbers here")
