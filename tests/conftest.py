@@ -294,3 +294,15 @@ def worker():
     w = Worker()
     yield w
     w.stop()
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _adaptive_cache(tmp_path_factory):
+    """The adaptive model's table cache in a temporary directory: tests never write to ~/.cache."""
+    old = os.environ.get("SUBSURF_CACHE")
+    os.environ["SUBSURF_CACHE"] = str(tmp_path_factory.mktemp("subsurf_cache"))
+    yield
+    if old is None:
+        os.environ.pop("SUBSURF_CACHE", None)
+    else:
+        os.environ["SUBSURF_CACHE"] = old

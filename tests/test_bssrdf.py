@@ -19,9 +19,10 @@ def test_every_model_by_name_arrays_and_floats():
         "photon_beam_diffusion",
         "normalized_diffusion",
         "monte_carlo",
+        "adaptive",
     }
     for m in bssrdf.MODELS:
-        kw = {"photons": 5000} if m == "monte_carlo" else {}
+        kw = {"photons": 5000} if m in ("monte_carlo", "adaptive") else {}
         p = bssrdf.Profile.from_stack(subsurf.Stack([subsurf.Layer(1.33, 0.05, 1.2, 0.3)]), model=m, **kw)
         assert isinstance(p.rd(1.0), float) and isinstance(p.pdf(0.5), float)
         r = np.array([[0.1, 1.0], [2.0, 5.0]])
@@ -128,7 +129,7 @@ def test_profile_queries_refuse_arguments_outside_their_domain():
     One contract for every model (checked in the core: bssrdf::Query), errors naming the argument."""
     stack = subsurf.Stack([subsurf.Layer(1.33, 0.05, 1.2, 0.3)])
     for m in bssrdf.MODELS:
-        kw = {"photons": 5000} if m == "monte_carlo" else {}
+        kw = {"photons": 5000} if m in ("monte_carlo", "adaptive") else {}
         p = bssrdf.Profile.from_stack(stack, model=m, **kw)
         assert p.rd(np.inf) == 0.0 and p.pdf(np.inf) == 0.0 and p.cdf(np.inf) == 1.0, m
         assert np.isfinite(p.pdf(0.0)) and p.pdf(0.0) >= 0.0, m

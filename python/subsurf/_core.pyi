@@ -207,6 +207,28 @@ class ProfileTable:
     def node_totals(self) -> list[float]: ...
     def points(self) -> list[dict]: ...
 
+class AdaptiveTable:
+    """The adaptive model's finite-slab R(r; d) and T(r; d) tables, one per channel."""
+    @staticmethod
+    def build(
+        stacks_in: list[_StackTuple],
+        photons: int,
+        seed: int,
+        threads: int | None = None,
+        max_rel_err: float = 0.2,
+        progress: Callable[[int, int], object] | None = None,
+    ) -> AdaptiveTable: ...
+    @staticmethod
+    def assemble(
+        stacks_in: list[_StackTuple], nodes: list[list[dict]], photons: int, seed: int, max_rel_err: float
+    ) -> AdaptiveTable: ...
+    def nodes(self) -> list[list[dict]]:
+        """Per channel: {d, top, bottom} (top/bottom: the radial data dicts of Profile.mc_data)."""
+    def totals(self, channel: int, d: float) -> tuple[float, float]: ...
+    def profile(self, channel: int, d: float, which: str) -> Profile: ...
+
+def bssrdf_adaptive_nodes(stack: _StackTuple) -> list[float]: ...
+
 class SlabTable:
     @staticmethod
     def from_totals(

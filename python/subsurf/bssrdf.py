@@ -11,7 +11,9 @@ normally incident pencil beam of unit power, for one colour channel. Models, sel
 - ``"normalized_diffusion"`` (Christensen & Burley 2015; :meth:`Profile.normalized_diffusion`
   takes their surface albedo A and mean free path directly),
 - ``"monte_carlo"`` (:meth:`Profile.from_monte_carlo`: the engine's R(r) on a log grid,
-  energy-exact, for any :class:`subsurf.Stack`).
+  energy-exact, for any :class:`subsurf.Stack`),
+- ``"adaptive"`` (the renderer's geometry-aware model: finite-slab R(r; d) and T(r; d) of the
+  engine per local thickness, :class:`AdaptiveTable`; as a plain profile, the Monte Carlo one).
 
 Every method takes and returns numpy arrays or floats. A material given per channel (RGB or a
 spectrum) is a list of stacks: :func:`profiles`. :class:`ProfileTable` tabulates Monte Carlo
@@ -43,6 +45,7 @@ __all__ = [
     "MFP_KINDS",
     "MODELS",
     "POWERS",
+    "AdaptiveTable",
     "Fit",
     "Profile",
     "ProfileTable",
@@ -101,7 +104,7 @@ class Profile:
     def from_model(cls, model, sigma_a, sigma_s, g=0.0, eta=1.0) -> Profile:
         """A closed-form model for a homogeneous semi-infinite medium: σa, σs in mm⁻¹, HG g,
         relative index η = n_medium/n_outside (≥ 1 for the diffusion models)."""
-        if _model(model) == "monte_carlo":
+        if _model(model) in ("monte_carlo", "adaptive"):  # adaptive on a flat half-space: Monte Carlo
             return cls.from_monte_carlo(Stack([Layer(eta, sigma_a, sigma_s, g)]))
         return cls(_core.bssrdf_medium_profile(model, float(sigma_a), float(sigma_s), float(g), float(eta)))
 
@@ -109,7 +112,7 @@ class Profile:
     def from_stack(cls, stack, model="multipole", **mc) -> Profile:
         """Any model for a stack (only ``multipole`` and ``monte_carlo`` take layered or finite
         stacks); ``mc`` are :meth:`from_monte_carlo`'s keywords."""
-        if _model(model) == "monte_carlo":
+        if _model(model) in ("monte_carlo", "adaptive"):
             return cls.from_monte_carlo(stack, **mc)
         s = _stack(stack)
         return cls(_core.bssrdf_stack_profile(model, s._to_core(), 1, 0, None, 10, 0.2))
@@ -445,7 +448,7 @@ def material_from_reflectance(
     m = np.atleast_1d(_arr("mfp", mfp)).astype(float).ravel()
     m = np.repeat(m, r.size) if m.size == 1 else m
     core_table = None
-    if _model(model) in ("monte_carlo", "normalized_diffusion"):
+    if _model(model) in ("monte_carlo", "adaptive", "normalized_diffusion"):
         core_table = (table if table is not None else _default_table(float(g), float(eta), client))._t
     out = _core.bssrdf_material_from_reflectance(
         list(r), list(m), float(eta), float(g), model, str(power), str(mfp_kind), core_table
@@ -574,3 +577,6 @@ def fit_slab_totals(
         t,
     )
     return Fit._from(d, ("mua", "mus_prime"))
+
+
+from .adaptive_table import AdaptiveTable  # noqa: E402  (imports Profile from here)

@@ -42,7 +42,7 @@ pub struct PyProfile {
 }
 
 impl PyProfile {
-    fn new(inner: Arc<dyn RadialProfile>, model: &str) -> Self {
+    pub(crate) fn new(inner: Arc<dyn RadialProfile>, model: &str) -> Self {
         PyProfile { inner, mc: None, model: model.to_string() }
     }
     /// `q` of `p` (this profile, or its single-scattering part) at every element of `x`,
@@ -102,7 +102,7 @@ impl PyProfile {
     }
 }
 
-fn data_to_py<'py>(py: Python<'py>, d: &RadialData) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn data_to_py<'py>(py: Python<'py>, d: &RadialData) -> PyResult<Bound<'py, PyDict>> {
     let o = PyDict::new(py);
     for (k, v) in [
         ("edges", &d.edges),
@@ -119,7 +119,7 @@ fn data_to_py<'py>(py: Python<'py>, d: &RadialData) -> PyResult<Bound<'py, PyDic
     Ok(o)
 }
 
-fn data_from_py(d: &Bound<'_, PyDict>) -> PyResult<RadialData> {
+pub(crate) fn data_from_py(d: &Bound<'_, PyDict>) -> PyResult<RadialData> {
     macro_rules! get {
         ($k:literal) => {
             d.get_item($k)?
@@ -176,7 +176,7 @@ fn bssrdf_stack_profile(
     let m = model(model_name)?;
     let s = stack(&stack_tuple)?;
     let cfg = McSettings { photons, seed, threads, r_min, r_max, per_decade, max_rel_err };
-    if m == Model::MonteCarlo {
+    if matches!(m, Model::MonteCarlo | Model::Adaptive) {
         let (out, stop) = interruptible(py, progress.as_ref(), photons, move |c, d| {
             MonteCarloProfile::simulate_with(&s, &cfg, c, d)
         })?;

@@ -5,6 +5,7 @@
 
 use pyo3::prelude::*;
 
+mod adaptive;
 mod bssrdf;
 mod diffusion;
 mod errors;
@@ -26,5 +27,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     diffusion::register(m)?;
     render::register(m)?;
     bssrdf::register(m)?;
+    adaptive::register(m)?;
     Ok(())
 }

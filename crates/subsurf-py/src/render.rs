@@ -115,6 +115,8 @@ struct TranslucentArgs<'py> {
     /// σs per texel of a surface colour map, shape (height, width, 3), rows from the top.
     #[pyo3(default)]
     texture: Option<PyReadonlyArray3<'py, f64>>,
+    #[pyo3(default)]
+    adaptive_table: Option<Py<crate::adaptive::PyAdaptiveTable>>,
 }
 
 /// A medium grid: `MediumGrid._to_core()` (σa, σs as (nx, ny, nz, 3) arrays, the box in
@@ -226,6 +228,7 @@ impl TranslucentArgs<'_> {
             single_scattering: self.single_scattering,
             grid,
             texture,
+            adaptive: self.adaptive_table.as_ref().map(|t| t.get().inner.clone()),
         })
     }
 }

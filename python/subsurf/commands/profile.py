@@ -85,8 +85,8 @@ def run(a) -> int:
         print(hdr)
         for i, model in enumerate(models):
             sigma_s = ssp / (1 - a.g)
-            if model == "monte_carlo":
-                p = _monte_carlo(Layer(eta, sa, sigma_s, a.g), a.photons, a.seed + i, f"profile {c} monte_carlo")
+            if model in ("monte_carlo", "adaptive"):  # adaptive on a flat half-space: the Monte Carlo profile
+                p = _monte_carlo(Layer(eta, sa, sigma_s, a.g), a.photons, a.seed + i, f"profile {c} {model}")
             else:
                 p = bssrdf.Profile.from_model(model, sa, sigma_s, a.g, eta)
             ss = p.single_scattering()

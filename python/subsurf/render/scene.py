@@ -252,6 +252,20 @@ class Translucent:
             "reflectance": self.reflectance,
         }
 
+    def adaptive_table(self, threads=None, progress=None):
+        """The ``adaptive`` model's :class:`subsurf.bssrdf.AdaptiveTable` of this material (its
+        channel stacks, ``mc_photons`` per node and ``mc_seed``), from the on-disk cache or built
+        and cached (:meth:`subsurf.bssrdf.AdaptiveTable.cached`)."""
+        from ..adaptive_table import AdaptiveTable
+
+        key = (repr(self.channel_stacks()), self.mc_photons, self.mc_seed)
+        if getattr(self, "_adaptive", (None,))[0] != key:  # kept while the material is unchanged
+            t = AdaptiveTable.cached(
+                self.channel_stacks(), photons=self.mc_photons, seed=self.mc_seed, threads=threads, progress=progress
+            )
+            self._adaptive = (key, t)
+        return self._adaptive[1]
+
     def __repr__(self):
         return (
             f"Translucent(name={self.name!r}, sigma_a={self.sigma_a}, sigma_s={self.sigma_s}, g={self.g}, "
@@ -547,14 +561,19 @@ class Scene:
                     )
         # One core material per material, or per (material, object) for a grid material: its
         # grid is in object space and follows each object's transform.
-        objs, entries, index = [], [], {}
+        objs, entries, index, tables = [], [], {}, {}
         for i, o in enumerate(self.objects):
             k = next(k for k, m in enumerate(mats) if m is o.material)
             key = (k, i) if getattr(o.material, "grid", None) is not None else (k, None)
             if key not in index:
                 index[key] = len(entries)
                 m = o.material
-                entries.append(m._to_core(names[k], o._to_object()) if key[1] is not None else m._to_core(names[k]))
+                core = m._to_core(names[k], o._to_object()) if key[1] is not None else m._to_core(names[k])
+                if method != "random_walk" and isinstance(m, Translucent) and m.model == "adaptive":
+                    if k not in tables:  # the adaptive model's tables, from the on-disk cache
+                        tables[k] = m.adaptive_table()._t
+                    core["adaptive_table"] = tables[k]
+                entries.append(core)
             objs.append({"mesh": o._mesh_dict(o.name or f"objects[{i}]"), "material": index[key]})
         return {
             "objects": objs,

@@ -55,7 +55,7 @@ fn cases(model: Model) -> Vec<(String, Box<dyn RadialProfile>, f64)> {
             ),
             (name(" layered"), multipole::profile(&layered).unwrap(), 0.5),
         ],
-        Model::MonteCarlo => {
+        Model::MonteCarlo | Model::Adaptive => {
             vec![(name(""), profile(model, &layered, &McSettingsForTests::settings()).unwrap(), 0.1)]
         }
     }

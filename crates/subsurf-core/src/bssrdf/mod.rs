@@ -8,12 +8,15 @@
 //! - [`multipole`]: Donner & Jensen 2005 (finite slabs, layered stacks by convolution);
 //! - [`photon_beam_diffusion`]: Habel, Christensen & Jarosz 2013 (single + multiple scattering);
 //! - [`normalized_diffusion`]: Christensen & Burley 2015;
-//! - [`monte_carlo`]: the engine's R(r) on a log grid, energy-exact, for any [`Stack`].
+//! - [`monte_carlo`]: the engine's R(r) on a log grid, energy-exact, for any [`Stack`];
+//! - [`adaptive`]: the engine's R(r; d) and T(r; d) of finite slabs on a grid of thicknesses (the
+//!   renderer's geometry-aware BSSRDF; as a plain profile, the semi-infinite Monte Carlo one).
 //!
 //! Support: [`cdf`] (the monotone radial CDF every model samples from), [`chandrasekhar`] (exact
 //! semi-infinite reflectance, the reference of the Monte Carlo tests), [`table`] (Monte Carlo
 //! profile tables in optical units), [`inverse`] (material from appearance, fits to measurements).
 
+pub mod adaptive;
 pub mod better_dipole;
 pub mod cdf;
 pub mod chandrasekhar;
@@ -247,6 +250,9 @@ crate::named_enum! {
         NormalizedDiffusion = "normalized_diffusion",
         /// The Monte Carlo engine.
         MonteCarlo = "monte_carlo",
+        /// The Monte Carlo engine's finite-slab reflection and transmission, chosen per shading
+        /// point by the local thickness (renderer); as a profile, the semi-infinite one.
+        Adaptive = "adaptive",
     }
 }
 
@@ -258,7 +264,7 @@ impl Model {
     pub fn adds_single_scattering(self) -> bool {
         match self {
             Model::Dipole | Model::BetterDipole | Model::Multipole => true,
-            Model::PhotonBeamDiffusion | Model::NormalizedDiffusion | Model::MonteCarlo => false,
+            Model::PhotonBeamDiffusion | Model::NormalizedDiffusion | Model::MonteCarlo | Model::Adaptive => false,
         }
     }
 
@@ -267,7 +273,7 @@ impl Model {
     /// diffusion models' sources sit below the interface).
     pub fn per_incident_power(self) -> bool {
         match self {
-            Model::MonteCarlo => true,
+            Model::MonteCarlo | Model::Adaptive => true,
             Model::Dipole
             | Model::BetterDipole
             | Model::Multipole
@@ -293,7 +299,7 @@ pub fn profile_with(
     progress: &AtomicU64,
 ) -> Result<Option<Box<dyn RadialProfile>>> {
     Ok(Some(match model {
-        Model::MonteCarlo => {
+        Model::MonteCarlo | Model::Adaptive => {
             let run = monte_carlo::MonteCarloProfile::simulate_with(stack, mc, cancel, progress);
             if cancel.load(Ordering::Relaxed) {
                 return Ok(None); // also a run stopped before two photons (an error otherwise)
@@ -316,8 +322,11 @@ pub fn medium_profile(model: Model, m: &Medium) -> Result<Box<dyn RadialProfile>
         Model::Multipole => multipole::profile(&m.to_stack()?)?,
         Model::PhotonBeamDiffusion => Box::new(photon_beam_diffusion::profile(m)?),
         Model::NormalizedDiffusion => Box::new(normalized_diffusion::from_medium(m)?),
-        Model::MonteCarlo => {
-            return Err(Error::Invalid("model \"monte_carlo\" needs Monte Carlo settings: use bssrdf::profile".into()))
+        Model::MonteCarlo | Model::Adaptive => {
+            return Err(Error::Invalid(format!(
+                "model {:?} needs Monte Carlo settings: use bssrdf::profile",
+                model.name()
+            )))
         }
     })
 }

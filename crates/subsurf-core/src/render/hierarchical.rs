@@ -27,6 +27,7 @@ use super::material::Translucent;
 use super::math::{add, dot, length, madd, mul, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
+use crate::bssrdf::RadialProfile;
 use crate::error::{Error, Result};
 use crate::rng::PhotonRng;
 use rayon::prelude::*;
@@ -123,22 +124,28 @@ impl Tree {
     /// otherwise lose or gain 6–10 % of a flat slab's exitance (measured; the point rule
     /// under-samples a convex peak).
     pub fn exitance(&self, m: &Translucent, x: V3, epsilon: f64) -> Rgb {
+        self.exitance_with(&Flat(m.profiles()), x, epsilon)
+    }
+
+    /// [`exitance`](Self::exitance) with the profiles chosen per pair by `pp` (the adaptive
+    /// model's near side and far side, `render::adaptive`); each class has its own near field.
+    pub fn exitance_with(&self, pp: &dyn PairProfiles, x: V3, epsilon: f64) -> Rgb {
         let rho0 = self.rho0;
-        let cap: Rgb = std::array::from_fn(|k| m.profiles()[k].rd(rho0));
-        let rd = |r: f64| -> Rgb {
-            std::array::from_fn(|k| m.profiles()[k].rd(r).min(if r < rho0 { cap[k] } else { f64::INFINITY }))
+        let cap: [Rgb; 2] = std::array::from_fn(|c| std::array::from_fn(|k| pp.profile(c, k).rd(rho0)));
+        let rd = |c: usize, r: f64| -> Rgb {
+            std::array::from_fn(|k| pp.profile(c, k).rd(r).min(if r < rho0 { cap[c][k] } else { f64::INFINITY }))
         };
-        let (mut acc, mut near_e, mut near_a) = ([0.0; 3], [0.0; 3], 0.0);
+        let (mut acc, mut near_e, mut near_a) = ([0.0; 3], [[0.0; 3]; 2], [0.0; 2]);
         let mut stack = vec![0u32];
         while let Some(i) = stack.pop() {
             let nd = &self.nodes[i as usize];
             if nd.leaf {
                 for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
-                    let r = length(sub(x, s.p));
-                    acc = add(acc, scale(mul(rd(r), s.e), s.area));
+                    let (c, r) = pp.class(x, s.p);
+                    acc = add(acc, scale(mul(rd(c, r), s.e), s.area));
                     if r < rho0 {
-                        near_e = madd(near_e, s.e, s.area);
-                        near_a += s.area;
+                        near_e[c] = madd(near_e[c], s.e, s.area);
+                        near_a[c] += s.area;
                     }
                 }
                 continue;
@@ -147,19 +154,43 @@ impl Tree {
             let d2 = dot(d, d);
             let inside = (0..3).all(|k| x[k] >= nd.lo[k] && x[k] <= nd.hi[k]);
             if !inside && nd.area < epsilon * d2 {
-                acc = add(acc, mul(rd(d2.sqrt()), nd.power));
+                let (c, r) = pp.class(x, nd.centroid);
+                acc = add(acc, mul(rd(c, r), nd.power));
             } else {
                 stack.extend(nd.first..nd.first + nd.count);
             }
         }
-        if near_a > 0.0 {
-            let near: Rgb = std::array::from_fn(|k| {
-                let p = &m.profiles()[k];
-                (p.total() * p.cdf(rho0) - PI * rho0 * rho0 * cap[k]).max(0.0) * near_e[k] / near_a
-            });
-            acc = add(acc, near);
+        for c in 0..2 {
+            if near_a[c] > 0.0 {
+                let near: Rgb = std::array::from_fn(|k| {
+                    let p = pp.profile(c, k);
+                    (p.total() * p.cdf(rho0) - PI * rho0 * rho0 * cap[c][k]).max(0.0) * near_e[c][k] / near_a[c]
+                });
+                acc = add(acc, near);
+            }
         }
         acc
+    }
+}
+
+/// The profiles of a pair (x_o, x_i) in [`Tree::exitance_with`]: a class (0: the near side; 1:
+/// across the object) and the radius to evaluate that class' profile at.
+pub trait PairProfiles {
+    /// Class and radius (mm) of the entry point `q` seen from the shading point `x`.
+    fn class(&self, x: V3, q: V3) -> (usize, f64);
+    /// The profile of class `c` (0 or 1) for channel `k`.
+    fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile;
+}
+
+/// One class, the material's profiles at the straight distance (every model but `adaptive`).
+struct Flat<'a>(&'a super::material::Profiles);
+
+impl PairProfiles for Flat<'_> {
+    fn class(&self, x: V3, q: V3) -> (usize, f64) {
+        (0, length(sub(x, q)))
+    }
+    fn profile(&self, _c: usize, k: usize) -> &dyn RadialProfile {
+        &*self.0[k]
     }
 }
 
@@ -400,7 +431,10 @@ impl Translucency for Hierarchical {
         let (Some(m), Some(tree)) = (scene.material(hit.object).translucent(), self.trees[hit.object].as_ref()) else {
             return [0.0; 3];
         };
-        let mo = tree.exitance(m, hit.p, self.params.epsilon);
+        let mo = match &m.adaptive {
+            Some(t) => tree.exitance_with(&super::adaptive::Kernel::at(scene, t, hit), hit.p, self.params.epsilon),
+            None => tree.exitance(m, hit.p, self.params.epsilon),
+        };
         let f = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm);
         let mut l = scale(mul(mo, tint(scene, hit)), f);
         if m.single_scattering {

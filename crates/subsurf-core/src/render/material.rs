@@ -14,7 +14,8 @@
 use super::grid::MediumGrid;
 use super::math::Rgb;
 use super::texture::SurfaceTexture;
-use crate::bssrdf::RadialProfile;
+use crate::bssrdf::adaptive::{AdaptiveSettings, AdaptiveTable};
+use crate::bssrdf::{Model, RadialProfile};
 use crate::error::{check_g, check_index, check_nonneg, Error, Result};
 use crate::medium::{Layer, Stack};
 use crate::optics::{diffuse_fresnel_reflectance, Phase};
@@ -59,6 +60,8 @@ pub struct Translucent {
     /// σs per texel of a surface colour map ([`super::texture`]; σt stays the material's), for
     /// the random walk; `None` for an untextured material.
     pub texture: Option<Arc<SurfaceTexture>>,
+    /// The finite-slab tables of `model = "adaptive"` (`render::adaptive`); `None` otherwise.
+    pub adaptive: Option<Arc<AdaptiveTable>>,
 }
 
 impl Translucent {
@@ -101,6 +104,7 @@ impl Translucent {
             grid: None,
             sigma_bar: std::array::from_fn(|k| sigma_a[k] + sigma_s[k]),
             texture: None,
+            adaptive: None,
         })
     }
 
@@ -156,14 +160,20 @@ pub struct TranslucentSpec {
     pub grid: Option<Arc<MediumGrid>>,
     /// σs per texel of a surface colour map (random walk only; the BSSRDF methods refuse it).
     pub texture: Option<Arc<SurfaceTexture>>,
+    /// A prebuilt table of `model = "adaptive"` for `stacks` (e.g. from the on-disk cache);
+    /// `None`: [`build`](Self::build) traces it with the `mc` photons and seed.
+    pub adaptive: Option<Arc<AdaptiveTable>>,
 }
 
 impl TranslucentSpec {
     /// Photons its profiles trace: 3 × `mc.photons` for `monte_carlo`, else 0 (the progress
     /// total of [`build`](Self::build)).
     pub fn photons(&self) -> u64 {
-        match crate::bssrdf::Model::from_name("model", &self.model) {
-            Ok(crate::bssrdf::Model::MonteCarlo) => self.mc.photons.saturating_mul(3),
+        match Model::from_name("model", &self.model) {
+            Ok(Model::MonteCarlo) => self.mc.photons.saturating_mul(3),
+            Ok(Model::Adaptive) if self.adaptive.is_none() => {
+                AdaptiveTable::photons(&self.stacks, &AdaptiveSettings::from_mc(&self.mc))
+            }
             _ => 0,
         }
     }
@@ -180,6 +190,16 @@ impl TranslucentSpec {
                 self.field
             )));
         }
+        if profiles && self.texture.is_some() {
+            return Err(Error::Invalid(format!(
+                "{}.texture: only the random walk (method random_walk, simulate_walk) takes a surface \
+                 texture; the BSSRDF methods need an untextured material",
+                self.field
+            )));
+        }
+        if profiles && Model::from_name("model", &self.model).ok() == Some(Model::Adaptive) {
+            return self.build_adaptive(cancel, progress).map_err(within);
+        }
         let (profs, ss_default) = if profiles {
             match channel_profiles(&self.model, &self.stacks, &self.mc, self.reflectance.as_ref(), cancel, progress)
                 .map_err(within)?
@@ -193,13 +213,6 @@ impl TranslucentSpec {
         };
         let ss = self.single_scattering.unwrap_or(ss_default);
         let m = Translucent::new(&self.field, self.sigma_a, self.sigma_s, self.g, self.eta, profs, ss)?;
-        if profiles && self.texture.is_some() {
-            return Err(Error::Invalid(format!(
-                "{}.texture: only the random walk (method random_walk, simulate_walk) takes a surface \
-                 texture; the BSSRDF methods need an untextured material",
-                self.field
-            )));
-        }
         if self.grid.is_some() && self.texture.is_some() {
             return Err(Error::Invalid(format!("{}: give a medium grid or a surface texture, not both", self.field)));
         }
@@ -209,6 +222,33 @@ impl TranslucentSpec {
         };
         m.texture = self.texture.clone();
         Ok(Some(m))
+    }
+}
+
+impl TranslucentSpec {
+    /// The `adaptive` material: its table (given or traced here) and, as the profiles every
+    /// method's set-up uses (sample spacing, probe radii, importance sampling), the table's
+    /// semi-infinite node.
+    fn build_adaptive(&self, cancel: &AtomicBool, progress: &AtomicU64) -> Result<Option<Translucent>> {
+        let table = match &self.adaptive {
+            Some(t) if t.channels() == 3 => t.clone(),
+            Some(t) => return Err(Error::Invalid(format!("the adaptive table has {} channels, not 3", t.channels()))),
+            None => match AdaptiveTable::build(&self.stacks, &AdaptiveSettings::from_mc(&self.mc), cancel, progress)? {
+                Some(t) => Arc::new(t),
+                None => return Ok(None),
+            },
+        };
+        let profs: Vec<Arc<dyn RadialProfile>> = (0..3)
+            .map(|k| {
+                let semi = table.reflection(k, table.local(k, f64::INFINITY));
+                Arc::new(RdTable::new(Box::new(semi), 1.0)) as Arc<dyn RadialProfile>
+            })
+            .collect();
+        let profs: Profiles = [profs[0].clone(), profs[1].clone(), profs[2].clone()];
+        let ss = self.single_scattering.unwrap_or(false);
+        let mut t = Translucent::new(&self.field, self.sigma_a, self.sigma_s, self.g, self.eta, Some(profs), ss)?;
+        t.adaptive = Some(table);
+        Ok(Some(t))
     }
 }
 

@@ -15,6 +15,7 @@
 //! illumination on a mesh, exitance per triangle, absorption on a voxel grid).
 
 pub mod accel;
+pub mod adaptive;
 pub mod camera;
 pub mod distance;
 pub mod driver;

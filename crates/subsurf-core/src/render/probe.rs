@@ -140,7 +140,10 @@ impl Translucency for Probe {
             return s1;
         }
         let dist = length(dx);
-        let rd: Rgb = std::array::from_fn(|k| m.profiles()[k].rd(dist));
+        let rd: Rgb = match &m.adaptive {
+            Some(t) => super::adaptive::Kernel::at(scene, t, hit).value(hi.p),
+            None => std::array::from_fn(|k| m.profiles()[k].rd(dist)),
+        };
         let e = transmitted_irradiance(scene, &hi, m.eta, 1, 1, depth, rng, self);
         let w = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm * pdf);
         add(scale(mul(mul(rd, e), tint(scene, hit)), w), s1)

@@ -438,6 +438,7 @@ fn mc_spec(photons: u64) -> super::TranslucentSpec {
         single_scattering: None,
         grid: None,
         texture: None,
+        adaptive: None,
     }
 }
 

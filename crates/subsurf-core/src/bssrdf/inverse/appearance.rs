@@ -123,7 +123,9 @@ impl MeanFreePath {
             MeanFreePath::Extinction => 1.0,
             MeanFreePath::Transport => stp,
             MeanFreePath::Diffuse => match model {
-                Model::Dipole | Model::Multipole | Model::NormalizedDiffusion | Model::MonteCarlo => classical,
+                Model::Dipole | Model::Multipole | Model::NormalizedDiffusion | Model::MonteCarlo | Model::Adaptive => {
+                    classical
+                }
                 Model::BetterDipole | Model::PhotonBeamDiffusion => (3.0 * sa * stp * stp / (2.0 * sa + sp)).sqrt(),
             },
             MeanFreePath::BurleyD => {
@@ -182,7 +184,7 @@ fn single_scattering_albedo(
             }
             illinois(|a| Ok(pbd(a)? - total), 0.0, hi, -total, hi_total - total)
         }
-        Model::MonteCarlo | Model::NormalizedDiffusion => {
+        Model::MonteCarlo | Model::Adaptive | Model::NormalizedDiffusion => {
             let t = table.ok_or_else(|| {
                 Error::Invalid(format!(
                     "model {:?} needs a ProfileTable built for the same g and eta (the engine's total)",

@@ -46,7 +46,7 @@ fn profile_values(
 ) -> Result<Vec<f64>> {
     let sigma_s = p[1] / (1.0 - g);
     let prof: Box<dyn RadialProfile> = match model {
-        Model::MonteCarlo => {
+        Model::MonteCarlo | Model::Adaptive => {
             let t =
                 table.ok_or_else(|| Error::Invalid("model \"monte_carlo\" needs a ProfileTable for the fit".into()))?;
             Box::new(t.profile(p[0], sigma_s)?)
@@ -358,7 +358,7 @@ pub fn fit_slab_totals(
                 let ballistic = (-(p[0] + mus) * thickness).exp() * (1.0 - fr_dielectric(1.0, n, n_below));
                 Ok(vec![(1.0 - rsp) * r, (1.0 - rsp) * (t + ballistic)])
             }
-            Model::MonteCarlo => {
+            Model::MonteCarlo | Model::Adaptive => {
                 let t = table.ok_or_else(|| Error::Invalid("model \"monte_carlo\" needs a SlabTable".into()))?;
                 if (t.g - g).abs() > 1e-12 || t.n != n || t.n_above != n_above || t.n_below != n_below {
                     return Err(Error::Invalid("the SlabTable was built for other g or indices".into()));

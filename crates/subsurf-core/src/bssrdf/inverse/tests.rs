@@ -81,8 +81,9 @@ fn forward_total(model: Model, m: &Medium, table: &ProfileTable, refl_incident: 
         // scale (σt ≠ 1) changes it by the quadrature's rounding (measured 7.8e-10).
         Model::Multipole => (medium_profile(model, m).unwrap().total(), 1e-10),
         Model::PhotonBeamDiffusion => (medium_profile(model, m).unwrap().total(), 2e-9),
-        // ρ_eff of the table (per incident power), inverted by bisection to 1e-14 in ln(1 − α).
-        Model::MonteCarlo => (table.rho_eff(m.sigma_s / m.sigma_t()).unwrap() / enter, 1e-10),
+        // ρ_eff of the table (per incident power), inverted by bisection to 1e-14 in ln(1 − α)
+        // (adaptive inverts a colour as the semi-infinite Monte Carlo profile).
+        Model::MonteCarlo | Model::Adaptive => (table.rho_eff(m.sigma_s / m.sigma_t()).unwrap() / enter, 1e-10),
         // The renderer's profile for the material: its total is A = reflectance / (1 − R_sp).
         Model::NormalizedDiffusion => {
             (normalized_diffusion::from_reflectance(m, refl_incident).unwrap().total(), 1e-14)
@@ -100,7 +101,9 @@ fn length(kind: MeanFreePath, model: Model, m: &Medium, a_enter: f64) -> f64 {
         MeanFreePath::Extinction => 1.0 / m.sigma_t(),
         MeanFreePath::Transport => 1.0 / (sa + ssp),
         MeanFreePath::Diffuse => match model {
-            Model::Dipole | Model::Multipole | Model::NormalizedDiffusion | Model::MonteCarlo => classical(),
+            Model::Dipole | Model::Multipole | Model::NormalizedDiffusion | Model::MonteCarlo | Model::Adaptive => {
+                classical()
+            }
             Model::BetterDipole | Model::PhotonBeamDiffusion => {
                 1.0 / diffusion::BetterDipole::new(sa, ssp, m.eta).unwrap().sigma_tr
             }
@@ -120,7 +123,7 @@ fn reflectance_round_trips_every_model_and_convention_slow() {
     let enter = appearance::entering_fraction(eta);
     let table = small_table(g, eta, table_albedos(), 5_000);
     let (lo, hi) = (table.rho_eff(table_albedos()[0]).unwrap(), table.rho_eff(table_albedos()[7]).unwrap());
-    let mut worst = [0.0f64; 6];
+    let mut worst = [0.0f64; Model::ALL.len()];
     for (mi, &model) in Model::ALL.iter().enumerate() {
         for power in [Power::Incident, Power::Entering] {
             for kind in

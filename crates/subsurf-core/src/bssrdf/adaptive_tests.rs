@@ -1,0 +1,105 @@
+//! Tests of the adaptive model's slab tables: the cut stacks, the semi-infinite node against the
+//! Monte Carlo profile (same bits), energy conservation of R + T, and the interpolation in d.
+
+use super::*;
+use crate::bssrdf::monte_carlo::MonteCarloProfile;
+
+fn one_layer(mua: f64, mus: f64, g: f64) -> Stack {
+    Stack::new(vec![Layer::new(1.4, mua, mus, g, f64::INFINITY).unwrap()], 1.0, 1.0).unwrap()
+}
+
+fn settings(photons: u64) -> AdaptiveSettings {
+    AdaptiveSettings { photons, seed: 5, threads: Some(1), max_rel_err: 0.2 }
+}
+
+#[test]
+fn slab_cuts_layered_stacks_and_puts_air_below() {
+    let skin = Stack::new(
+        vec![Layer::new(1.4, 1.0, 20.0, 0.8, 0.25).unwrap(), Layer::new(1.4, 0.03, 5.0, 0.8, f64::INFINITY).unwrap()],
+        1.0,
+        1.0,
+    )
+    .unwrap();
+    let thin = slab(&skin, 0.1).unwrap();
+    assert_eq!(thin.layers.len(), 1);
+    assert!((thin.layers[0].thickness - 0.1).abs() < 1e-15);
+    let thick = slab(&skin, 2.0).unwrap();
+    assert_eq!(thick.layers.len(), 2);
+    assert_eq!(thick.layers[0].thickness, 0.25);
+    assert!((thick.layers[1].thickness - 1.75).abs() < 1e-15);
+    assert_eq!((thick.n_above, thick.n_below), (1.0, 1.0));
+    assert_eq!(slab(&skin, f64::INFINITY).unwrap(), skin);
+    assert!(slab(&skin, 0.0).is_err() && slab(&skin, f64::NAN).is_err());
+}
+
+#[test]
+fn nodes_span_several_diffusion_lengths() {
+    // ℓ = 1/σt' = 1/(0.01 + 1·0.5) mm; L = 1/√(3·0.01·0.51) = 8.08 mm.
+    let s = one_layer(0.01, 1.0, 0.5);
+    let d = thickness_nodes(&s).unwrap();
+    let ell = 1.0 / 0.51;
+    assert!((d[0] - ell / 8.0).abs() < 1e-12);
+    assert!(d.windows(2).all(|w| (w[1] / w[0] - 2.0).abs() < 1e-12));
+    let l_diff = 1.0 / (3.0f64 * 0.01 * 0.51).sqrt();
+    assert!(*d.last().unwrap() >= 6.0 * l_diff && d[d.len() - 2] < 6.0 * l_diff);
+    // no absorption: capped at 2¹² ℓ
+    assert!((thickness_nodes(&one_layer(0.0, 1.0, 0.0)).unwrap().last().unwrap() - 4096.0).abs() < 1e-9);
+}
+
+/// The ∞ node is the semi-infinite Monte Carlo profile of the same seed, bin for bin.
+#[test]
+fn infinite_node_is_the_monte_carlo_profile() {
+    let s = one_layer(0.05, 2.0, 0.3);
+    let st = settings(3000);
+    let node = build_node(&s, f64::INFINITY, 0, 4, &st, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();
+    let mc = McSettings { photons: 3000, seed: 5 + 4, threads: Some(1), ..McSettings::default() };
+    let p = MonteCarloProfile::simulate(&s, &mc).unwrap();
+    // Same bins bit for bit (the profile keeps Σ bins as its total: equal to rounding).
+    let d = p.data();
+    assert_eq!((&node.top.weight, &node.top.stderr, &node.top.single), (&d.weight, &d.stderr, &d.single));
+    assert!((node.top.total - d.total).abs() < 1e-13);
+    assert!(node.bottom.weight.iter().all(|&w| w == 0.0));
+}
+
+/// Without absorption every photon leaves: R + T = 1 − R_sp for each photon, so the means agree
+/// to rounding (any weight lost or counted twice by the two tallies shows up at 10⁻⁹).
+#[test]
+fn non_absorbing_slab_conserves_energy() {
+    let s = one_layer(0.0, 1.0, 0.5);
+    let node =
+        build_node(&s, 1.5, 0, 0, &settings(2000), &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();
+    let rsp = crate::optics::fr_dielectric(1.0, 1.0, 1.4);
+    let sum = node.top.total + node.bottom.total;
+    assert!(node.bottom.total > 0.2, "{}", node.bottom.total);
+    assert!((sum - (1.0 - rsp)).abs() < 1e-9, "R + T = {sum}, 1 - R_sp = {}", 1.0 - rsp);
+}
+
+/// Interpolation: exact nodes at the grid points, continuous between them and towards ∞, and
+/// the table's totals are the node totals per entering power.
+#[test]
+fn local_interpolation_is_continuous_and_totals_match_the_nodes() {
+    let s = one_layer(0.2, 2.0, 0.0); // ℓ = 0.45 mm, L = 0.83 mm: 5 nodes
+    let t =
+        AdaptiveTable::build(std::slice::from_ref(&s), &settings(1000), &AtomicBool::new(false), &AtomicU64::new(0))
+            .unwrap()
+            .unwrap();
+    let ds = thickness_nodes(&s).unwrap();
+    let enter = 1.0 / (1.0 - crate::optics::fr_dielectric(1.0, 1.0, 1.4));
+    for (j, &d) in ds.iter().enumerate() {
+        assert_eq!(t.local(0, d), Local { i: j.min(ds.len() - 1), t: 0.0 });
+        let (r, tr) = t.totals(0, d);
+        assert!((r - enter * t.data()[0][j].top.total).abs() < 1e-12 * r);
+        assert!((tr - enter * t.data()[0][j].bottom.total).abs() < 1e-12 * r.max(tr));
+    }
+    for w in ds.windows(2) {
+        let below = t.local(0, w[1] * (1.0 - 1e-12));
+        assert!((below.t - 1.0).abs() < 1e-9, "{below:?}");
+    }
+    let far = t.local(0, f64::INFINITY);
+    assert_eq!(far, Local { i: ds.len() - 1, t: 1.0 });
+    let (r_inf, t_inf) = t.totals(0, f64::INFINITY);
+    assert!((r_inf - enter * t.data()[0][ds.len()].top.total).abs() < 1e-12 && t_inf == 0.0);
+    // thinner slabs reflect less and transmit more
+    let tot: Vec<(f64, f64)> = ds.iter().map(|&d| t.totals(0, d)).collect();
+    assert!(tot.windows(2).all(|w| w[1].1 < w[0].1), "{tot:?}");
+}

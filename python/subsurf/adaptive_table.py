@@ -1,0 +1,169 @@
+"""The finite-slab tables of the ``adaptive`` BSSRDF model and their on-disk cache.
+
+:class:`AdaptiveTable` holds, per colour channel, the engine's reflection R(r; d) and
+transmission T(r; d) profiles of the material cut into slabs of thickness d (nodes d = ℓ·2^j from
+ℓ/8 up to several diffusion lengths, plus the semi-infinite profile; the core's
+``subsurf_core::bssrdf::adaptive`` documents the grid, the seeds and the interpolation). The
+renderer picks them per shading point by the local thickness (``render::adaptive``).
+
+A table is deterministic: the same stacks, photons, seed and engine version give the same bits.
+:meth:`AdaptiveTable.cached` keeps each in subsurf's checksummed HDF5 container
+(:mod:`subsurf.container`) under a name derived from those inputs (a SHA-256), so a changed
+engine version, stack or setting builds a new table; a damaged or foreign file is rebuilt.
+The cache directory is ``$SUBSURF_CACHE/adaptive`` (default ``~/.cache/subsurf/adaptive``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+
+import numpy as np
+
+from . import _core
+from .medium import Stack
+
+FORMAT = "subsurf-adaptive-table"
+FORMAT_VERSION = 1
+_ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
+
+
+def cache_dir() -> str:
+    """The directory of cached tables: ``$SUBSURF_CACHE/adaptive`` or ``~/.cache/subsurf/adaptive``."""
+    base = os.environ.get("SUBSURF_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "subsurf")
+    return os.path.join(base, "adaptive")
+
+
+def _stacks(stacks):
+    out = [s if isinstance(s, Stack) else Stack([s]) for s in stacks]
+    if not out:
+        raise _core.ParameterError("stacks: give at least one stack (one per channel)")
+    return [s._to_core() for s in out]
+
+
+class AdaptiveTable:
+    """Reflection and transmission profiles of finite slabs over thickness, one table per channel
+    (see the module docs). Build with :meth:`build` or :meth:`cached`; query with :meth:`totals`
+    and :meth:`profile`."""
+
+    def __init__(self, core, key: dict):
+        self._t = core
+        self.key = dict(key)
+
+    @staticmethod
+    def _key(stacks, photons, seed, max_rel_err) -> dict:
+        return {
+            "stacks": json.loads(json.dumps(stacks)),
+            "photons": int(photons),
+            "seed": int(seed),
+            "max_rel_err": float(max_rel_err),
+            "engine_version": _core.__version__,
+            "format_version": FORMAT_VERSION,
+        }
+
+    @classmethod
+    def build(cls, stacks, photons=20000, seed=0, threads=None, max_rel_err=0.2, progress=None) -> AdaptiveTable:
+        """Trace every (channel, thickness) node: ``photons`` per node; ``progress(done, total)``
+        counts photons; Ctrl-C raises KeyboardInterrupt."""
+        st = _stacks(stacks)
+        core = _core.AdaptiveTable.build(st, photons, seed, threads, max_rel_err, progress)
+        return cls(core, cls._key(st, photons, seed, max_rel_err))
+
+    @staticmethod
+    def nodes(stack) -> list:
+        """The finite thickness nodes (mm) of a stack's table."""
+        return list(_core.bssrdf_adaptive_nodes(_stacks([stack])[0]))
+
+    def totals(self, channel, d):
+        """(R, T): total reflectance and transmittance per unit entering power at thickness d (mm)."""
+        return self._t.totals(int(channel), float(d))
+
+    def profile(self, channel, d, which="R"):
+        """The reflection (``"R"``) or transmission (``"T"``) profile at thickness d (mm) as a
+        :class:`subsurf.bssrdf.Profile` (per unit entering power)."""
+        from .bssrdf import Profile
+
+        return Profile(self._t.profile(int(channel), float(d), which))
+
+    # ---- files ------------------------------------------------------------------------------
+
+    def save(self, path) -> str:
+        """Write the table atomically to ``path`` in the checksummed HDF5 container."""
+        from . import atomic, container
+
+        nodes = self._t.nodes()
+
+        def fill(f) -> None:
+            f.attrs["key"] = json.dumps(self.key, sort_keys=True)
+            for c, ch in enumerate(nodes):
+                for j, n in enumerate(ch):
+                    g = f.create_group(f"channels/{c:02d}/{j:03d}")
+                    g.attrs["d"] = float(n["d"])
+                    for side in ("top", "bottom"):
+                        s = g.create_group(side)
+                        for k in _ARRAYS:
+                            s.create_dataset(k, data=np.asarray(n[side][k], dtype=np.float64))
+                        s.attrs["total"] = float(n[side]["total"])
+                        s.attrs["total_stderr"] = float(n[side]["total_stderr"])
+                        s.attrs["photons"] = int(n[side]["photons"])
+
+        return atomic.write_bytes(path, container.to_bytes(FORMAT, FORMAT_VERSION, fill), force=True)
+
+    @classmethod
+    def load(cls, path) -> AdaptiveTable:
+        """Read a table written by :meth:`save`; a damaged or foreign file raises
+        :class:`subsurf.container.FileFormatError`, one line naming the file."""
+        from . import container
+
+        path = os.fspath(path)
+        with container.open_file(path, FORMAT, FORMAT_VERSION, "adaptive table", advice="; rebuild it") as o:
+            key = json.loads(o.f.attrs["key"])
+            nodes = []
+            for c in sorted(o.f["channels"]):
+                ch = []
+                for j in sorted(o.f["channels"][c]):
+                    g = o.f["channels"][c][j]
+                    n = {"d": float(g.attrs["d"])}
+                    for side in ("top", "bottom"):
+                        s = g[side]
+                        n[side] = {k: np.asarray(s[k][()], dtype=np.float64) for k in _ARRAYS}
+                        n[side].update(total=float(s.attrs["total"]), total_stderr=float(s.attrs["total_stderr"]))
+                        n[side]["photons"] = int(s.attrs["photons"])
+                    ch.append(n)
+                nodes.append(ch)
+        try:
+            st = [([(*l[:3], [tuple(x) for x in l[3]], l[4]) for l in s[0]], s[1], s[2]) for s in key["stacks"]]
+            core = _core.AdaptiveTable.assemble(st, nodes, key["photons"], key["seed"], key["max_rel_err"])
+        except (_core.ParameterError, TypeError, KeyError) as e:
+            raise container.FileFormatError(f"{path}: not a valid adaptive table ({container.one_line(e)})") from None
+        return cls(core, key)
+
+    @classmethod
+    def cached(cls, stacks, photons=20000, seed=0, threads=None, max_rel_err=0.2, progress=None) -> AdaptiveTable:
+        """The table of these inputs from the cache (:func:`cache_dir`), built and saved if it is
+        missing, damaged or of another engine version (the file name is the inputs' SHA-256)."""
+        from . import container
+
+        st = _stacks(stacks)
+        key = cls._key(st, photons, seed, max_rel_err)
+        digest = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:32]
+        path = os.path.join(cache_dir(), f"{digest}.h5")
+        if os.path.exists(path):
+            try:
+                t = cls.load(path)
+                if t.key == key:
+                    return t
+            except container.FileFormatError:
+                pass  # rebuilt below
+        t = cls.build(stacks, photons, seed, threads, max_rel_err, progress)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        t.save(path)
+        return t
+
+    def __repr__(self):
+        k = self.key
+        return f"AdaptiveTable(channels={len(k['stacks'])}, photons={k['photons']}, seed={k['seed']})"
+
+
+__all__ = ["FORMAT", "FORMAT_VERSION", "AdaptiveTable", "cache_dir"]
