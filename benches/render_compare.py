@@ -417,6 +417,10 @@ def print_efficiency(results, log=print):
         "\nefficiency = 1/(RMSE² · s), RMSE over the object pixels against the pooled reference; "
         "s = wall seconds (CPU seconds beside them); ratio = subsurf / Mitsuba (wall; CPU in brackets)"
     )
+    log(
+        "  the pooled reference's own noise (RMSE of the mean of both renderers' references against the truth, "
+        "from their per-pixel variances): " + ", ".join(f"{r['obj']} {r['light']} {r['ref_rmse']:.2e}" for r in results)
+    )
     head = f"{'wall s':>7} {'CPU s':>7} {'RMSE':>9} {'eff.':>9}"
     for title, key in (("equal spp", "test_m"), ("equal time", "eq_m")):
         log(f"  {title}:")
