@@ -9,7 +9,8 @@ Mitsuba 3 is installed when it can be (``pip install mitsuba`` into this Python,
 libllvm19`` as root; --no-install forbids it); otherwise the reason is printed and subsurf's part
 runs alone. A benchmark, not a test: numbers depend on the machine and its load (printed).
 Usage: python benches/render_bench.py [--quick] [--size 512] [--error-size 64] [--ref-spp 128]
-       [--compare-size 64] [--budget 120] [--spp N] [--cases marble,skin,ear] [--no-mitsuba] [--no-install]"""
+       [--compare-size 64] [--budget 120] [--spp N] [--cases marble,skin,ear] [--no-mitsuba] [--no-install]
+       [--parts big,error,mitsuba] [--mitsuba-rr-depth 1000000000]"""
 
 from __future__ import annotations
 
@@ -136,6 +137,7 @@ def main():
     ap.add_argument("--cases", default="marble,skin,ear", help="comparison objects (of marble, skin, ear)")
     ap.add_argument("--no-mitsuba", action="store_true", help="subsurf's part of the comparison only")
     ap.add_argument("--no-install", action="store_true", help="never install Mitsuba 3 or libLLVM")
+    ap.add_argument("--parts", default="big,error,mitsuba", help="which parts to run (of big, error, mitsuba)")
     ap.add_argument("--mitsuba-rr-depth", type=int, default=10**9, help="Mitsuba's rr_depth (see docs/render.md)")
     a = ap.parse_args()
     if a.quick:
@@ -145,9 +147,10 @@ def main():
     if bad:
         ap.error(f"--cases: {bad} unknown (allowed: {list(C.OBJECTS)})")
     print(f"render benchmark; {os.cpu_count()} cores; {load()} (other processes slow these figures)")
-    big_sphere(a)
-    equal_time_error(a)
-    mitsuba_comparison(a)
+    parts = a.parts.split(",")
+    for name, part in (("big", big_sphere), ("error", equal_time_error), ("mitsuba", mitsuba_comparison)):
+        if name in parts:
+            part(a)
     print(f"{load()} now")
 
 
