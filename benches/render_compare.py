@@ -132,18 +132,6 @@ def rect_to_mitsuba(light: R.RectLight) -> dict:
     return {"to_world": m.tolist(), "radiance": (power / (math.pi * area)).tolist()}
 
 
-def mitsuba_material(d: dict) -> dict:
-    """``to_mitsuba``'s dict as Mitsuba 3.9.1 loads it: it reads an ``rgb`` σt as a reflectance
-    and refuses components > 1, so σt is given as σt / max σt with ``scale`` = max σt (the same
-    numbers: in an RGB variant an ``rgb`` value is used as is)."""
-    med = dict(d["interior"])
-    st = [float(x) * float(med.get("scale", 1.0)) for x in med["sigma_t"]["value"]]
-    top = max(st)
-    med["sigma_t"] = {"type": "rgb", "value": [x / top for x in st]}
-    med["scale"] = top
-    return {**d, "interior": med}
-
-
 def mitsuba_description(sc: R.Scene, ply: str, rr_depth: int) -> dict:
     """A plain (JSON) description of ``sc`` for benches/mitsuba_worker.py; writes the mesh to ``ply``."""
     import trimesh
@@ -158,7 +146,7 @@ def mitsuba_description(sc: R.Scene, ply: str, rr_depth: int) -> dict:
     return {
         "ply": ply,
         "rr_depth": rr_depth,
-        "material": mitsuba_material(to_mitsuba(o.material)),
+        "material": to_mitsuba(o.material),
         "environment": [float(x) for x in np.broadcast_to(np.asarray(sc.environment, float), (3,))],
         "rects": [rect_to_mitsuba(light) for light in sc.lights],
         "camera": {

@@ -112,7 +112,13 @@ def test_mesh_loading_and_watertightness(tmp_path):
 
 def test_exports_parse_back():
     m = R.Translucent.library("marble", g=0.3)
-    back = export.from_mitsuba(export.to_mitsuba(m, unit_mm=1000.0), unit_mm=1000.0)
+    d = export.to_mitsuba(m, unit_mm=1000.0)
+    # Mitsuba 3 reads an rgb value as a reflectance and refuses components > 1 ("Invalid RGB
+    # reflectance value"): σt goes in normalised, its maximum in the medium's scale.
+    for key in ("albedo", "sigma_t"):
+        assert 0 < max(d["interior"][key]["value"]) <= 1, key
+    assert d["interior"]["scale"] == pytest.approx(1000.0 * max(a + s for a, s in zip(m.sigma_a, m.sigma_s)))
+    back = export.from_mitsuba(d, unit_mm=1000.0)
     np.testing.assert_allclose(back.sigma_a, m.sigma_a, rtol=1e-12)
     np.testing.assert_allclose(back.sigma_s, m.sigma_s, rtol=1e-12)
     assert back.eta == m.eta and back.g == m.g

@@ -66,9 +66,14 @@ def _check(m, fmt, unit_mm) -> float:
 
 
 def to_mitsuba(m: Translucent, unit_mm: float = 1.0) -> dict:
-    """{"bsdf": {...}, "interior": {...}} for a Mitsuba 3 shape dict (``mi.load_dict``)."""
+    """{"bsdf": {...}, "interior": {...}} for a Mitsuba 3 shape dict (``mi.load_dict``).
+
+    Mitsuba 3 (3.9.1) reads an ``rgb`` value as a reflectance and refuses components above 1, so
+    σt is written as σt / max σt with the medium's ``scale`` = max σt (per scene unit)."""
     unit_mm = _check(m, "Mitsuba 3", unit_mm)
-    st = [(a + s) * unit_mm for a, s in zip(m.sigma_a, m.sigma_s)]
+    st_full = [(a + s) * unit_mm for a, s in zip(m.sigma_a, m.sigma_s)]
+    top = max(st_full)
+    st = [x / top for x in st_full]
     alb = [s / (a + s) for a, s in zip(m.sigma_a, m.sigma_s)]
     return {
         "bsdf": {"type": "dielectric", "int_ior": m.eta, "ext_ior": 1.0},
@@ -76,7 +81,7 @@ def to_mitsuba(m: Translucent, unit_mm: float = 1.0) -> dict:
             "type": "homogeneous",
             "albedo": {"type": "rgb", "value": alb},
             "sigma_t": {"type": "rgb", "value": st},
-            "scale": 1.0,
+            "scale": top,
             "phase": {"type": "hg", "g": m.g},
         },
     }
