@@ -25,7 +25,7 @@ import render_compare as C
 import subsurf.render as R
 from subsurf import _core
 
-#: The 512² random_walk target at 16 spp (issue 19), seconds on 2 cores.
+#: The 512² random_walk target at 16 spp, seconds on 2 cores.
 TARGET_16SPP = 30.0
 
 

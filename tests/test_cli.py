@@ -143,7 +143,7 @@ def test_profile_and_materials(run_here, one_line_error):
     assert float(row.split()[1]) == pytest.approx(float(diffusion.total_diffuse_reflectance(1 / 1.01, 1.3)), abs=6e-5)
     assert "3.0312e-02" in row
     one_line_error(run_here("profile", "unobtainium"), "unknown material 'unobtainium'")
-    # Issue 20: photon beam diffusion printed 1.0125 for cream (red), above the light that enters.
+    # Photon beam diffusion printed 1.0125 for cream (red), above the light that enters.
     p = run_here("profile", "cream", "--model", "photon_beam_diffusion")
     assert p.returncode == 0, p.stderr
     totals = [float(line.split()[1]) for line in p.stdout.splitlines() if line.startswith("photon_beam_diffusion")]

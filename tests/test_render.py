@@ -48,7 +48,7 @@ def test_every_profile_model_renders():
 
 @pytest.mark.parametrize("name", ["cream", "spectralon"])
 def test_library_materials_render_with_photon_beam_diffusion(name):
-    """Issue 20: photon beam diffusion's totals were above 1 for these (cream 1.0125, spectralon
+    """Photon beam diffusion's totals were above 1 for these (cream 1.0125, spectralon
     1.035 in every channel, σa = 0) and the renderer refused them; now at most 1 (exactly 1
     without absorption)."""
     mat = R.Translucent.library(name, model="photon_beam_diffusion")
@@ -61,7 +61,7 @@ def test_library_materials_render_with_photon_beam_diffusion(name):
 
 
 def test_normalized_diffusion_is_continuous_as_absorption_vanishes():
-    """Issue 20: a sphere of σa = 1e-9 under normalized diffusion rendered 0.0000 (its median
+    """A sphere of σa = 1e-9 under normalized diffusion rendered 0.0000 (its median
     radius was 1,200 mm against 1.71 mm at σa = 0); now its image is that of σa = 0, and σa = 1e-6
     within its profile's change (A −0.43 %, median −0.7 %). Image means over 4 seeds each; the
     sample layout follows the median radius, so the images differ by the noise too: 4σ of the
@@ -335,7 +335,9 @@ def test_from_reflectance_renders_the_reflectance(model, power, profile_table):
     rs, rp = ((mu - eta * ct) / (mu + eta * ct)) ** 2, ((eta * mu - ct) / (eta * mu + ct)) ** 2
     c = 2 * np.mean((1 - 0.5 * (rs + rp)) * mu)
     incident = np.array(color) * (f0 if power == "entering" else 1.0)
-    tol = 0.01 + (4 * 0.5 / np.sqrt(100_000) / incident if model == "monte_carlo" else 0)
+    # The Monte Carlo profiles' totals carry their own noise (adaptive: its finite-slab table at the
+    # local thickness, traced with mc_photons apart from the inversion's table).
+    tol = 0.01 + (4 * 0.5 / np.sqrt(100_000) / incident if model in ("monte_carlo", "adaptive") else 0)
     want = incident * f0 / (np.pi * c)
     assert np.all(np.abs(got / want - 1) < tol), (got / want - 1, tol)
     for k in range(3):

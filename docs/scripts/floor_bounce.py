@@ -1,5 +1,5 @@
 """The BSSRDF methods against random_walk on examples/render/marble_sphere.toml with its floor
-(albedo 0.5, as shipped), a white floor (albedo 1) and no floor (docs/render.md, issue 20): the
+(albedo 0.5, as shipped), a white floor (albedo 1) and no floor (docs/render.md): the
 object-mean ratio per channel over the sphere's pixels (pixels whose four corners see the sphere),
 and the noise floor (two random_walk images of different seeds).
 Usage: python docs/scripts/floor_bounce.py [--spp-ref 32] [--spp 4] [--model dipole] [--scale 1]

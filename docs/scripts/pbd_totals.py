@@ -1,4 +1,4 @@
-"""Photon beam diffusion totals over the 2,160-point grid of issue 20 (σa × σs × g × η =
+"""Photon beam diffusion totals over the 2,160-point grid (σa × σs × g × η =
 6 × 6 × 10 × 6): the largest total and how many exceed 1 (130 before the multiple-scattering
 weight of `photon_beam_diffusion::profile`, up to 1.129). A total depends on σa and σs only
 through the albedo α = σs/(σa + σs) (lengths scale as 1/σt; the tabulated totals agree across
