@@ -22,7 +22,7 @@ use crate::diffusion::BetterDipole;
 use crate::error::Result;
 use crate::optics::{fr_dielectric, hg_phase};
 use crate::stats::gauss_legendre;
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 
 fn gl8() -> &'static (Vec<f64>, Vec<f64>) {
     static GL: OnceLock<(Vec<f64>, Vec<f64>)> = OnceLock::new();
@@ -131,19 +131,29 @@ impl ClosedForm for PhotonBeamDiffusion {
 /// exactly for every g and η; since both terms decrease with absorption, no total exceeds 1
 /// (checked on a 2,160-point grid in the tests). R_ss (exact single scattering) is kept as is.
 pub fn profile(m: &Medium) -> Result<Tabulated<PhotonBeamDiffusion>> {
-    let k_ms = if m.sigma_s > 0.0 {
-        let lossless = Tabulated::new(beam(&Medium { sigma_a: 0.0, ..*m }, 1.0)?);
-        let ss0 = lossless.model.single.total();
-        let ms0 = lossless.total() - ss0;
-        if ms0 > 0.0 {
-            ((1.0 - ss0) / ms0).max(0.0)
-        } else {
-            1.0
-        }
-    } else {
-        1.0
-    };
+    let k_ms = if m.sigma_s > 0.0 { k_ms(m.g, m.eta)? } else { 1.0 };
     Ok(Tabulated::new(beam(m, k_ms)?))
+}
+
+/// The weight k = (1 − T_ss,0)/T_ms,0 of [`profile`]. The totals of a non-absorbing medium do not
+/// depend on its scale, so k is a function of g and η alone: computed once at σs = 1 mm⁻¹ and
+/// remembered (an inversion from a colour evaluates the profile of one (g, η) many times).
+fn k_ms(g: f64, eta: f64) -> Result<f64> {
+    static MEMO: Mutex<Vec<((u64, u64), f64)>> = Mutex::new(Vec::new());
+    let key = (g.to_bits(), eta.to_bits());
+    if let Some(&(_, k)) = MEMO.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(q, _)| *q == key) {
+        return Ok(k);
+    }
+    let lossless = Tabulated::new(beam(&Medium { sigma_a: 0.0, sigma_s: 1.0, g, eta }, 1.0)?);
+    let ss0 = lossless.model.single.total();
+    let ms0 = lossless.total() - ss0;
+    let k = if ms0 > 0.0 { ((1.0 - ss0) / ms0).max(0.0) } else { 1.0 };
+    let mut memo = MEMO.lock().unwrap_or_else(|e| e.into_inner());
+    if memo.len() >= 1024 {
+        memo.clear();
+    }
+    memo.push((key, k));
+    Ok(k)
 }
 
 /// The model with multiple-scattering weight `k_ms` (1: Habel et al.'s profile as published and

@@ -76,11 +76,9 @@ fn forward_total(model: Model, m: &Medium, table: &ProfileTable, refl_incident: 
             (kind.total_rd(m.sigma_s_prime() / (m.sigma_a + m.sigma_s_prime()), m.eta).unwrap(), 1e-12)
         }
         // The tabulated quadrature of R_d(r) (agrees with closed forms to ~1e-12, `Tabulated`);
-        // photon beam diffusion's root on α stops at |Δtotal| < 1e-13 or a bracket of 1e-11, and
-        // its total carries the weight k, a ratio of two more tabulated totals: the material's
-        // scale (σt ≠ 1) changes it by the quadrature's rounding (measured 7.8e-10).
-        Model::Multipole => (medium_profile(model, m).unwrap().total(), 1e-10),
-        Model::PhotonBeamDiffusion => (medium_profile(model, m).unwrap().total(), 2e-9),
+        // photon beam diffusion's root on α stops at |Δtotal| < 1e-13 or a bracket of 1e-11 (its
+        // weight k is computed at σs = 1 whatever the material's scale).
+        Model::Multipole | Model::PhotonBeamDiffusion => (medium_profile(model, m).unwrap().total(), 1e-10),
         // ρ_eff of the table (per incident power), inverted by bisection to 1e-14 in ln(1 − α)
         // (adaptive inverts a colour as the semi-infinite Monte Carlo profile).
         Model::MonteCarlo | Model::Adaptive => (table.rho_eff(m.sigma_s / m.sigma_t()).unwrap() / enter, 1e-10),
