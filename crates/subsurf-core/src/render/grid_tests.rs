@@ -12,7 +12,7 @@ use super::random_walk::RandomWalk;
 use super::scene::{Object, Scene};
 use super::shapes::cuboid;
 use super::walk_sim::{simulate, BeamSource, VoxelGrid, WalkConfig, WalkTally};
-use super::walk_tests::image_sum_stats;
+use super::walk_tests::assert_images_agree;
 use super::Camera;
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::Arc;
@@ -79,32 +79,15 @@ fn camera() -> Option<Camera> {
     Some(Camera::new([6.0, -12.0, 3.0], [0.0; 3], [0.0, 0.0, 1.0], 10.0, 8, 8).unwrap())
 }
 
-/// Image sums of `a` and `b` (`n` samples each, seeds apart) agree within 4σ per channel.
-/// Power: every band is asserted below 5 % of the mean, so a 5 % bias cannot pass.
+/// Image sums of `a` and `b` (`n` samples each, seeds apart) agree within 4σ per channel
+/// (power: every band below 5 % of the mean, [`super::walk_tests::assert_images_agree`]).
 fn images_agree(name: &str, a: Form, b: Form, light: Option<Light>, env: Rgb, n: u32) {
     let lights: Vec<Light> = light.into_iter().collect();
     let (scene_a, scene_b) = (cube(a, lights.clone(), env, camera()), cube(b, lights, env, camera()));
     let (wa, wb) = (RandomWalk::new(&scene_a), RandomWalk::new(&scene_b));
     let ra = Renderer::from_parts(scene_a, Box::new(wa), 11);
     let rb = Renderer::from_parts(scene_b, Box::new(wb), 12);
-    let ((ma, sa), (mb, sb)) = (image_sum_stats(&ra, n), image_sum_stats(&rb, n));
-    let (mut powerless, mut failed) = (false, false);
-    for k in 0..3 {
-        let sig = (sa[k] * sa[k] + sb[k] * sb[k]).sqrt();
-        println!(
-            "{name} ch {k}: {a:?} {:.5} ± {:.5}, {b:?} {:.5} ± {:.5} ({:+.2} %, 4σ = {:.2} %)",
-            ma[k],
-            sa[k],
-            mb[k],
-            sb[k],
-            100.0 * (mb[k] / ma[k] - 1.0),
-            400.0 * sig / ma[k]
-        );
-        powerless |= 4.0 * sig >= 0.05 * ma[k];
-        failed |= (ma[k] - mb[k]).abs() >= 4.0 * sig;
-    }
-    assert!(!powerless, "{name}: a band is too wide to see a 5 % bias");
-    assert!(!failed, "{name}: the images differ");
+    assert_images_agree(name, (&format!("{a:?}"), &ra), (&format!("{b:?}"), &rb), n);
 }
 
 #[test]

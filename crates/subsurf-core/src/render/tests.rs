@@ -296,25 +296,7 @@ fn extreme_inputs_are_refused_or_reported() {
     assert!(e.contains("source.origin: the pencil beam starts inside objects[0]"), "{e}");
 }
 
-/// Sum over all pixels of sample s, for s in 0..n: (mean, standard error) per channel.
-fn image_sum_stats(r: &Renderer, n: u32) -> ([f64; 3], [f64; 3]) {
-    let cam = r.scene.camera.as_ref().unwrap();
-    let (mut s, mut s2) = ([0.0; 3], [0.0; 3]);
-    for i in 0..n {
-        let mut x = [0.0; 3];
-        for py in 0..cam.height {
-            for px in 0..cam.width {
-                x = super::math::add(x, r.sample(px, py, i));
-            }
-        }
-        for k in 0..3 {
-            s[k] += x[k];
-            s2[k] += x[k] * x[k];
-        }
-    }
-    let m: [f64; 3] = std::array::from_fn(|k| s[k] / n as f64);
-    (m, std::array::from_fn(|k| ((s2[k] / n as f64 - m[k] * m[k]).max(0.0) / (n as f64 - 1.0)).sqrt()))
-}
+use super::walk_tests::image_sum_stats;
 
 /// Next-event estimation through facets changes the noise, not the answer: random_walk with
 /// and without it (the area light then reached only by exits) agree within 4σ on a tessellated
