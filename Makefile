@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: all venv build lint test test-docs-check test-pytest test-fast test-rust test-rust-fast test-python test-python-fast demo figures bench clean docs docs-check dist dist-check
+.PHONY: all venv build lint test test-rust-compile test-rust-then-docs test-docs-check test-pytest test-fast test-rust test-rust-fast test-python test-python-fast demo figures bench clean docs docs-check dist dist-check
 
 all: build
 
@@ -57,11 +57,19 @@ lint: venv
 	$(VENV)/bin/ruff format --check .
 
 # Two jobs at a time where they do not depend on each other: the venv's installs, clippy, the
-# release build and run of the core's tests and the extension's build overlap on 2 cores; then the
-# docs check (one Python process) beside pytest, whose summary closes the log.
+# release build of the core's tests and the extension's build overlap on 2 cores; then the core's
+# tests and the docs check beside pytest (mostly one thread), whose summary closes the log.
 test:
-	$(MAKE) --no-print-directory -j2 lint test-rust build
-	$(MAKE) --no-print-directory -j2 test-docs-check test-pytest
+	$(MAKE) --no-print-directory -j2 lint test-rust-compile build
+	$(MAKE) --no-print-directory -j2 test-rust-then-docs test-pytest
+
+# The core's tests compiled beside the lints and the build, run beside pytest (mostly one thread).
+test-rust-compile:
+	$(CARGO_TEST) --no-run
+
+test-rust-then-docs:
+	$(CARGO_TEST)
+	$(DOCS_CHECK)
 
 test-docs-check:
 	$(DOCS_CHECK)
