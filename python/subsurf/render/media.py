@@ -45,6 +45,10 @@ def _voxels(name, v):
     return np.ascontiguousarray(a)
 
 
+#: The keys of a ``[materials.NAME.grid]`` table: :class:`MediumGrid`'s parameters.
+_GRID_KEYS = ("sigma_a", "sigma_s", "bounds")
+
+
 class MediumGrid:
     """σa and σs (mm⁻¹) on a voxel grid over the box ``bounds`` = ((x0, y0, z0), (x1, y1, z1))
     of the object's space (mm).
@@ -72,10 +76,10 @@ class MediumGrid:
         """From a TOML table: ``sigma_a``, ``sigma_s`` (file names or nested lists), ``bounds``."""
         if not isinstance(d, dict):
             raise _err(f"{key} = {d!r}: expected a table with sigma_a, sigma_s and bounds")
-        unknown = sorted(set(d) - {"sigma_a", "sigma_s", "bounds"})
+        unknown = sorted(set(d) - set(_GRID_KEYS))
         if unknown:
-            raise _err(f"{key}: unknown keys {unknown} (allowed: ['bounds', 'sigma_a', 'sigma_s'])")
-        missing = [k for k in ("sigma_a", "sigma_s", "bounds") if k not in d]
+            raise _err(f"{key}: unknown keys {unknown} (allowed: {sorted(_GRID_KEYS)})")
+        missing = [k for k in _GRID_KEYS if k not in d]
         if missing:
             raise _err(f"{key}: missing {missing[0]!r}")
         return cls(d["sigma_a"], d["sigma_s"], d["bounds"])

@@ -11,6 +11,7 @@ use super::scene::{Object, Scene};
 use super::shade::ft;
 use super::shapes::{cuboid, icosphere};
 use super::walk_sim::{simulate, BeamSource, VoxelGrid, WalkConfig};
+use super::walk_tests::image_sum_stats;
 use super::Camera;
 use crate::bssrdf::RadialProfile;
 use std::f64::consts::PI;
@@ -295,8 +296,6 @@ fn extreme_inputs_are_refused_or_reported() {
     let e = simulate(&s, &cfg, &AtomicBool::new(false), &AtomicU64::new(0)).err().unwrap().to_string();
     assert!(e.contains("source.origin: the pencil beam starts inside objects[0]"), "{e}");
 }
-
-use super::walk_tests::image_sum_stats;
 
 /// Next-event estimation through facets changes the noise, not the answer: random_walk with
 /// and without it (the area light then reached only by exits) agree within 4σ on a tessellated
