@@ -113,18 +113,20 @@ def power_count(stack, theta_i, j, transmission=False, n_mu=300, n_phi=200):
             lq = stack.layers[q - 1]
             esc *= np.where(ok, np.exp(-(lq.mua + lq.mus) * lq.thickness / np.where(ok, mq, 1.0)), 0.0)
         mu_cur, n_cur = np.where(ok, mq, 1.0), media[q]
-    # depth integral: ∫ σs/μi e^{−σt z/μi} e^{−σt (path out)} dz
+    # depth integral ∫₀^d σs/μi e^{−σt z/μi} e^{−σt (path out)/μ'} dz in closed form: with the path
+    # out z (reflection) or d − z (transmission), ∫₀^d e^{−a z} dz = −expm1(−a d)/a (d at a = 0)
     d = lay.thickness
     if math.isinf(d):
         depth = lay.mus / mu_i / (st / mu_i + st / M)
     else:
-        zx, zw = np.polynomial.legendre.leggauss(200)
-        z = 0.5 * d * (zx + 1)
-        zw = 0.5 * d * zw
-        out_len = (d - z) if transmission else z
-        depth = np.einsum(
-            "k,kij->ij", zw, lay.mus / mu_i * np.exp(-st * z[:, None, None] / mu_i - st * out_len[:, None, None] / M)
-        )
+        # transmission: e^{−σt d/μ'} ∫₀^d e^{−a z} dz with a = σt(1/μi − 1/μ') of either sign, written
+        # as e^{−σt d/max(μi, μ')} ∫₀^d e^{−|a| z} dz (no overflow)
+        a = st / mu_i - st / M if transmission else st / mu_i + st / M
+        factor = np.exp(-st * d / np.maximum(mu_i, M)) if transmission else 1.0
+        a = np.abs(a)
+        small = a * d < 1e-12
+        integral = np.where(small, d, -np.expm1(-a * d) / np.where(small, 1.0, a))
+        depth = lay.mus / mu_i * integral * factor
     integrand = F * p * esc * depth
     return float(np.sum(integrand * wmu[:, None]) * 2 * np.pi / n_phi)
 

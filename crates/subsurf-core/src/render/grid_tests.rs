@@ -87,7 +87,7 @@ fn images_agree(name: &str, a: Form, b: Form, light: Option<Light>, env: Rgb, n:
     let (wa, wb) = (RandomWalk::new(&scene_a), RandomWalk::new(&scene_b));
     let ra = Renderer::from_parts(scene_a, Box::new(wa), 11);
     let rb = Renderer::from_parts(scene_b, Box::new(wb), 12);
-    assert_images_agree(name, (&format!("{a:?}"), &ra), (&format!("{b:?}"), &rb), n);
+    assert_images_agree(name, (&format!("{a:?}"), &ra), (&format!("{b:?}"), &rb), n, 0.05);
 }
 
 #[test]

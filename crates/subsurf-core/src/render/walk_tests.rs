@@ -57,19 +57,20 @@ pub(super) fn image_sum_stats(r: &Renderer, n: u32) -> (Rgb, Rgb) {
 
 /// An inner sphere of the same medium (index-matched interface) changes nothing: the nested
 /// image equals the single-sphere image within 4σ in every channel (`n` samples of each).
-/// Power: each band 4σ is asserted to be below 5 % of the mean, so a 5 % loss cannot pass (the
-/// issue measured −72 %, −72 %, −15 %, −19 % for point, directional, sphere and rectangle
+/// Power: each band 4σ is asserted to be below 10 % of the mean, so a 10 % loss cannot pass
+/// (−72 %, −72 %, −15 %, −19 % were measured for point, directional, sphere and rectangle
 /// lights before collisions in inner media connected to lights).
 fn nested_matches_single(name: &str, light: Option<Light>, env: Rgb, n: u32, seed: u64) {
     let (sa, sb) = (spheres(false, light.clone(), env), spheres(true, light, env));
     let a = Renderer::from_parts(sa.clone(), Box::new(RandomWalk::new(&sa)), seed);
     let b = Renderer::from_parts(sb.clone(), Box::new(RandomWalk::new(&sb)), seed + 1);
-    assert_images_agree(name, ("single", &a), ("nested", &b), n);
+    assert_images_agree(name, ("single", &a), ("nested", &b), n, 0.10);
 }
 
 /// The image sums of `a` and `b` (`n` samples each) agree within 4σ in every channel. Power:
-/// every band 4σ is asserted below 5 % of the mean, so a 5 % bias cannot pass.
-pub(super) fn assert_images_agree(name: &str, a: (&str, &Renderer), b: (&str, &Renderer), n: u32) {
+/// every band 4σ is asserted below the fraction `power` of the mean, so a bias of that size
+/// cannot pass.
+pub(super) fn assert_images_agree(name: &str, a: (&str, &Renderer), b: (&str, &Renderer), n: u32, power: f64) {
     let ((ma, sa), (mb, sb)) = (image_sum_stats(a.1, n), image_sum_stats(b.1, n));
     let (mut powerless, mut failed) = (false, false);
     for k in 0..3 {
@@ -85,42 +86,42 @@ pub(super) fn assert_images_agree(name: &str, a: (&str, &Renderer), b: (&str, &R
             100.0 * (mb[k] / ma[k] - 1.0),
             400.0 * sig / ma[k]
         );
-        powerless |= 4.0 * sig >= 0.05 * ma[k];
+        powerless |= 4.0 * sig >= power * ma[k];
         failed |= (ma[k] - mb[k]).abs() >= 4.0 * sig;
     }
-    assert!(!powerless, "{name}: a band is too wide to see a 5 % bias");
+    assert!(!powerless, "{name}: a band is too wide to see a {:.0} % bias", 100.0 * power);
     assert!(!failed, "{name}: {} and {} differ", a.0, b.0);
 }
 
 #[test]
 fn nested_same_medium_is_invisible_point_light_slow() {
-    nested_matches_single("point", Some(Light::point("l", [4.0, -6.0, 5.0], [400.0; 3]).unwrap()), [0.0; 3], 1000, 0);
+    nested_matches_single("point", Some(Light::point("l", [4.0, -6.0, 5.0], [400.0; 3]).unwrap()), [0.0; 3], 250, 0);
 }
 
 #[test]
 fn nested_same_medium_is_invisible_directional_light_slow() {
     let l = Light::directional("l", [0.5, -0.6, 0.7], [1.0; 3]).unwrap();
-    nested_matches_single("directional", Some(l), [0.0; 3], 800, 2);
+    nested_matches_single("directional", Some(l), [0.0; 3], 200, 2);
 }
 
 /// Area lights: exits that reach the light (after an internal reflection, or from collisions
 /// whose connections were skipped) are heavy-tailed, ∝ the light's radiance; large lights keep
-/// the band below 5 %.
+/// the band below 10 %.
 #[test]
 fn nested_same_medium_is_invisible_sphere_light_slow() {
     let l = Light::sphere("l", [8.0, -10.0, 6.0], 5.0, [2000.0; 3]).unwrap();
-    nested_matches_single("sphere", Some(l), [0.0; 3], 2600, 4);
+    nested_matches_single("sphere", Some(l), [0.0; 3], 650, 4);
 }
 
 #[test]
 fn nested_same_medium_is_invisible_rect_light_slow() {
     let l = Light::rect("l", [0.0, -8.0, 8.0], [-6.0, 0.0, 0.0], [0.0, 4.0, 4.0], [2000.0; 3]).unwrap();
-    nested_matches_single("rect", Some(l), [0.0; 3], 1600, 6);
+    nested_matches_single("rect", Some(l), [0.0; 3], 400, 6);
 }
 
 #[test]
 fn nested_same_medium_is_invisible_environment() {
-    nested_matches_single("environment", None, [0.3; 3], 800, 8);
+    nested_matches_single("environment", None, [0.3; 3], 200, 8);
 }
 
 /// Two nested layers against the layered Monte Carlo engine: a pencil beam on a large box
