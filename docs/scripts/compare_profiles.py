@@ -7,7 +7,8 @@ describe the power that entered). Total error: model/MC − 1. Profile error: th
 |model/MC − 1| of ring averages over the Monte Carlo log bins (10 per decade) between 0.1 and 10
 transport mean free paths 1/σt', using only bins whose Monte Carlo relative error is < 5 %.
 
-Usage: python docs/scripts/compare_profiles.py [--photons N] [--seed S] [--out DIR]
+Usage: python docs/scripts/compare_profiles.py [--photons N] [--seed S] [--out DIR] [--quick]
+(``--quick``: two albedos instead of five, to check the pipeline.)
 """
 
 from __future__ import annotations
@@ -54,13 +55,15 @@ def main(argv=None):
     ap.add_argument("--photons", type=int, default=40000)
     ap.add_argument("--seed", type=int, default=8)
     ap.add_argument("--out", default=os.path.dirname(os.path.dirname(os.path.abspath(__file__))), help="directory")
+    ap.add_argument("--quick", action="store_true", help="albedos 0.6 and 0.99 only (checks the pipeline)")
     args = ap.parse_args(argv)
+    albedos = (0.6, 0.99) if args.quick else ALBEDOS
     here = args.out
     t0 = time.time()
     rows = {}
     for gi, g in enumerate(GS):
         for ei, eta in enumerate(ETAS):
-            for ai, a in enumerate(ALBEDOS):
+            for ai, a in enumerate(albedos):
                 rows[(g, eta, a)] = compare(a, g, eta, args.photons, args.seed + 100 * gi + 10 * ei + ai)
     elapsed = time.time() - t0
     import matplotlib
@@ -77,10 +80,10 @@ def main(argv=None):
                 ax = axes[gi, ei]
                 positive = False
                 for m in MODELS:
-                    y = [rows[(g, eta, a)][2][m][k] for a in ALBEDOS]
+                    y = [rows[(g, eta, a)][2][m][k] for a in albedos]
                     y = [np.nan if v is None else v for v in y]
                     positive |= any(v > 0 for v in y)
-                    ax.plot([1 - a for a in ALBEDOS], y, "o-", label=m, ms=3)
+                    ax.plot([1 - a for a in albedos], y, "o-", label=m, ms=3)
                 ax.set_xscale("log")
                 if k and positive:  # (no profile error is defined when the MC bins are all too noisy)
                     ax.set_yscale("log")

@@ -58,7 +58,7 @@ def main(argv=None) -> int:
     os.makedirs(out, exist_ok=True)
     mc = ["--photons", "300"] if args.quick else []
     compare_diffusion_mc.main([*mc, "--out", out])
-    compare_profiles.main([*mc, "--out", out])
+    compare_profiles.main([*mc, *(["--quick"] if args.quick else []), "--out", out])
     validation_table.main(["--quick"] if args.quick else ["--readme"])
     print(f"wrote {render_demo_png(out, args.quick)}")
     return 0
