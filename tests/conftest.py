@@ -113,6 +113,19 @@ second.mco A
 
 
 @pytest.fixture(scope="session")
+def small_example(tmp_path_factory) -> str:
+    """The shipped marble_sphere.toml at 40×30 pixels instead of 200×150 (the CLI paths, at a
+    quarter of the cost; the hierarchical set-up does not depend on the image size)."""
+    src = os.path.join(os.path.dirname(__file__), "..", "examples", "render", "marble_sphere.toml")
+    with open(src) as f:
+        text = f.read()
+    assert "width = 200\nheight = 150\n" in text
+    path = tmp_path_factory.mktemp("example") / "marble_sphere.toml"
+    path.write_text(text.replace("width = 200\nheight = 150\n", "width = 40\nheight = 30\n"))
+    return str(path)
+
+
+@pytest.fixture(scope="session")
 def sample_mci() -> str:
     """A two-run MCML input (outputs first.mco and second.mco), as MCML's template writes it."""
     return SAMPLE_MCI

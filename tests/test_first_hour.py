@@ -18,7 +18,6 @@ import pytest
 import subsurf._core as core
 import subsurf.render as R
 
-EXAMPLE = os.path.join(os.path.dirname(__file__), "..", "examples", "render", "marble_sphere.toml")
 HINT = "pip install 'subsurf[render]'"
 
 
@@ -43,12 +42,12 @@ def test_demo_quick_without_the_optional_packages(tmp_path, cli):
 
 
 @pytest.mark.slow  # 4-6 s: subprocesses that render
-def test_render_example_without_the_optional_packages(tmp_path, cli):
+def test_render_example_without_the_optional_packages(tmp_path, cli, small_example):
     env = _plain_install(tmp_path)
-    r = cli("render", EXAMPLE, "-o", tmp_path / "x.png", "--spp", "1", env=env)
+    r = cli("render", small_example, "-o", tmp_path / "x.png", "--spp", "1", env=env)
     assert r.returncode == 0 and r.stderr == "", r.stderr
     assert os.path.getsize(tmp_path / "x.png") > 1000
-    r = cli("render", EXAMPLE, "-o", tmp_path / "y.exr", "--spp", "1", env=env)
+    r = cli("render", small_example, "-o", tmp_path / "y.exr", "--spp", "1", env=env)
     assert r.returncode == 0, r.stderr
     assert r.stderr.count("\n") == 1 and HINT in r.stderr and "y.png only" in r.stderr
     assert sorted(os.listdir(tmp_path)) == ["shim", "x.png", "y.png"]
@@ -146,8 +145,8 @@ def test_profile_command_monte_carlo_stops_on_ctrl_c(cli):
 
 
 @pytest.mark.slow  # 4-6 s: subprocesses that render
-def test_cli_ctrl_c_in_the_passes_writes_a_partial_image(tmp_path, cli):
+def test_cli_ctrl_c_in_the_passes_writes_a_partial_image(tmp_path, cli, small_example):
     # interrupt_after counts samples per pixel: the set-up runs to its end, the first pass is kept
-    r = cli("render", EXAMPLE, "-o", tmp_path / "p.png", "--spp", "4", hook="interrupt_after=1")
+    r = cli("render", small_example, "-o", tmp_path / "p.png", "--spp", "4", hook="interrupt_after=1")
     assert r.returncode == 130 and "partial: 1 of 4 spp" in r.stdout, (r.stdout, r.stderr)
     assert os.path.getsize(tmp_path / "p.png") > 1000

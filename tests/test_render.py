@@ -232,12 +232,12 @@ def test_cli_bad_input_one_line(tmp_path, error_here, obj, mat, power, method, e
 
 
 @pytest.mark.slow
-def test_example_scene_runs(tmp_path):
+def test_example_scene_runs(tmp_path, small_example):
     scene, st = R.load_scene(os.path.join(EXAMPLES, "marble_sphere.toml"))
     scene.camera.width, scene.camera.height = 40, 30
     img = R.render(scene, st["method"], spp=1)
     assert img.array.shape == (30, 40, 3) and img.array.max() > 0
-    r = _cli("render", os.path.join(EXAMPLES, "marble_sphere.toml"), "-o", str(tmp_path / "m.png"), "--spp", "1", "-q")
+    r = _cli("render", small_example, "-o", str(tmp_path / "m.png"), "--spp", "1", "-q")
     assert r.returncode == 0, r.stderr
 
 
