@@ -226,10 +226,11 @@ def invert_maps(refl, mfp, invert, mfp_ref):
     free path ``mfp`` (both (height, width, 3)). ``invert(k, values, mfp_k)`` gives (σa, σs) of
     channel k for an array of reflectances at the mean free path ``mfp_k`` (the core's
     inversion). Each channel's distinct reflectances are inverted once at ``mfp_ref[k]`` (an 8-bit
-    image has at most 256; beyond 4096 distinct values a table of 4096 between the least and the
-    largest, interpolated linearly) and scaled to each texel's mean free path: the inversion is
-    exact under scaling (every coefficient ∝ 1/mfp at a fixed reflectance, for every model and
-    kind of mean free path)."""
+    image has at most 256; beyond 4096 distinct values each texel takes the nearest of 4096
+    evenly spaced reflectances between the least and the largest, an error ≤ range/8190, so the
+    BSSRDF methods build at most 4096 profiles per channel) and scaled to each texel's mean free
+    path: the inversion is exact under scaling (every coefficient ∝ 1/mfp at a fixed reflectance,
+    for every model and kind of mean free path)."""
     out_a, out_s = np.empty_like(refl), np.empty_like(refl)
     for k in range(3):
         ch = refl[..., k]
@@ -242,6 +243,7 @@ def invert_maps(refl, mfp, invert, mfp_ref):
         else:
             grid = np.linspace(values[0], values[-1], 4096)
             a, s = (np.asarray(x) for x in invert(k, grid, mfp_ref[k]))
-            out_a[..., k] = np.interp(ch, grid, a) * scale
-            out_s[..., k] = np.interp(ch, grid, s) * scale
+            nearest = np.rint((ch - values[0]) / (grid[1] - grid[0])).astype(np.int64).clip(0, 4095)
+            out_a[..., k] = a[nearest] * scale
+            out_s[..., k] = s[nearest] * scale
     return out_a, out_s

@@ -286,14 +286,13 @@ impl Hierarchical {
             .map(|oi| {
                 let m = scene.material(oi).translucent()?;
                 // (Over every texel material of a textured one: the finest profile sets Δ.)
-                let median = m
-                    .variants()
-                    .iter()
-                    .flat_map(|v| (0..3).map(|k| v.profiles()[k].radius_for_fraction(0.5)))
-                    .fold(f64::INFINITY, f64::min);
+                let median = match m.texture.as_ref().and_then(|t| t.radius_range(0.5)) {
+                    Some((lo, _)) => lo[0].min(lo[1]).min(lo[2]),
+                    None => (0..3).map(|k| m.profiles()[k].radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min),
+                };
                 let total = scene.objects[oi].mesh.total_area();
                 let mut delta = params.spacing * median;
-                if !(delta > 0.0) || total / (delta * delta) > params.max_samples as f64 {
+                if !(delta > 0.0 && delta.is_finite()) || total / (delta * delta) > params.max_samples as f64 {
                     delta = (total / params.max_samples as f64).sqrt();
                 }
                 Some((place_samples(scene, oi, delta), delta))

@@ -269,7 +269,7 @@ impl TranslucentSpec {
         let (n, n_above, n_below) = (top.layers[0].n, top.n_above, top.n_below);
         let keys = spec.unit_keys(by_reflectance);
         let one = |j: usize| -> Result<Option<Arc<dyn RadialProfile>>> {
-            let (a, r) = (f64::from_bits(keys[j].0), f64::from_bits(keys[j].1));
+            let (a, r) = (TextureSpec::key_albedo(keys[j]), f64::from_bits(keys[j].1));
             let layer = Layer::new(n, 1.0 - a, a, self.g, f64::INFINITY)?;
             let stack = Stack::new(vec![layer], n_above, n_below)?;
             let mc = crate::bssrdf::monte_carlo::McSettings { seed: self.mc.seed.wrapping_add(j as u64), ..self.mc };

@@ -45,12 +45,17 @@ impl Probe {
         let r_max = (0..scene.objects.len())
             .map(|oi| match scene.material(oi).translucent() {
                 // (The largest over every texel material of a textured one.)
-                Some(m) => m.variants().iter().fold([0.0f64; 3], |acc, v| {
-                    std::array::from_fn(|k| {
-                        let p = &v.profiles()[k];
-                        acc[k].max(if p.total() > 0.0 { p.radius_for_fraction(R_MAX_FRACTION) } else { 0.0 })
-                    })
-                }),
+                Some(m) => match m.texture.as_ref().and_then(|t| t.radius_range(R_MAX_FRACTION)) {
+                    Some((_, hi)) => hi,
+                    None => std::array::from_fn(|k| {
+                        let p = &m.profiles()[k];
+                        if p.total() > 0.0 {
+                            p.radius_for_fraction(R_MAX_FRACTION)
+                        } else {
+                            0.0
+                        }
+                    }),
+                },
                 None => [0.0; 3],
             })
             .collect();

@@ -44,8 +44,11 @@ pub struct TextureSpec {
     pub reflectance: Option<Vec<Rgb>>,
 }
 
-/// A profile of unit σt: (albedo bits, reflectance bits or 0).
-type UnitKey = (u64, u64);
+/// A profile of unit σt: (albedo in steps of 1/[`ALBEDO_STEPS`], reflectance bits or 0).
+pub type UnitKey = (u64, u64);
+
+/// Steps per unit albedo of a unit-profile key (2⁴⁴).
+const ALBEDO_STEPS: f64 = 17_592_186_044_416.0;
 
 impl TextureSpec {
     /// Validate. `field` names the texture in errors; every texel needs σa, σs finite and ≥ 0
@@ -109,7 +112,14 @@ impl TextureSpec {
     fn unit_key(&self, i: usize, k: usize, by_reflectance: bool) -> UnitKey {
         let (a, s) = (self.sigma_a[i][k], self.sigma_s[i][k]);
         let r = self.reflectance.as_ref().filter(|_| by_reflectance).map_or(0, |r| r[i][k].to_bits());
-        ((s / (a + s)).to_bits(), r)
+        // The albedo on a grid of 2⁻⁴⁴ (6·10⁻¹⁴): texels of one reflectance at different mean free
+        // paths (σa, σs scaled) differ in the last bits of σs/σt and must share their profile.
+        (((s / (a + s)) * ALBEDO_STEPS).round() as u64, r)
+    }
+
+    /// The albedo of a unit-profile key.
+    pub fn key_albedo(key: UnitKey) -> f64 {
+        key.0 as f64 / ALBEDO_STEPS
     }
 
     /// The distinct unit-σt profiles the BSSRDF methods need (sorted): one per distinct
@@ -158,6 +168,10 @@ pub struct SurfaceTexture {
     pub height: usize,
     index: Vec<u32>,
     palette: Vec<Translucent>,
+    /// The unit-σt profiles (empty without profiles) and, per palette entry and channel, its
+    /// unit profile's index and σt (its profile is that one scaled).
+    units: Vec<Arc<dyn RadialProfile>>,
+    scales: Vec<[(u32, f64); 3]>,
 }
 
 impl SurfaceTexture {
@@ -173,6 +187,10 @@ impl SurfaceTexture {
     ) -> Result<SurfaceTexture> {
         let (first, index) = spec.distinct();
         let mut palette = Vec::with_capacity(first.len());
+        let unit_list: Vec<Arc<dyn RadialProfile>> = units.map_or(vec![], |(u, _)| u.values().cloned().collect());
+        let unit_index: HashMap<UnitKey, u32> =
+            units.map_or(HashMap::new(), |(u, _)| u.keys().enumerate().map(|(j, k)| (*k, j as u32)).collect());
+        let mut scales = vec![];
         for &i in &first {
             let (sa, ss) = (spec.sigma_a[i], spec.sigma_s[i]);
             let mut m = base.clone();
@@ -189,22 +207,47 @@ impl SurfaceTexture {
             m.adaptive = None;
             m.bssrdf = match units {
                 None => None,
-                Some((u, by_r)) => {
+                Some((_, by_r)) => {
+                    let mut sc = [(0, 0.0); 3];
                     let p: Vec<Arc<dyn RadialProfile>> = (0..3)
                         .map(|k| -> Result<Arc<dyn RadialProfile>> {
-                            let unit = u.get(&spec.unit_key(i, k, by_r)).ok_or_else(|| {
+                            let j = *unit_index.get(&spec.unit_key(i, k, by_r)).ok_or_else(|| {
                                 Error::Invalid(format!("{field}: no profile for texel {i}, channel {k}"))
                             })?;
-                            Ok(Arc::new(Scaled { unit: unit.clone(), s: m.sigma_t[k] }))
+                            sc[k] = (j, m.sigma_t[k]);
+                            Ok(Arc::new(Scaled { unit: unit_list[j as usize].clone(), s: m.sigma_t[k] }))
                         })
                         .collect::<Result<_>>()?;
+                    scales.push(sc);
                     let profiles: Profiles = [p[0].clone(), p[1].clone(), p[2].clone()];
                     Some(profiles)
                 }
             };
             palette.push(m);
         }
-        Ok(SurfaceTexture { width: spec.width, height: spec.height, index, palette })
+        Ok(SurfaceTexture { width: spec.width, height: spec.height, index, palette, units: unit_list, scales })
+    }
+
+    /// Per channel, the least and the largest radius (mm) holding a fraction `q` of a texel
+    /// profile's energy over the palette (profiles of total 0 left out; each unit profile's
+    /// radius found once, divided by each texel's σt); `None` without profiles.
+    pub fn radius_range(&self, q: f64) -> Option<(Rgb, Rgb)> {
+        if self.units.is_empty() {
+            return None;
+        }
+        let r: Vec<f64> =
+            self.units.iter().map(|u| if u.total() > 0.0 { u.radius_for_fraction(q) } else { f64::NAN }).collect();
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [0.0f64; 3]);
+        for e in &self.scales {
+            for k in 0..3 {
+                let x = r[e[k].0 as usize] / e[k].1;
+                if x.is_finite() {
+                    lo[k] = lo[k].min(x);
+                    hi[k] = hi[k].max(x);
+                }
+            }
+        }
+        Some((lo, hi))
     }
 
     /// The palette entry at texture coordinates (u, v): the nearest texel, repeat wrap.
@@ -291,8 +334,15 @@ mod tests {
         let spec = TextureSpec::new("t", 3, 1, sa, ss, None).unwrap();
         let t = SurfaceTexture::build("t", &spec, &base(), None).unwrap();
         assert_eq!(t.media().len(), 2);
-        // Every texel and channel has the albedo 1/1.1: one unit profile serves all.
+        // Every texel and channel has the albedo 1/1.1: one unit profile serves all, also at mean
+        // free paths scaled by awkward factors (σs/σt then differs in the last bits).
         assert_eq!(spec.unit_keys(false).len(), 1);
+        let c = [1.0, 0.3, 7.1, 1.0 / 3.0, 1e-3];
+        let sa = c.iter().map(|&c| [0.1 * c, 0.2 * c, 0.3 * c]).collect();
+        let ss = c.iter().map(|&c| [1.0 * c, 2.0 * c, 3.0 * c]).collect();
+        let spec = TextureSpec::new("t", 5, 1, sa, ss, None).unwrap();
+        assert_eq!(spec.unit_keys(false).len(), 1);
+        assert!((TextureSpec::key_albedo(spec.unit_keys(false)[0]) - 1.0 / 1.1).abs() < 1e-13);
     }
 
     /// A scaled unit profile is the profile at σt: R_d(r; σt) = σt² R_d(σt r; 1).
