@@ -285,3 +285,17 @@ def test_scene_file_with_an_mfp_map(tmp_path, cli_here, error_here):
     assert status == 0, err
     (tmp_path / "bad.toml").write_text(MFP_SCENE.replace('mfp = "mfp.png"', "mfp = [0.4, 0.3, 0.2]"))
     error_here("render", tmp_path / "bad.toml", "-o", tmp_path / "o.png", "-q", fragments=["materials.m.mfp_scale"])
+
+
+def test_more_than_4096_reflectances_snap_to_4096():
+    """5000 distinct reflectances in a channel: each texel takes the nearest of 4096 evenly spaced
+    ones (error ≤ range/8190), inverted exactly, so at most 4096 distinct profiles per channel."""
+    values = np.linspace(0.1, 0.8, 5000)
+    m = R.Translucent.from_reflectance(R.Texture(values[None, :, None] * np.ones((1, 1, 3))), MFP)
+    assert [len(np.unique(m.texel_sigma_s[..., k])) for k in range(3)] == [4096] * 3
+    grid = np.linspace(0.1, 0.8, 4096)
+    for j in (0, 1234, 4999):
+        snapped = grid[np.argmin(abs(grid - values[j]))]
+        assert abs(snapped - values[j]) <= 0.7 / 8190 + 1e-15
+        one = R.Translucent.from_reflectance([snapped] * 3, MFP)
+        assert np.allclose(m.texel_sigma_s[0, j], one.sigma_s, rtol=1e-12, atol=0)
