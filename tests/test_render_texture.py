@@ -299,3 +299,15 @@ def test_more_than_4096_reflectances_snap_to_4096():
         assert abs(snapped - values[j]) <= 0.7 / 8190 + 1e-15
         one = R.Translucent.from_reflectance([snapped] * 3, MFP)
         assert np.allclose(m.texel_sigma_s[0, j], one.sigma_s, rtol=1e-12, atol=0)
+
+
+def test_maps_render_the_same_for_any_thread_count():
+    """Random 8 × 8 colour and mfp maps: each method's image is the same with 1 and 2 threads."""
+    img = np.random.default_rng(1).integers(40, 200, size=(8, 8, 3), dtype=np.uint8)
+    mfp = R.Texture(np.random.default_rng(2).uniform(0.2, 1.0, size=(8, 8)))
+    m = R.Translucent.from_reflectance(R.Texture(img), mfp, eta=1.4)
+    cam = R.Camera((0, -14, 0), fov=12, width=6, height=6)
+    sc = R.Scene([_sphere(m)], [R.DirectionalLight((0.3, -1, 0.5), 1.0)], environment=(0.2,) * 3, camera=cam)
+    for method in ["hierarchical", "probe", "random_walk"]:
+        a, b = (R.render(sc, method, spp=1, seed=4, threads=t).array for t in (1, 2))
+        assert a.mean() > 0.01 and np.array_equal(a, b), method
