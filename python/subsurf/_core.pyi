@@ -341,7 +341,8 @@ def bssrdf_fit_slab_totals(
 
 # --- render (crates/subsurf-py/src/render.rs); scene dicts come from subsurf.render.Scene._to_core
 # (a translucent material's optional "grid": {sigma_a, sigma_s: float64 (nx, ny, nz, 3), lo, hi,
-# to_object: 3 rows of (A | b)} and "texture": σs per texel, float64 (height, width, 3); a mesh's
+# to_object: 3 rows of (A | b)} and "texture": {sigma_a, sigma_s, reflectance: float64 (height,
+# width, 3) per texel, rows from the top; reflectance per incident power or None}; a mesh's
 # optional "uv": float64 (n_triangles, 3, 2))
 
 #: The render methods (core render::Method), in order.

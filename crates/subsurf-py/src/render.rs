@@ -23,7 +23,7 @@ use subsurf_core::render::camera::RESOLUTION_ALLOWED;
 use subsurf_core::render::driver::{check_spp, SPP_ALLOWED};
 use subsurf_core::render::grid::MediumGrid;
 use subsurf_core::render::shapes::{MAX_SUBDIVISIONS, SUBDIVISIONS_ALLOWED};
-use subsurf_core::render::texture::SurfaceTexture;
+use subsurf_core::render::texture::TextureSpec;
 use subsurf_core::render::walk_sim::{simulate, BeamSource, VoxelGrid, WalkConfig};
 use subsurf_core::render::{
     shapes, Camera, Control, HierarchicalParams, Light, LightKind, Material, Mesh, Method, Object, Renderer, Scene,
@@ -112,11 +112,41 @@ struct TranslucentArgs<'py> {
     reflectance: Option<[f64; 3]>,
     #[pyo3(default)]
     grid: Option<GridArgs<'py>>,
-    /// σs per texel of a surface colour map, shape (height, width, 3), rows from the top.
+    /// A surface colour / mean-free-path map: σa, σs per texel (and the reflectance each was
+    /// inverted from), shape (height, width, 3), rows from the top.
     #[pyo3(default)]
-    texture: Option<PyReadonlyArray3<'py, f64>>,
+    texture: Option<TextureArgs<'py>>,
     #[pyo3(default)]
     adaptive_table: Option<Py<crate::adaptive::PyAdaptiveTable>>,
+}
+
+/// A surface map: `Translucent._to_core()["texture"]` (float64 arrays (height, width, 3)).
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct TextureArgs<'py> {
+    sigma_a: PyReadonlyArray3<'py, f64>,
+    sigma_s: PyReadonlyArray3<'py, f64>,
+    reflectance: Option<PyReadonlyArray3<'py, f64>>,
+}
+
+impl TextureArgs<'_> {
+    fn build(&self, field: &str) -> PyResult<TextureSpec> {
+        let shape = self.sigma_a.as_array().shape().to_vec();
+        let texels = |name: &str, a: &PyReadonlyArray3<'_, f64>| -> PyResult<Vec<[f64; 3]>> {
+            let a = a.as_array();
+            if a.shape()[2] != 3 || a.shape() != shape.as_slice() {
+                return Err(invalid(format!(
+                    "{field}.{name}: expected shape (height, width, 3) as sigma_a's {shape:?}, got {:?}",
+                    a.shape()
+                )));
+            }
+            let v: Vec<f64> = a.iter().copied().collect();
+            Ok(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+        };
+        let (sa, ss) = (texels("sigma_a", &self.sigma_a)?, texels("sigma_s", &self.sigma_s)?);
+        let r = self.reflectance.as_ref().map(|r| texels("reflectance", r)).transpose()?;
+        TextureSpec::new(field, shape[1], shape[0], sa, ss, r).py()
+    }
 }
 
 /// A medium grid: `MediumGrid._to_core()` (σa, σs as (nx, ny, nz, 3) arrays, the box in
@@ -198,23 +228,7 @@ impl TranslucentArgs<'_> {
         };
         subsurf_core::bssrdf::Model::from_name(&format!("{ctx}.model"), &self.model).py()?;
         let grid = self.grid.as_ref().map(|g| g.build(&format!("{ctx}.grid"))).transpose()?.map(Arc::new);
-        let texture = match &self.texture {
-            None => None,
-            Some(t) => {
-                let a = t.as_array();
-                let (h, w) = (a.shape()[0], a.shape()[1]);
-                if a.shape()[2] != 3 {
-                    return Err(invalid(format!(
-                        "{ctx}.texture: expected shape (height, width, 3), got {:?}",
-                        a.shape()
-                    )));
-                }
-                let v: Vec<f64> = a.iter().copied().collect();
-                let texels = v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-                let st = std::array::from_fn(|k| self.sigma_a[k] + self.sigma_s[k]);
-                Some(Arc::new(SurfaceTexture::new(&format!("{ctx}.texture"), w, h, texels, st).py()?))
-            }
-        };
+        let texture = self.texture.as_ref().map(|t| t.build(&format!("{ctx}.texture"))).transpose()?.map(Arc::new);
         Ok(TranslucentSpec {
             field: ctx,
             sigma_a: self.sigma_a,

@@ -10,6 +10,7 @@ and :func:`subsurf.render.simulate_walk` sample it by delta tracking (the core's
 
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
@@ -121,30 +122,21 @@ def _srgb_to_linear(c):
 
 
 class Texture:
-    """A colour (reflectance) map: an image file (PNG, JPEG, … read with Pillow) or an array of
-    shape (height, width, 3) (or (height, width): grey) with values in [0, 1] (or uint8, / 255).
-    Row 0 is the image's top (v = 1). ``srgb``: decode the sRGB transfer curve (the default for
-    image files, whose 8-bit colours are sRGB-encoded; arrays are taken as linear reflectance).
+    """A surface map: an image file (PNG, JPEG, … read with Pillow; or a NumPy ``.npy`` array) or an
+    array of shape (height, width, 3) (or (height, width): the same in every channel) of finite
+    values ≥ 0 (uint8 arrays are / 255). Row 0 is the image's top (v = 1). ``srgb``: decode the
+    sRGB transfer curve (the default for 8-bit image files, whose colours are sRGB-encoded; arrays
+    and ``.npy`` files are taken as linear). ``scale`` multiplies every value (after decoding),
+    e.g. the mean free path in mm of a white texel of a mean-free-path image.
 
-    Give it as the reflectance of :meth:`Translucent.from_reflectance`; the mesh needs texture
-    coordinates (an OBJ/PLY/GLB with UVs, or ``Object(..., uv=)``)."""
+    Give it to :meth:`Translucent.from_reflectance` as the ``reflectance`` (a colour map: values in
+    [0, 1]) and/or the ``mfp`` (a mean-free-path map, mm: values > 0); the mesh needs texture
+    coordinates (an OBJ/PLY/GLB with UVs, or ``Object(..., uv=)``). Both maps given must have the
+    same shape."""
 
-    def __init__(self, image, srgb=None):
+    def __init__(self, image, srgb=None, scale=1.0):
         if isinstance(image, (str, os.PathLike)):
-            path = os.fspath(image)
-            if not os.path.exists(path):
-                raise FileNotFoundError(f"texture: image file {path!r} does not exist")
-            try:
-                from PIL import Image as _PIL
-            except ImportError:  # pragma: no cover - Pillow comes with matplotlib
-                raise _err("texture: reading image files needs Pillow (pip install pillow)") from None
-            try:
-                with _PIL.open(path) as im:
-                    a = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
-            except Exception as e:  # Pillow raises many kinds on unreadable files
-                raise _err(f"texture: cannot read image file {path!r}: {e}") from None
-            srgb = True if srgb is None else bool(srgb)
-            self.source = path
+            a, srgb, self.source = _read_image(os.fspath(image), srgb)
         else:
             a = np.asarray(image)
             if a.dtype == np.uint8:
@@ -152,7 +144,7 @@ class Texture:
             try:
                 a = np.asarray(a, dtype=np.float64)
             except (TypeError, ValueError):
-                raise _err("texture: expected an image array of numbers in [0, 1]") from None
+                raise _err("texture: expected an image array of numbers") from None
             srgb = bool(srgb)
             self.source = "array"
         if a.ndim == 2:
@@ -160,36 +152,98 @@ class Texture:
         if a.ndim != 3 or a.shape[2] not in (3, 4) or a.shape[0] == 0 or a.shape[1] == 0:
             raise _err(f"texture: expected an image of shape (height, width, 3), got {a.shape}")
         a = a[..., :3]
-        bad = ~(np.isfinite(a) & (a >= 0) & (a <= 1))
+        bad = ~(np.isfinite(a) & (a >= 0))
         if bad.any():
             i = tuple(int(x) for x in np.argwhere(bad)[0])
-            raise _err(f"texture[{i[0]}, {i[1]}, {i[2]}] = {a[i]} is out of range: must be a reflectance in [0, 1]")
-        self.reflectance = np.ascontiguousarray(_srgb_to_linear(a) if srgb else a)
+            raise _err(f"texture[{i[0]}, {i[1]}, {i[2]}] = {a[i]} is out of range: must be finite and >= 0")
+        try:
+            scale = float(scale)
+        except (TypeError, ValueError):
+            scale = float("nan")
+        if not (math.isfinite(scale) and scale > 0):
+            raise _err(f"texture.scale = {scale!r}: must be a finite number > 0")
+        self.scale = scale
+        self.values = np.ascontiguousarray((_srgb_to_linear(a) if srgb else a) * scale)
 
     @property
     def shape(self):
         """(height, width)."""
-        return self.reflectance.shape[:2]
+        return self.values.shape[:2]
+
+    @property
+    def reflectance(self):
+        """The values as reflectances (a colour map), checked in [0, 1]."""
+        bad = self.values > 1
+        if bad.any():
+            i = tuple(int(x) for x in np.argwhere(bad)[0])
+            v = self.values[i]
+            raise _err(f"texture[{i[0]}, {i[1]}, {i[2]}] = {v} is out of range: must be a reflectance in [0, 1]")
+        return self.values
+
+    @property
+    def mfp(self):
+        """The values as mean free paths (mm, a mean-free-path map), checked > 0."""
+        bad = ~(self.values > 0)
+        if bad.any():
+            i = tuple(int(x) for x in np.argwhere(bad)[0])
+            raise _err(
+                f"mfp texture[{i[0]}, {i[1]}, {i[2]}] = {self.values[i]} is out of range: a mean free path "
+                "must be > 0 (mm)"
+            )
+        return self.values
 
     def mean(self):
-        """The mean reflectance per channel."""
-        return [float(x) for x in self.reflectance.reshape(-1, 3).mean(axis=0)]
-
-    def invert(self, invert_channel):
-        """σs per texel, (height, width, 3): ``invert_channel(k, values)`` gives σs of channel k
-        for an array of reflectances (the core's inversion); each channel's distinct values are
-        inverted once (an 8-bit image has at most 256), or, beyond 4096 distinct values, a table
-        of 4096 values between the least and the largest, interpolated linearly."""
-        out = np.empty_like(self.reflectance)
-        for k in range(3):
-            ch = self.reflectance[..., k]
-            values, inverse = np.unique(ch, return_inverse=True)
-            if values.size <= 4096:
-                out[..., k] = np.asarray(invert_channel(k, values))[inverse].reshape(ch.shape)
-            else:
-                grid = np.linspace(values[0], values[-1], 4096)
-                out[..., k] = np.interp(ch, grid, np.asarray(invert_channel(k, grid)))
-        return out
+        """The mean value per channel."""
+        return [float(x) for x in self.values.reshape(-1, 3).mean(axis=0)]
 
     def __repr__(self):
         return f"Texture({self.source!r}, shape={self.shape})"
+
+
+def _read_image(path, srgb):
+    """(values (h, w, 3) or (h, w), srgb, source) of an image file or a ``.npy`` array."""
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"texture: image file {path!r} does not exist")
+    if path.endswith(".npy"):
+        try:
+            return np.load(path, allow_pickle=False), bool(srgb), path
+        except (OSError, ValueError) as e:
+            raise _err(f"texture: cannot read {path!r} as a .npy array: {e}") from None
+    try:
+        from PIL import Image as _PIL
+    except ImportError:  # pragma: no cover - Pillow comes with matplotlib
+        raise _err("texture: reading image files needs Pillow (pip install pillow)") from None
+    try:
+        with _PIL.open(path) as im:
+            a = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
+    except Exception as e:  # Pillow raises many kinds on unreadable files
+        raise _err(f"texture: cannot read image file {path!r}: {e}") from None
+    return a, True if srgb is None else bool(srgb), path
+
+
+def invert_maps(refl, mfp, invert, mfp_ref):
+    """σa, σs (mm⁻¹) per texel, each (height, width, 3), of the reflectance ``refl`` at the mean
+    free path ``mfp`` (both (height, width, 3)). ``invert(k, values, mfp_k)`` gives (σa, σs) of
+    channel k for an array of reflectances at the mean free path ``mfp_k`` (the core's
+    inversion). Each channel's distinct reflectances are inverted once at ``mfp_ref[k]`` (an 8-bit
+    image has at most 256; beyond 4096 distinct values each texel takes the nearest of 4096
+    evenly spaced reflectances between the least and the largest, an error ≤ range/8190, so the
+    BSSRDF methods build at most 4096 profiles per channel) and scaled to each texel's mean free
+    path: the inversion is exact under scaling (every coefficient ∝ 1/mfp at a fixed reflectance,
+    for every model and kind of mean free path)."""
+    out_a, out_s = np.empty_like(refl), np.empty_like(refl)
+    for k in range(3):
+        ch = refl[..., k]
+        values, inverse = np.unique(ch, return_inverse=True)
+        scale = mfp_ref[k] / mfp[..., k]
+        if values.size <= 4096:
+            a, s = (np.asarray(x) for x in invert(k, values, mfp_ref[k]))
+            out_a[..., k] = a[inverse].reshape(ch.shape) * scale
+            out_s[..., k] = s[inverse].reshape(ch.shape) * scale
+        else:
+            grid = np.linspace(values[0], values[-1], 4096)
+            a, s = (np.asarray(x) for x in invert(k, grid, mfp_ref[k]))
+            nearest = np.rint((ch - values[0]) / (grid[1] - grid[0])).astype(np.int64).clip(0, 4095)
+            out_a[..., k] = a[nearest] * scale
+            out_s[..., k] = s[nearest] * scale
+    return out_a, out_s

@@ -16,7 +16,7 @@ import numpy as np
 from .. import _core
 from ..materials import get as _library
 from ..medium import Layer, Stack
-from .media import MediumGrid, Texture, to_object_map
+from .media import MediumGrid, Texture, invert_maps, to_object_map
 
 #: The profile models (the core's list, ``subsurf_core::bssrdf::Model``).
 MODELS = tuple(_core.BSSRDF_MODELS)
@@ -108,8 +108,11 @@ class Translucent:
         if grid is not None and not isinstance(grid, MediumGrid):
             raise _err(f"grid = {grid!r}: give a subsurf.render.MediumGrid (or a table in a scene file)")
         self.grid = grid
-        #: The colour map (a :class:`Texture`, set by :meth:`from_reflectance`) and σs per texel.
-        self.texture, self.texel_sigma_s = None, None
+        #: The surface maps (:class:`Texture`, set by :meth:`from_reflectance`): ``texture`` the
+        #: colour map (or the mean-free-path map if only that is one), ``mfp_texture`` the
+        #: mean-free-path map; σa, σs (mm⁻¹) and reflectance (per incident power) per texel.
+        self.texture, self.mfp_texture = None, None
+        self.texel_sigma_a, self.texel_sigma_s, self.texel_reflectance = None, None, None
 
     @property
     def layered(self) -> bool:
@@ -169,11 +172,12 @@ class Translucent:
         incident or entering, ``mfp_kind`` extinction, transport, diffuse or burley_d; ``table``
         the :class:`~subsurf.bssrdf.ProfileTable` of ``monte_carlo`` and ``normalized_diffusion``).
         A render of the material under ``model`` shows the reflectance (per incident power).
-        ``reflectance`` may be a :class:`Texture` (a colour map for ``random_walk`` and
-        :func:`simulate_walk` on meshes with UVs: each texel inverted, ``mfp_kind`` extinction)."""
+        ``reflectance`` and/or ``mfp`` may be a :class:`Texture` (a colour map, a mean-free-path
+        map, scalar or RGB) on meshes with UVs, for every method and :func:`simulate_walk`: each
+        texel inverted (docs/render.md, "Surface maps")."""
         from .. import bssrdf, diffusion
 
-        if isinstance(reflectance, Texture):
+        if isinstance(reflectance, Texture) or isinstance(mfp, Texture):
             opts = dict(eta=eta, g=g, model=model, power=power, mfp_kind=mfp_kind, table=table)
             return cls._textured(reflectance, mfp, name=name, **opts, **kw)
         refl = _vec3("reflectance", reflectance)
@@ -195,37 +199,57 @@ class Translucent:
         )
 
     @classmethod
-    def _textured(cls, tex, mfp, *, eta, g, model, power, mfp_kind, name, table, **kw):
-        """A material whose reflectance is the :class:`Texture` ``tex``: every texel inverted by
-        :func:`subsurf.bssrdf.material_from_reflectance` at the constant extinction mean free
-        path ``mfp`` (so σt is the same for every texel and only σs follows the map); the
-        material's own σa, σs are those of the map's mean colour."""
-        from .. import bssrdf
+    def _textured(cls, refl, mfp, *, eta, g, model, power, mfp_kind, name, table, **kw):
+        """A material with a colour map and/or a mean-free-path map (:class:`Texture`; the other
+        one a constant per channel): every texel inverted by
+        :func:`subsurf.bssrdf.material_from_reflectance` at its mean free path (each distinct
+        reflectance once, scaled per texel: :func:`~subsurf.render.media.invert_maps`). The
+        material's own σa, σs are those of the maps' mean colour and mean free path."""
+        from .. import bssrdf, diffusion
 
-        if mfp_kind != "extinction":
+        if model == "adaptive":
+            raise _err('model = "adaptive" takes no surface texture (its tables are built per material)')
+        maps = {"reflectance": refl, "mfp": mfp}
+        shapes = {k: v.shape for k, v in maps.items() if isinstance(v, Texture)}
+        if len(set(shapes.values())) > 1:
             raise _err(
-                f"mfp_kind = {mfp_kind!r}: a texture needs mfp_kind = 'extinction' (the same σt for "
-                "every texel; the texture sets the albedo of the walk that enters there)"
+                f"mfp: the mean-free-path map has shape {shapes['mfp']} but the colour map {shapes['reflectance']}; "
+                "give both maps at the same resolution (height, width)"
             )
-        mfp = _vec3("mfp", mfp)
+        shape = (*next(iter(shapes.values())), 3)
+        r = refl.reflectance if isinstance(refl, Texture) else np.broadcast_to(_vec3("reflectance", refl), shape)
+        if isinstance(mfp, Texture):
+            m_texel, mfp_ref = mfp.mfp, [1.0] * 3
+        else:
+            mfp_ref = _vec3("mfp", mfp)
+            if not all(x > 0 for x in mfp_ref):
+                raise _err(f"mfp = {mfp!r}: every mean free path must be > 0 (mm)")
+            m_texel = np.broadcast_to(mfp_ref, shape)
         opts = dict(eta=eta, g=g, model=model, power=power, mfp_kind=mfp_kind, table=table)
 
-        def invert(k, values):
-            out = []
+        def invert(k, values, mfp_k):
+            sa, ss = [], []
             for i in range(0, len(values), 3):
-                r = [float(x) for x in values[i : i + 3]]
-                r += [r[-1]] * (3 - len(r))
+                v = [float(x) for x in values[i : i + 3]]
+                v += [v[-1]] * (3 - len(v))
                 try:
-                    layers = bssrdf.material_from_reflectance(r, [mfp[k]] * 3, **opts)
+                    layers = bssrdf.material_from_reflectance(v, [mfp_k] * 3, **opts)
                 except _core.ParameterError as e:
                     raise _err(f"texture, channel {k}: {e}") from None
-                out += [l.mus for l in layers][: min(3, len(values) - i)]
-            return out
+                n = min(3, len(values) - i)
+                sa += [l.mua for l in layers][:n]
+                ss += [l.mus for l in layers][:n]
+            return sa, ss
 
-        sigma_s = tex.invert(invert)
-        m = cls.from_reflectance(tex.mean(), mfp, name=name, **opts, **kw)
-        sigma_t = np.add(m.sigma_a, m.sigma_s)  # 1/mfp per channel, as every texel's
-        m.texture, m.texel_sigma_s = tex, np.minimum(sigma_s, sigma_t)  # (rounding at albedo 1)
+        sigma_a, sigma_s = invert_maps(np.asarray(r, dtype=np.float64), m_texel, invert, mfp_ref)
+        mean = lambda v: v.mean() if isinstance(v, Texture) else v  # noqa: E731
+        m = cls.from_reflectance(mean(refl), mean(mfp), name=name, **opts, **kw)
+        m.texture = refl if isinstance(refl, Texture) else mfp
+        m.mfp_texture = mfp if isinstance(mfp, Texture) else None
+        m.texel_sigma_a, m.texel_sigma_s = sigma_a, sigma_s
+        # Per incident power, as the untextured material stores it (normalized diffusion's albedo).
+        ft0 = float(diffusion.ft(eta, 1.0)) if power == "entering" else 1.0
+        m.texel_reflectance = np.ascontiguousarray(np.asarray(r, dtype=np.float64) * ft0)
         return m
 
     @classmethod
@@ -237,7 +261,13 @@ class Translucent:
     def _to_core(self, name, to_object=None):
         return {
             "grid": None if self.grid is None else self.grid._to_core(to_object),
-            "texture": None if self.texture is None else self.texel_sigma_s,
+            "texture": None
+            if self.texel_sigma_s is None
+            else {
+                "sigma_a": np.ascontiguousarray(self.texel_sigma_a),
+                "sigma_s": np.ascontiguousarray(self.texel_sigma_s),
+                "reflectance": self.texel_reflectance,
+            },
             "kind": "translucent",
             "name": name,
             "sigma_a": self.sigma_a,

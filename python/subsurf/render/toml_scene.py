@@ -2,7 +2,8 @@
 
 Top-level ``environment`` (RGB radiance), tables ``[render]`` (method, spp, seed, output),
 ``[camera]``, ``[materials.NAME]`` (``library = "marble"``, or ``sigma_a``/``sigma_s``/``g``/``eta``,
-or ``reflectance`` + ``mfp`` (+ ``power``, ``mfp_kind``; ``color`` + ``mean_free_path`` is the deprecated spelling), or
+or ``reflectance`` + ``mfp`` (+ ``power``, ``mfp_kind``; ``color`` + ``mean_free_path`` is the deprecated spelling;
+either may be an image file name, a surface map: ``mfp_scale`` mm per unit of a mean-free-path image), or
 ``type = "lambertian"``; plus ``model``), and arrays of
 tables ``[[objects]]`` (``mesh = "file.obj"`` relative to the TOML file, or ``shape = "sphere" |
 "box" | "plane" | "torus"`` with its sizes; ``material``; ``translate``/``scale``/``rotate``) and
@@ -94,7 +95,8 @@ def load_scene(path):
         except FileNotFoundError as e:
             raise FileNotFoundError(f"{path}: materials.{name}.{e}") from None
         except _core.ParameterError as e:
-            raise _err(path, str(e)) from None
+            msg = str(e)
+            raise _err(path, msg if msg.startswith("materials.") else f"materials.{name}.{msg}") from None
         m.name = name
         mats[name] = m
     objects = []
@@ -175,12 +177,8 @@ def _grid_files(spec, base):
     """``spec`` with the grid's file names (``[materials.NAME.grid]`` sigma_a, sigma_s) taken
     relative to the scene file's folder, and a ``reflectance`` given as an image file name read
     as a :class:`~subsurf.render.Texture`."""
-    if isinstance(spec, dict) and isinstance(spec.get("reflectance"), str):
-        img = spec["reflectance"]
-        try:
-            spec = {**spec, "reflectance": Texture(img if os.path.isabs(img) else os.path.join(base, img))}
-        except FileNotFoundError as e:
-            raise FileNotFoundError(f"reflectance: {e}") from None
+    if isinstance(spec, dict):
+        spec = _map_files(spec, base)
     if not (isinstance(spec, dict) and isinstance(spec.get("grid"), dict)):
         return spec
     grid = dict(spec["grid"])
@@ -189,6 +187,26 @@ def _grid_files(spec, base):
         if isinstance(v, str) and not os.path.isabs(v):
             grid[k] = os.path.join(base, v)
     return {**spec, "grid": grid}
+
+
+def _map_files(spec, base):
+    """``spec`` with a ``reflectance`` or ``mfp`` given as a file name (relative to the scene's
+    folder) read as a :class:`~subsurf.render.Texture`: a colour map sRGB-decoded (8-bit images),
+    a mean-free-path map linear (an image times ``mfp_scale``, mm per unit, default 1; or a
+    ``.npy`` array of mm)."""
+    spec = dict(spec)
+    scale = spec.pop("mfp_scale", None)
+    if scale is not None and not isinstance(spec.get("mfp"), str):
+        raise _core.ParameterError("mfp_scale: only with mfp given as an image file (a mean-free-path map)")
+    for key, kw in (("reflectance", {}), ("mfp", {"srgb": False, "scale": 1.0 if scale is None else scale})):
+        img = spec.get(key)
+        if not isinstance(img, str):
+            continue
+        try:
+            spec[key] = Texture(img if os.path.isabs(img) else os.path.join(base, img), **kw)
+        except FileNotFoundError as e:
+            raise FileNotFoundError(f"{key}: {e}") from None
+    return spec
 
 
 def _known(d, allowed, where, path):

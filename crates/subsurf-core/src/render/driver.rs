@@ -85,7 +85,8 @@ impl Renderer {
             return Err(Error::Invalid("camera: the scene has no camera; add one to render an image".into()));
         };
         camera.check_memory(None)?;
-        let no_profiles = |m: &Material| m.translucent().is_some_and(|t| t.bssrdf.is_none());
+        let no_profiles =
+            |m: &Material| m.translucent().is_some_and(|t| t.variants().iter().any(|v| v.bssrdf.is_none()));
         if method.uses_profiles() && scene.materials.iter().any(no_profiles) {
             return Err(Error::Invalid(format!("method {}: a translucent material has no profiles", method.name())));
         }

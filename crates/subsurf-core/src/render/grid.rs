@@ -228,16 +228,13 @@ fn det3(m: &[[f64; 4]; 3]) -> f64 {
 /// The identity world → object map.
 pub const IDENTITY: [[f64; 4]; 3] = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]];
 
-/// The delta-tracking hook of the walk: the coefficients at a tentative collision `p` in `m`
-/// (`texel`: σs of the texel the walk entered a textured `m` at, [`super::texture`]), or `None`
-/// for a homogeneous, untextured material (whose collisions are all real).
+/// The delta-tracking hook of the walk: the coefficients at a tentative collision `p` in `m`,
+/// or `None` for a homogeneous material (whose collisions are all real; a textured object's
+/// walk is in its entry texel's homogeneous material, [`super::walk::Media::medium`]).
 #[inline]
-pub fn local(m: &Translucent, p: V3, texel: Option<&Rgb>) -> Option<Local> {
-    if let Some(g) = m.grid.as_deref() {
-        return Some(g.at(p).unwrap_or(Local { sigma_s: m.sigma_s, sigma_t: m.sigma_t }));
-    }
-    m.texture.as_ref()?;
-    Some(Local { sigma_s: *texel.unwrap_or(&m.sigma_s), sigma_t: m.sigma_t })
+pub fn local(m: &Translucent, p: V3) -> Option<Local> {
+    let g = m.grid.as_deref()?;
+    Some(g.at(p).unwrap_or(Local { sigma_s: m.sigma_s, sigma_t: m.sigma_t }))
 }
 
 /// ∫ σt ds per channel along o + s d, s ∈ [0, t], in `m` (σt t for a homogeneous material).

@@ -27,6 +27,7 @@ use super::material::Translucent;
 use super::math::{add, dot, length, madd, mul, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
+use super::texture::shading_medium;
 use crate::bssrdf::RadialProfile;
 use crate::error::{Error, Result};
 use crate::rng::PhotonRng;
@@ -284,10 +285,14 @@ impl Hierarchical {
         let spots: Vec<Option<(Spots, f64)>> = (0..scene.objects.len())
             .map(|oi| {
                 let m = scene.material(oi).translucent()?;
-                let median = (0..3).map(|k| m.profiles()[k].radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min);
+                // (Over every texel material of a textured one: the finest profile sets Δ.)
+                let median = match m.texture.as_ref().and_then(|t| t.radius_range(0.5)) {
+                    Some((lo, _)) => lo[0].min(lo[1]).min(lo[2]),
+                    None => (0..3).map(|k| m.profiles()[k].radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min),
+                };
                 let total = scene.objects[oi].mesh.total_area();
                 let mut delta = params.spacing * median;
-                if !(delta > 0.0) || total / (delta * delta) > params.max_samples as f64 {
+                if !(delta > 0.0 && delta.is_finite()) || total / (delta * delta) > params.max_samples as f64 {
                     delta = (total / params.max_samples as f64).sqrt();
                 }
                 Some((place_samples(scene, oi, delta), delta))
@@ -428,7 +433,8 @@ fn morton(acc: &super::accel::Accel, p: V3) -> u64 {
 
 impl Translucency for Hierarchical {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
-        let (Some(m), Some(tree)) = (scene.material(hit.object).translucent(), self.trees[hit.object].as_ref()) else {
+        // A textured material's profile is its texel's at the shading point x_o.
+        let (Some(m), Some(tree)) = (shading_medium(scene, hit), self.trees[hit.object].as_ref()) else {
             return [0.0; 3];
         };
         let mo = match &m.adaptive {

@@ -13,7 +13,7 @@
 
 use super::grid::MediumGrid;
 use super::math::Rgb;
-use super::texture::SurfaceTexture;
+use super::texture::{SurfaceTexture, TextureSpec, UnitProfiles};
 use crate::bssrdf::adaptive::{AdaptiveSettings, AdaptiveTable};
 use crate::bssrdf::{Model, RadialProfile};
 use crate::error::{check_g, check_index, check_nonneg, Error, Result};
@@ -57,8 +57,9 @@ pub struct Translucent {
     /// The majorant of delta tracking per channel: σt, or for a grid the largest σt of its
     /// voxels and of the material (the walk samples free paths with it).
     pub sigma_bar: Rgb,
-    /// σs per texel of a surface colour map ([`super::texture`]; σt stays the material's), for
-    /// the random walk; `None` for an untextured material.
+    /// A surface colour / mean-free-path map ([`super::texture`]): a palette of texel
+    /// materials, the one at the walk's entry point (random walk) or at the shading point (BSSRDF
+    /// methods) used there; `None` for an untextured material.
     pub texture: Option<Arc<SurfaceTexture>>,
     /// The finite-slab tables of `model = "adaptive"` (`render::adaptive`); `None` otherwise.
     pub adaptive: Option<Arc<AdaptiveTable>>,
@@ -120,7 +121,17 @@ impl Translucent {
     /// voxels (a lower bound for the optical depth of any path through it).
     pub fn sigma_t_floor(&self) -> f64 {
         let st = self.sigma_t[0].min(self.sigma_t[1]).min(self.sigma_t[2]);
-        self.grid.as_ref().map_or(st, |g| st.min(g.min_t))
+        let st = self.grid.as_ref().map_or(st, |g| st.min(g.min_t));
+        self.texture.as_ref().map_or(st, |t| t.media().iter().map(Translucent::sigma_t_floor).fold(st, f64::min))
+    }
+
+    /// Every homogeneous material a point of an object of this material may have: the texel
+    /// materials of a textured one, else the material itself.
+    pub fn variants(&self) -> &[Translucent] {
+        match &self.texture {
+            Some(t) => t.media(),
+            None => std::slice::from_ref(self),
+        }
     }
 }
 
@@ -158,8 +169,8 @@ pub struct TranslucentSpec {
     pub single_scattering: Option<bool>,
     /// σa, σs on a voxel grid (random walk only; the BSSRDF methods refuse it).
     pub grid: Option<Arc<MediumGrid>>,
-    /// σs per texel of a surface colour map (random walk only; the BSSRDF methods refuse it).
-    pub texture: Option<Arc<SurfaceTexture>>,
+    /// A surface colour / mean-free-path map (σa, σs per texel, [`super::texture`]).
+    pub texture: Option<Arc<TextureSpec>>,
     /// A prebuilt table of `model = "adaptive"` for `stacks` (e.g. from the on-disk cache);
     /// `None`: [`build`](Self::build) traces it with the `mc` photons and seed.
     pub adaptive: Option<Arc<AdaptiveTable>>,
@@ -170,7 +181,10 @@ impl TranslucentSpec {
     /// total of [`build`](Self::build)).
     pub fn photons(&self) -> u64 {
         match Model::from_name("model", &self.model) {
-            Ok(Model::MonteCarlo) => self.mc.photons.saturating_mul(3),
+            Ok(Model::MonteCarlo) => match &self.texture {
+                Some(t) => self.mc.photons.saturating_mul(t.unit_keys(false).len() as u64),
+                None => self.mc.photons.saturating_mul(3),
+            },
             Ok(Model::Adaptive) if self.adaptive.is_none() => {
                 AdaptiveTable::photons(&self.stacks, &AdaptiveSettings::from_mc(&self.mc))
             }
@@ -190,17 +204,20 @@ impl TranslucentSpec {
                 self.field
             )));
         }
-        if profiles && self.texture.is_some() {
+        let model = Model::from_name(&format!("{}.model", self.field), &self.model)?;
+        if profiles && self.texture.is_some() && model == Model::Adaptive {
             return Err(Error::Invalid(format!(
-                "{}.texture: only the random walk (method random_walk, simulate_walk) takes a surface \
-                 texture; the BSSRDF methods need an untextured material",
+                "{}.texture: model \"adaptive\" takes no surface texture (its tables are built per \
+                 material); use another profile model or the random walk",
                 self.field
             )));
         }
         if profiles && Model::from_name("model", &self.model).ok() == Some(Model::Adaptive) {
             return self.build_adaptive(cancel, progress).map_err(within);
         }
-        let (profs, ss_default) = if profiles {
+        let (profs, ss_default) = if profiles && self.texture.is_some() {
+            (None, model.adds_single_scattering()) // the texels have profiles, the mean material none
+        } else if profiles {
             match channel_profiles(&self.model, &self.stacks, &self.mc, self.reflectance.as_ref(), cancel, progress)
                 .map_err(within)?
             {
@@ -220,8 +237,67 @@ impl TranslucentSpec {
             Some(g) => m.with_grid(g.clone()),
             None => m,
         };
-        m.texture = self.texture.clone();
+        if let Some(spec) = &self.texture {
+            let field = format!("{}.texture", self.field);
+            let by_r = model == Model::NormalizedDiffusion && spec.reflectance.is_some();
+            let units = if profiles {
+                match self.unit_profiles(spec, by_r, cancel, progress).map_err(|e| e.within(&format!("{field}: ")))? {
+                    Some(u) => Some(u),
+                    None => return Ok(None),
+                }
+            } else {
+                None
+            };
+            let tex = SurfaceTexture::build(&field, spec, &m, units.as_ref().map(|u| (u, by_r)))?;
+            m.texture = Some(Arc::new(tex));
+        }
         Ok(Some(m))
+    }
+
+    /// The unit-σt profiles of a texture's distinct albedos ([`super::texture`]), built as the
+    /// material's own ([`profiles_for`]: the same model, tables and normalisation); Monte Carlo
+    /// profile j (in key order) uses the seed `mc.seed` + j. `None` when cancelled.
+    fn unit_profiles(
+        &self,
+        spec: &TextureSpec,
+        by_reflectance: bool,
+        cancel: &AtomicBool,
+        progress: &AtomicU64,
+    ) -> Result<Option<UnitProfiles>> {
+        use rayon::prelude::*;
+        let top = &self.stacks[0];
+        let (n, n_above, n_below) = (top.layers[0].n, top.n_above, top.n_below);
+        let keys = spec.unit_keys(by_reflectance);
+        let one = |j: usize| -> Result<Option<Arc<dyn RadialProfile>>> {
+            let (a, r) = (TextureSpec::key_albedo(keys[j]), f64::from_bits(keys[j].1));
+            let layer = Layer::new(n, 1.0 - a, a, self.g, f64::INFINITY)?;
+            let stack = Stack::new(vec![layer], n_above, n_below)?;
+            let mc = crate::bssrdf::monte_carlo::McSettings { seed: self.mc.seed.wrapping_add(j as u64), ..self.mc };
+            let refl = by_reflectance.then_some(r);
+            let p = profiles_for(
+                &self.model,
+                std::slice::from_ref(&stack),
+                &mc,
+                refl.as_ref().map(std::slice::from_ref),
+                cancel,
+                progress,
+            )
+            .map_err(|e| Error::Invalid(format!("texel albedo {a}: {e}")))?;
+            Ok(p.map(|(mut v, _)| v.remove(0)))
+        };
+        let built: Vec<Result<Option<Arc<dyn RadialProfile>>>> = if self.model == "monte_carlo" {
+            (0..keys.len()).map(one).collect() // each profile runs the engine on every thread
+        } else {
+            (0..keys.len()).into_par_iter().map(one).collect()
+        };
+        let mut out = UnitProfiles::new();
+        for (k, p) in keys.iter().zip(built) {
+            match p? {
+                Some(p) => out.insert(*k, p),
+                None => return Ok(None),
+            };
+        }
+        Ok(Some(out))
     }
 }
 
@@ -392,6 +468,24 @@ pub fn channel_profiles(
     cancel: &AtomicBool,
     progress: &AtomicU64,
 ) -> Result<Option<(Profiles, bool)>> {
+    let Some((p, ss)) = profiles_for(model, stacks, mc, reflectance.map(|r| &r[..]), cancel, progress)? else {
+        return Ok(None);
+    };
+    Ok(Some(([p[0].clone(), p[1].clone(), p[2].clone()], ss)))
+}
+
+/// One profile per stack.
+pub type ProfileList = Vec<Arc<dyn RadialProfile>>;
+
+/// [`channel_profiles`] for any number of stacks (one profile each; `reflectance` one per stack).
+pub fn profiles_for(
+    model: &str,
+    stacks: &[Stack],
+    mc: &crate::bssrdf::monte_carlo::McSettings,
+    reflectance: Option<&[f64]>,
+    cancel: &AtomicBool,
+    progress: &AtomicU64,
+) -> Result<Option<(ProfileList, bool)>> {
     use crate::bssrdf::{normalized_diffusion, Medium, Model};
     let m = Model::from_name("model", model)?;
     let profs: Vec<Box<dyn RadialProfile>> = match (m, reflectance) {
@@ -412,7 +506,7 @@ pub fn channel_profiles(
             None => return Ok(None),
         },
     };
-    let mut out: Vec<Arc<dyn RadialProfile>> = Vec::with_capacity(3);
+    let mut out: Vec<Arc<dyn RadialProfile>> = Vec::with_capacity(stacks.len());
     for (p, s) in profs.into_iter().zip(stacks) {
         let k = if m.per_incident_power() {
             1.0 / (1.0 - crate::optics::fr_dielectric(1.0, s.n_above, s.layers[0].n))
@@ -421,9 +515,7 @@ pub fn channel_profiles(
         };
         out.push(Arc::new(RdTable::new(p, k)));
     }
-    let ss = m.adds_single_scattering();
-    let arr: Profiles = [out[0].clone(), out[1].clone(), out[2].clone()];
-    Ok(Some((arr, ss)))
+    Ok(Some((out, m.adds_single_scattering())))
 }
 
 #[cfg(test)]

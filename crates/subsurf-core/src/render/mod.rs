@@ -41,6 +41,8 @@ mod grid_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod texture_tests;
+#[cfg(test)]
 mod walk_tests;
 
 pub use camera::Camera;

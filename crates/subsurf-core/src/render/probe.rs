@@ -28,6 +28,7 @@ use super::irradiance::transmitted_irradiance;
 use super::math::{add, dot, length, madd, max3, mul, scale, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
+use super::texture::shading_medium;
 use crate::rng::PhotonRng;
 use std::f64::consts::PI;
 
@@ -43,13 +44,18 @@ impl Probe {
     pub fn new(scene: &Scene) -> Probe {
         let r_max = (0..scene.objects.len())
             .map(|oi| match scene.material(oi).translucent() {
-                Some(m) => std::array::from_fn(|k| {
-                    if m.profiles()[k].total() > 0.0 {
-                        m.profiles()[k].radius_for_fraction(R_MAX_FRACTION)
-                    } else {
-                        0.0
-                    }
-                }),
+                // (The largest over every texel material of a textured one.)
+                Some(m) => match m.texture.as_ref().and_then(|t| t.radius_range(R_MAX_FRACTION)) {
+                    Some((_, hi)) => hi,
+                    None => std::array::from_fn(|k| {
+                        let p = &m.profiles()[k];
+                        if p.total() > 0.0 {
+                            p.radius_for_fraction(R_MAX_FRACTION)
+                        } else {
+                            0.0
+                        }
+                    }),
+                },
                 None => [0.0; 3],
             })
             .collect();
@@ -77,12 +83,13 @@ impl Probe {
 
 impl Translucency for Probe {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
-        let Some(m) = scene.material(hit.object).translucent() else { return [0.0; 3] };
+        // A textured material's profiles are its texel's at the shading point x_o.
+        let Some(m) = shading_medium(scene, hit) else { return [0.0; 3] };
         let (u_axis, u_ch, u_r, u_phi, u_pick) =
             (rng.uniform(), rng.uniform(), rng.uniform(), rng.uniform(), rng.uniform());
         let s1 = if m.single_scattering { single_scattering(scene, m, hit, wo, depth, rng, self) } else { [0.0; 3] };
         let r_max = self.r_max[hit.object];
-        let chans: Vec<usize> = (0..3).filter(|&k| r_max[k] > 0.0).collect();
+        let chans: Vec<usize> = (0..3).filter(|&k| r_max[k] > 0.0 && m.profiles()[k].total() > 0.0).collect();
         if chans.is_empty() {
             return s1;
         }

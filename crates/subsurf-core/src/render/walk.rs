@@ -29,8 +29,9 @@
 //! In a heterogeneous medium (a voxel grid, [`super::grid`]) free paths are sampled with the
 //! majorant σ̄ and each tentative collision is real or null by the carrier's delta tracking
 //! ([`Carrier::delta`]); a null collision leaves the path straight and draws nothing more.
-//! A textured object's medium is the texel where the walk entered it ([`super::texture`]),
-//! through the same hook (σt is the material's, so every collision there is real).
+//! A textured object's medium is the texel where the walk entered it ([`super::texture`]): the
+//! media stack holds that texel beside the object ([`Media::medium`] is the texel's homogeneous
+//! material), so free paths, collisions and connections all see the entry texel's σs and σt.
 //!
 //! A collision closer to its start than every surface, by the conservative bound of
 //! [`super::distance`], is taken without casting the ray (the ray could only confirm it).
@@ -44,24 +45,28 @@ use super::grid::Local;
 use super::material::Translucent;
 use super::math::{dot, madd, V3};
 use super::scene::Scene;
-use super::texture::Texels;
 use crate::optics::{fr_dielectric, reflect, refract, spin};
 use crate::rng::PhotonRng;
 
 /// Safety net: most events (collisions and boundary hits) in one walk.
 pub const MAX_EVENTS: u32 = 1_000_000;
 
-/// The objects containing the current point, innermost last (at most 8 levels of nesting).
+/// The objects containing the current point, innermost last (at most 8 levels of nesting),
+/// each with the texel it was entered at if its material is textured ([`super::texture`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Media {
     ids: [u32; 8],
+    texels: [u32; 8],
     len: usize,
 }
+
+/// No texel (an untextured object, or not entered through its surface).
+const NO_TEXEL: u32 = u32::MAX;
 
 impl Media {
     /// Outside every object.
     pub fn empty() -> Media {
-        Media { ids: [0; 8], len: 0 }
+        Media { ids: [0; 8], texels: [NO_TEXEL; 8], len: 0 }
     }
     /// Inside `object` only.
     pub fn inside(object: usize) -> Media {
@@ -81,22 +86,43 @@ impl Media {
     fn push(&mut self, o: usize) {
         if self.len < self.ids.len() {
             self.ids[self.len] = o as u32;
+            self.texels[self.len] = NO_TEXEL;
             self.len += 1;
         }
     }
     fn remove(&mut self, o: usize) {
         if let Some(i) = self.ids[..self.len].iter().rposition(|&x| x as usize == o) {
             self.ids.copy_within(i + 1..self.len, i);
+            self.texels.copy_within(i + 1..self.len, i);
             self.len -= 1;
+        }
+    }
+    /// The path is at `p` on triangle `tri` (global index) of the innermost object, having
+    /// entered it there: remember the texel if its material is textured (and none is yet).
+    pub fn enter_at(&mut self, scene: &Scene, tri: u32, p: V3) {
+        let Some(o) = self.top() else { return };
+        if self.texels[self.len - 1] != NO_TEXEL
+            || scene.accel.tris.get(tri as usize).map(|t| t.object as usize) != Some(o)
+        {
+            return;
+        }
+        if let Some(t) = super::texture::texel_at(scene, tri, p) {
+            self.texels[self.len - 1] = t;
         }
     }
     /// Refractive index of the innermost medium (1 outside every object).
     pub fn index(&self, scene: &Scene) -> f64 {
         self.top().and_then(|o| scene.material(o).translucent()).map_or(1.0, |m| m.eta)
     }
-    /// The medium on top of the stack (None outside every object or on an opaque one).
+    /// The medium on top of the stack (None outside every object or on an opaque one): a
+    /// textured object's entry texel's material.
+    #[inline]
     pub fn medium<'a>(&self, scene: &'a Scene) -> Option<&'a Translucent> {
-        self.top().and_then(|o| scene.material(o).translucent())
+        let m = scene.material(self.top()?).translucent()?;
+        match (&m.texture, self.texels[self.len - 1]) {
+            (Some(t), i) if i != NO_TEXEL => Some(t.medium(i as usize)),
+            _ => Some(m),
+        }
     }
     /// The stack after the path crosses the boundary of `hit` travelling along `d`, and the
     /// indices (n₁, n₂) on either side; None for an opaque object.
@@ -106,6 +132,7 @@ impl Media {
         let mut after = *self;
         if entering {
             after.push(hit.object);
+            after.enter_at(scene, hit.tri, hit.p);
         } else {
             after.remove(hit.object);
         }
@@ -207,9 +234,8 @@ pub fn walk<C: Carrier>(
     c: &mut C,
     rng: &mut PhotonRng,
 ) {
-    // Surface textures: the texel each textured object was entered at sets its medium.
-    let mut texels = Texels::default();
-    texels.enter(scene, &media, skip, p);
+    // Surface textures: the texel the innermost object was entered at sets its medium.
+    media.enter_at(scene, skip, p);
     for _ in 0..MAX_EVENTS {
         let Some(m) = media.medium(scene) else { return c.lost(p, false) };
         let Some(k) = c.channel(rng) else { return };
@@ -233,7 +259,7 @@ pub fn walk<C: Carrier>(
             None => {
                 p = madd(p, d, s);
                 skip = u32::MAX;
-                let real = match super::grid::local(m, p, texels.get(media.top())) {
+                let real = match super::grid::local(m, p) {
                     None => c.collide(scene, m, &media, s, p, d, rng).then_some(true),
                     Some(local) => c.delta(scene, m, &local, &media, s, p, d, rng),
                 };
@@ -264,7 +290,6 @@ pub fn walk<C: Carrier>(
                         if media.is_empty() {
                             return c.exit(scene, &h, d, rng);
                         }
-                        texels.enter_hit(scene, &media, &h);
                     }
                 }
                 c.bounced(&x);
