@@ -542,15 +542,16 @@ fn run_lanes<T: Tally>(
             sample::<false>(&st, &mut sc);
         }
         if lk.any_clear {
-            advance::<true>(&mut st, &mut sc, T::PENDING);
+            advance::<true>(&mut st, &mut sc, T::PENDING, T::POSITIONS);
         } else {
-            advance::<false>(&mut st, &mut sc, T::PENDING);
+            advance::<false>(&mut st, &mut sc, T::PENDING, T::POSITIONS);
         }
         if sc.hit.iter().any(|&h| on(h)) {
-            if lk.matched {
-                interfaces::<true>(&mut st, &mut sc, last);
-            } else {
-                interfaces::<false>(&mut st, &mut sc, last);
+            match (lk.matched, lk.any_clear) {
+                (true, true) => interfaces::<true, false>(&mut st, &mut sc, last),
+                (true, false) => interfaces::<true, true>(&mut st, &mut sc, last),
+                (false, true) => interfaces::<false, false>(&mut st, &mut sc, last),
+                (false, false) => interfaces::<false, true>(&mut st, &mut sc, last),
             }
         }
         // Phase 4: absorption deposits (tallies with positions), then, only for the lanes that

@@ -92,11 +92,13 @@ pub(super) fn sample<const MIXTURE: bool>(st: &Lanes, sc: &mut Scratch) {
 /// Phase 1b, one loop over the lanes: step every live lane to its interaction point or to the
 /// interface ahead; a lane that stays inside its layer then interacts: absorption by weight,
 /// scattering into the direction [`sample`] prepared, and roulette. Lanes that hit an
-/// interface go to [`interfaces`]. (`pending`, whether the tally takes per-lane sums of the deposits, is
-/// constant per run: its branch is hoisted; `CLEAR` is false when no layer is clear, which
-/// removes the clear-layer rules' masks from the loop.)
+/// interface go to [`interfaces`]. (`pending`, whether the tally takes per-lane sums of the deposits, and
+/// `positions`, whether it takes each deposit with its position, are constant per run: their branches
+/// are hoisted; `CLEAR` is false when no layer is clear, which removes the clear-layer rules' masks
+/// from the loop, and then the trapping limit is checked by [`fresnel`], at the interface hits
+/// only, instead of at every step.)
 #[inline(always)]
-pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pending: bool) {
+pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pending: bool, positions: bool) {
     for i in 0..L {
         // Step.
         let live = on(st.live[i]);
@@ -116,10 +118,13 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pendi
         // faces of a clear layer it is trapped at once); after `CLEAR_HITS_STEPWISE` hits in a
         // finite clear layer its remaining bounces are sampled at once. All three are rare
         // and handled lane by lane.
+        // (without clear layers only the trapping limit is left, which `fresnel` checks)
         let h1 = st.hits[i].wrapping_add(1);
-        let clear_down = live & clear & (uz > 0.0) & (z1 == f64::INFINITY);
-        let trapped = live & !clear_down & ((clear & (uz == 0.0)) | (crossed & (h1 > MAX_HITS_WITHOUT_INTERACTION)));
-        let bounces = live & clear & !clear_down & !trapped & (h1 > CLEAR_HITS_STEPWISE) & (z1 < f64::INFINITY);
+        let clear_down = CLEAR && live & clear & (uz > 0.0) & (z1 == f64::INFINITY);
+        let trapped =
+            CLEAR && live & !clear_down & ((clear & (uz == 0.0)) | (crossed & (h1 > MAX_HITS_WITHOUT_INTERACTION)));
+        let bounces =
+            CLEAR && live & clear & !clear_down & !trapped & (h1 > CLEAR_HITS_STEPWISE) & (z1 < f64::INFINITY);
         let moving = live & !clear_down & !trapped & !bounces;
         let h = moving & crossed;
         // A lane that reaches an interface is moved onto it by `interfaces` (the distance
@@ -130,7 +135,11 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pendi
         st.z[i] = z + stp * uzd;
         st.path[i] += st.l.n[i] * stp;
         st.s_left[i] = sel(moving & !h, 0.0, sl);
-        st.hits[i] = selu(h | bounces, h1, selu(moving, 0, st.hits[i]));
+        st.hits[i] = if CLEAR {
+            selu(h | bounces, h1, selu(moving, 0, st.hits[i]))
+        } else {
+            selu(moving & !h, 0, st.hits[i]) // `fresnel` counts the hits
+        };
         sc.hit[i] = mk(h);
         let f = selq(clear_down, fate::CLEAR_DOWN, fate::MOVING);
         let f = selq(trapped, fate::TRAPPED, f);
@@ -151,8 +160,10 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pendi
         // a history), so it is played lane by lane in the scalar pass ([`roulette`]).
         let low = scatter & (w1 < st.w_min[i]);
         let dep = sel(it, dw, 0.0);
-        sc.dep[i] = dep;
-        sc.deposit[i] = mk(dep != 0.0);
+        if positions {
+            sc.dep[i] = dep;
+            sc.deposit[i] = mk(dep != 0.0);
+        }
         if pending {
             st.absorbed[i] += dep;
         }
@@ -172,8 +183,8 @@ const SIGN: u64 = 1 << 63;
 /// [`refract`]. (As one loop — f64, f32 and u32 lanes mixed, a xoshiro step inside — LLVM
 /// vectorised it for 256- and 512-bit vectors but kept it scalar for 128-bit ones.)
 #[inline(always)]
-pub(super) fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) {
-    fresnel::<MATCHED>(st, sc);
+pub(super) fn interfaces<const MATCHED: bool, const TRAP: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) {
+    fresnel::<MATCHED, TRAP>(st, sc);
     if !MATCHED {
         draw_fresnel(st, sc);
     }
@@ -183,11 +194,23 @@ pub(super) fn interfaces<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch, 
 /// Phase 2a: move the lanes that hit an interface onto it, keeping the unused optical depth
 /// (MCML's HitBoundary); Fresnel reflectance R and cos θt into `sc.fr`, `sc.cos_t` (as
 /// `optics::fr_dielectric_cos_t`), and `sc.need` where a Fresnel word decides (0 < R < 1).
+/// With `TRAP` (no clear layer: [`advance`] left it here) it first counts the hit and ends the
+/// packet that exceeds `MAX_HITS_WITHOUT_INTERACTION` hits in a row (fate `TRAPPED`, not moved,
+/// as `advance` does with clear layers).
 #[inline(always)]
-fn fresnel<const MATCHED: bool>(st: &mut Lanes, sc: &mut Scratch) {
+fn fresnel<const MATCHED: bool, const TRAP: bool>(st: &mut Lanes, sc: &mut Scratch) {
     for i in 0..L {
         let l = &st.l;
-        let h = on(sc.hit[i]);
+        let mut h = on(sc.hit[i]);
+        if TRAP {
+            let h1 = st.hits[i].wrapping_add(1);
+            let trapped = h & (h1 > MAX_HITS_WITHOUT_INTERACTION);
+            st.hits[i] = selu(h, h1, st.hits[i]);
+            h &= !trapped;
+            sc.hit[i] = mk(h);
+            sc.fate[i] = selq(trapped, fate::TRAPPED, sc.fate[i]);
+            sc.att[i] |= mk(trapped) & SIGN;
+        }
         let uz = st.uz[i] as f64;
         let (ux, uy) = (st.ux[i] as f64, st.uy[i] as f64);
         let up = uz < 0.0;
