@@ -542,16 +542,16 @@ fn run_lanes<T: Tally>(
             sample::<false>(&st, &mut sc);
         }
         if lk.any_clear {
-            advance::<true>(&mut st, &mut sc, T::PENDING, T::POSITIONS);
+            advance::<true>(&mut st, &mut sc, T::PENDING, T::POSITIONS, T::TRACKS);
         } else {
-            advance::<false>(&mut st, &mut sc, T::PENDING, T::POSITIONS);
+            advance::<false>(&mut st, &mut sc, T::PENDING, T::POSITIONS, T::TRACKS);
         }
         if sc.hit.iter().any(|&h| on(h)) {
             match (lk.matched, lk.any_clear) {
-                (true, true) => interfaces::<true, false>(&mut st, &mut sc, last),
-                (true, false) => interfaces::<true, true>(&mut st, &mut sc, last),
-                (false, true) => interfaces::<false, false>(&mut st, &mut sc, last),
-                (false, false) => interfaces::<false, true>(&mut st, &mut sc, last),
+                (true, true) => interfaces::<true, false>(&mut st, &mut sc, last, T::TRACKS),
+                (true, false) => interfaces::<true, true>(&mut st, &mut sc, last, T::TRACKS),
+                (false, true) => interfaces::<false, false>(&mut st, &mut sc, last, T::TRACKS),
+                (false, false) => interfaces::<false, true>(&mut st, &mut sc, last, T::TRACKS),
             }
         }
         // Phase 4: absorption deposits (tallies with positions), then, only for the lanes that

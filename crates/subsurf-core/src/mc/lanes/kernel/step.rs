@@ -92,13 +92,19 @@ pub(super) fn sample<const MIXTURE: bool>(st: &Lanes, sc: &mut Scratch) {
 /// Phase 1b, one loop over the lanes: step every live lane to its interaction point or to the
 /// interface ahead; a lane that stays inside its layer then interacts: absorption by weight,
 /// scattering into the direction [`sample`] prepared, and roulette. Lanes that hit an
-/// interface go to [`interfaces`]. (`pending`, whether the tally takes per-lane sums of the deposits, and
-/// `positions`, whether it takes each deposit with its position, are constant per run: their branches
-/// are hoisted; `CLEAR` is false when no layer is clear, which removes the clear-layer rules' masks
+/// interface go to [`interfaces`]. (`pending`, whether the tally takes per-lane sums of the deposits,
+/// `positions`, whether it takes each deposit with its position, and `tracks`, whether it reads the
+/// lateral position and the path (`Tally::TRACKS`), are constant per run: their branches are hoisted; `CLEAR` is false when no layer is clear, which removes the clear-layer rules' masks
 /// from the loop, and then the trapping limit is checked by [`fresnel`], at the interface hits
 /// only, instead of at every step.)
 #[inline(always)]
-pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pending: bool, positions: bool) {
+pub(super) fn advance<const CLEAR: bool>(
+    st: &mut Lanes,
+    sc: &mut Scratch,
+    pending: bool,
+    positions: bool,
+    tracks: bool,
+) {
     for i in 0..L {
         // Step.
         let live = on(st.live[i]);
@@ -130,10 +136,12 @@ pub(super) fn advance<const CLEAR: bool>(st: &mut Lanes, sc: &mut Scratch, pendi
         // A lane that reaches an interface is moved onto it by `interfaces` (the distance
         // needs a division, which the common path does without).
         let stp = sel(moving & !h, s, 0.0);
-        st.x[i] = x + stp * uxd;
-        st.y[i] = y + stp * uyd;
+        if tracks {
+            st.x[i] = x + stp * uxd;
+            st.y[i] = y + stp * uyd;
+            st.path[i] += st.l.n[i] * stp;
+        }
         st.z[i] = z + stp * uzd;
-        st.path[i] += st.l.n[i] * stp;
         st.s_left[i] = sel(moving & !h, 0.0, sl);
         st.hits[i] = if CLEAR {
             selu(h | bounces, h1, selu(moving, 0, st.hits[i]))
@@ -183,8 +191,13 @@ const SIGN: u64 = 1 << 63;
 /// [`refract`]. (As one loop — f64, f32 and u32 lanes mixed, a xoshiro step inside — LLVM
 /// vectorised it for 256- and 512-bit vectors but kept it scalar for 128-bit ones.)
 #[inline(always)]
-pub(super) fn interfaces<const MATCHED: bool, const TRAP: bool>(st: &mut Lanes, sc: &mut Scratch, last: u32) {
-    fresnel::<MATCHED, TRAP>(st, sc);
+pub(super) fn interfaces<const MATCHED: bool, const TRAP: bool>(
+    st: &mut Lanes,
+    sc: &mut Scratch,
+    last: u32,
+    tracks: bool,
+) {
+    fresnel::<MATCHED, TRAP>(st, sc, tracks);
     if !MATCHED {
         draw_fresnel(st, sc);
     }
@@ -198,7 +211,7 @@ pub(super) fn interfaces<const MATCHED: bool, const TRAP: bool>(st: &mut Lanes, 
 /// packet that exceeds `MAX_HITS_WITHOUT_INTERACTION` hits in a row (fate `TRAPPED`, not moved,
 /// as `advance` does with clear layers).
 #[inline(always)]
-fn fresnel<const MATCHED: bool, const TRAP: bool>(st: &mut Lanes, sc: &mut Scratch) {
+fn fresnel<const MATCHED: bool, const TRAP: bool>(st: &mut Lanes, sc: &mut Scratch, tracks: bool) {
     for i in 0..L {
         let l = &st.l;
         let mut h = on(sc.hit[i]);
@@ -217,10 +230,12 @@ fn fresnel<const MATCHED: bool, const TRAP: bool>(st: &mut Lanes, sc: &mut Scrat
         let zb = sel(up, l.z0[i], l.z1[i]);
         let db = (zb - st.z[i]) / uz;
         let d = sel(h, db, 0.0);
-        st.x[i] += d * ux;
-        st.y[i] += d * uy;
+        if tracks {
+            st.x[i] += d * ux;
+            st.y[i] += d * uy;
+            st.path[i] += l.n[i] * d;
+        }
         st.z[i] = sel(h, zb, st.z[i]);
-        st.path[i] += l.n[i] * d;
         st.s_left[i] -= d * l.sigma_t[i];
         if MATCHED {
             continue; // every index equal: no reflection, no refraction, no draw
