@@ -264,14 +264,14 @@ pub(crate) fn trace_range<T: Tally>(
         Isa::Sse4 => unsafe { sse4(&lk, seed, range, tally, cancel) },
         #[cfg(target_arch = "aarch64")]
         Isa::Neon => unsafe { neon(&lk, seed, range, tally, cancel) },
-        _ => run_lanes(&lk, seed, range, tally, cancel),
+        _ => run_lanes(&lk, seed, range, tally, cancel, FEW_HITS_SCALAR),
     }
 }
 
 /// The lane loop compiled for one instruction set (std's `#[target_feature]`; the loop is
 /// `#[inline(always)]`, so all of it is generated with these features).
 macro_rules! isa_entry {
-    ($arch:literal, $name:ident, $features:literal) => {
+    ($arch:literal, $name:ident, $features:literal, $few:expr) => {
         #[cfg(target_arch = $arch)]
         #[target_feature(enable = $features)]
         unsafe fn $name<T: Tally>(
@@ -281,15 +281,21 @@ macro_rules! isa_entry {
             tally: &mut T,
             cancel: &AtomicBool,
         ) -> Option<u64> {
-            run_lanes(lk, seed, range, tally, cancel)
+            run_lanes(lk, seed, range, tally, cancel, $few)
         }
     };
 }
 
-isa_entry!("x86_64", avx512, "avx512f,avx512vl,avx512dq,avx2,fma");
-isa_entry!("x86_64", avx2, "avx2,fma");
-isa_entry!("x86_64", sse4, "sse4.1,sse4.2,popcnt");
-isa_entry!("aarch64", neon, "neon");
+// The last argument: up to how many lanes at an interface in one step are handled lane by lane
+// instead of by the interface phase's vector loops (`step::interfaces`), whose cost does not
+// depend on how many lanes hit. Chosen from callgrind's instruction and branch-miss counts (avx2,
+// sse: 2 and 6 lanes; a branch miss costs avx2 more than it saves above 2) and timings (avx512);
+// NEON as sse (the same width); the baseline always lane by lane (its loops are mostly scalar).
+const FEW_HITS_SCALAR: u32 = L as u32;
+isa_entry!("x86_64", avx512, "avx512f,avx512vl,avx512dq,avx2,fma", 2);
+isa_entry!("x86_64", avx2, "avx2,fma", 2);
+isa_entry!("x86_64", sse4, "sse4.1,sse4.2,popcnt", 6);
+isa_entry!("aarch64", neon, "neon", 6);
 
 /// The packet of lane `i`, as the tallies see it.
 #[inline(always)]
@@ -509,6 +515,7 @@ fn run_lanes<T: Tally>(
     range: Range<u64>,
     tally: &mut T,
     cancel: &AtomicBool,
+    few: u32,
 ) -> Option<u64> {
     let last = lk.last;
     let mut st = Lanes::default();
@@ -548,10 +555,10 @@ fn run_lanes<T: Tally>(
         }
         if sc.hit.iter().any(|&h| on(h)) {
             match (lk.matched, lk.any_clear) {
-                (true, true) => interfaces::<true, false>(&mut st, &mut sc, last, T::TRACKS),
-                (true, false) => interfaces::<true, true>(&mut st, &mut sc, last, T::TRACKS),
-                (false, true) => interfaces::<false, false>(&mut st, &mut sc, last, T::TRACKS),
-                (false, false) => interfaces::<false, true>(&mut st, &mut sc, last, T::TRACKS),
+                (true, true) => interfaces::<true, false>(&mut st, &mut sc, last, T::TRACKS, few),
+                (true, false) => interfaces::<true, true>(&mut st, &mut sc, last, T::TRACKS, few),
+                (false, true) => interfaces::<false, false>(&mut st, &mut sc, last, T::TRACKS, few),
+                (false, false) => interfaces::<false, true>(&mut st, &mut sc, last, T::TRACKS, few),
             }
         }
         // Phase 4: absorption deposits (tallies with positions), then, only for the lanes that
