@@ -423,8 +423,8 @@ fn flush_absorbed<T: Tally>(st: &mut Lanes, i: usize, tally: &mut T) {
 /// Per-step scratch arrays of the lane loop.
 #[derive(Default)]
 struct Scratch {
-    /// The step's four random words per lane (see [`draw_words`]).
-    words: [U; 4],
+    /// The step's three random words per lane (see [`draw_words`]).
+    words: [U; 3],
     hit: B,
     fate: [u64; L],
     dep: F,
@@ -453,16 +453,17 @@ struct Scratch {
     fword: U,
 }
 
-/// Every lane step consumes four words of the lane's stream, drawn here at once whether or
+/// Every lane step consumes three words of the lane's stream, drawn here at once whether or
 /// not the step uses them (so no lane waits on a mask): [0] the optical depth −ln ξ (used
-/// when the previous one is spent), [1] the phase-function ξ, [2] the azimuth, [3] the
-/// roulette word (survives when ≤ 2³²/M − ½, i.e. ξ ≤ 1/M). A Fresnel ξ, drawn in
-/// [`interfaces`] only by a lane at an interface with 0 < R < 1, follows them. The words a photon consumes depend on its own history only.
+/// when the previous one is spent), [1] the phase-function ξ, [2] the azimuth. A Fresnel ξ,
+/// drawn in [`interfaces`] only by a lane at an interface with 0 < R < 1, or the roulette word
+/// (survives when ≤ 2³²/M − ½, i.e. ξ ≤ 1/M), drawn in [`roulette`] only by a lane that plays
+/// it, follows them. The words a photon consumes depend on its own history only.
 #[inline(always)]
 fn draw_words(st: &mut Lanes, sc: &mut Scratch) {
     for i in 0..L {
         let mut t = [st.s[0][i], st.s[1][i], st.s[2][i], st.s[3][i]];
-        for k in 0..4 {
+        for k in 0..3 {
             sc.words[k][i] = crate::rng::xoshiro128pp_next(&mut t);
         }
         for k in 0..4 {
@@ -577,7 +578,7 @@ fn run_lanes<T: Tally>(
             attention &= attention - 1;
             let mut f = sc.fate[i];
             if f == fate::ROULETTE {
-                let (control, survived) = roulette(&mut st, &sc, i);
+                let (control, survived) = roulette(&mut st, i);
                 tally.roulette(i, &packet(&st, i), control);
                 f = if survived { fate::MOVING } else { fate::DIED };
             }

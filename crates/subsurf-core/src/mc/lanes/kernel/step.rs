@@ -54,14 +54,14 @@ pub(in crate::mc::lanes) fn spin_word(ux: f32, uy: f32, uz: f32, m: f32, word: u
 const SURVIVE_MAX: u32 = (4_294_967_296.0 / ROULETTE_M - 0.5) as u32;
 
 /// Russian roulette of lane `i`, whose weight `st.w[i]` (after this step's absorption) fell
-/// below its threshold, decided by the step's roulette word: it survives with probability 1/M
-/// with M times its weight, or dies; the zero-mean control term (−(M − 1) w on survival, w on
-/// death) is returned for `Tally::roulette`, with `st.w[i]` already updated. Returns
-/// (control term, survived).
+/// below its threshold, decided by a word drawn here from the lane's stream (only a step that
+/// plays roulette draws it): it survives with probability 1/M with M times its weight, or
+/// dies; the zero-mean control term (−(M − 1) w on survival, w on death) is returned for
+/// `Tally::roulette`, with `st.w[i]` already updated. Returns (control term, survived).
 #[inline(always)]
-pub(super) fn roulette(st: &mut Lanes, sc: &Scratch, i: usize) -> (f64, bool) {
+pub(super) fn roulette(st: &mut Lanes, i: usize) -> (f64, bool) {
     let w1 = st.w[i];
-    let survive = sc.words[3][i] <= SURVIVE_MAX;
+    let survive = draw(&mut st.s, i, true) <= SURVIVE_MAX;
     let (control, w) = if survive { (-(ROULETTE_M - 1.0) * w1, w1 * ROULETTE_M) } else { (w1, 0.0) };
     st.w[i] = w;
     (control, survive)
