@@ -64,7 +64,9 @@ class TallyState:
             raise _core.ParameterError(f"state: not a Monte Carlo state ({e!r})") from None
         if d["scheme"] != _core.MC_STATE_SCHEME:
             raise _core.ParameterError(
-                f"state: format {d['scheme']!r} is not this version's ({_core.MC_STATE_SCHEME!r})"
+                f"state: format {d['scheme']!r} is not this version's ({_core.MC_STATE_SCHEME!r}):"
+                " it was written by another engine version and cannot be resumed by this one"
+                " (run it again from the start)"
             )
         self._d = d
 

@@ -20,11 +20,14 @@ use super::tally::{Channel, ChannelState, TallyConfig};
 use crate::error::{Error, Result};
 use crate::medium::Stack;
 
-/// Version of the exact-state format (chunk size and fixed-point formats); states of another
-/// scheme are refused.
+/// Version of the exact-state format (chunk size, fixed-point formats, and the order in which
+/// a photon draws its random words, since a resumed run must continue the same streams); states
+/// of another scheme are refused. Scheme 3: the lane kernel draws a roulette word only in a
+/// step that plays roulette (scheme 2 drew one in every step).
 pub const SCHEME: &str =
-    "subsurf-state-2: chunks of 4096 photons; S1 4x64-bit fixed point (2^-176), S2 5x64 (2^-240); \
-                          S2 of histograms over batches of 256 photons";
+    "subsurf-state-3: chunks of 4096 photons; S1 4x64-bit fixed point (2^-176), S2 5x64 (2^-240); \
+                          S2 of histograms over batches of 256 photons; lane words: 3 per step, \
+                          roulette word only when played";
 
 /// The exact state of photons [`start`, `end`) of a run.
 ///
@@ -129,7 +132,11 @@ impl TallyState {
     pub fn from_flat(f: &FlatState) -> Result<Self> {
         let bad = |what: &str| Error::Invalid(format!("state: {what}"));
         if f.scheme != SCHEME {
-            return Err(bad(&format!("format {:?} is not this version's ({SCHEME:?})", f.scheme)));
+            return Err(bad(&format!(
+                "format {:?} is not this version's ({SCHEME:?}): it was written by another engine \
+                 version and cannot be resumed by this one (run it again from the start)",
+                f.scheme
+            )));
         }
         let n = f.names.len();
         if f.lengths.len() != n || f.extremes.len() != n {
@@ -305,8 +312,10 @@ mod tests {
         assert_eq!((f.s1.len(), f.s2.len(), f.min.len()), (20, 25, 2));
         assert_eq!(TallyState::from_flat(&f).unwrap(), s);
         let mut g = f.clone();
-        g.scheme = "other".into();
-        assert!(TallyState::from_flat(&g).unwrap_err().to_string().contains("format"));
+        // the previous scheme (a roulette word in every lane step) is refused: its streams differ
+        g.scheme = SCHEME.replace("subsurf-state-3", "subsurf-state-2");
+        let e = TallyState::from_flat(&g).unwrap_err().to_string();
+        assert!(e.contains("format") && e.contains("cannot be resumed"), "{e}");
         g = f.clone();
         g.s2.pop();
         assert!(TallyState::from_flat(&g).is_err());

@@ -264,14 +264,14 @@ pub(crate) fn trace_range<T: Tally>(
         Isa::Sse4 => unsafe { sse4(&lk, seed, range, tally, cancel) },
         #[cfg(target_arch = "aarch64")]
         Isa::Neon => unsafe { neon(&lk, seed, range, tally, cancel) },
-        _ => run_lanes(&lk, seed, range, tally, cancel),
+        _ => run_lanes(&lk, seed, range, tally, cancel, FEW_HITS_SCALAR),
     }
 }
 
 /// The lane loop compiled for one instruction set (std's `#[target_feature]`; the loop is
 /// `#[inline(always)]`, so all of it is generated with these features).
 macro_rules! isa_entry {
-    ($arch:literal, $name:ident, $features:literal) => {
+    ($arch:literal, $name:ident, $features:literal, $few:expr) => {
         #[cfg(target_arch = $arch)]
         #[target_feature(enable = $features)]
         unsafe fn $name<T: Tally>(
@@ -281,15 +281,21 @@ macro_rules! isa_entry {
             tally: &mut T,
             cancel: &AtomicBool,
         ) -> Option<u64> {
-            run_lanes(lk, seed, range, tally, cancel)
+            run_lanes(lk, seed, range, tally, cancel, $few)
         }
     };
 }
 
-isa_entry!("x86_64", avx512, "avx512f,avx512vl,avx512dq,avx2,fma");
-isa_entry!("x86_64", avx2, "avx2,fma");
-isa_entry!("x86_64", sse4, "sse4.1,sse4.2,popcnt");
-isa_entry!("aarch64", neon, "neon");
+// The last argument: up to how many lanes at an interface in one step are handled lane by lane
+// instead of by the interface phase's vector loops (`step::interfaces`), whose cost does not
+// depend on how many lanes hit. Chosen from callgrind's instruction and branch-miss counts (avx2,
+// sse: 2 and 6 lanes; a branch miss costs avx2 more than it saves above 2) and timings (avx512);
+// NEON as sse (the same width); the baseline always lane by lane (its loops are mostly scalar).
+const FEW_HITS_SCALAR: u32 = L as u32;
+isa_entry!("x86_64", avx512, "avx512f,avx512vl,avx512dq,avx2,fma", 2);
+isa_entry!("x86_64", avx2, "avx2,fma", 2);
+isa_entry!("x86_64", sse4, "sse4.1,sse4.2,popcnt", 6);
+isa_entry!("aarch64", neon, "neon", 6);
 
 /// The packet of lane `i`, as the tallies see it.
 #[inline(always)]
@@ -417,8 +423,8 @@ fn flush_absorbed<T: Tally>(st: &mut Lanes, i: usize, tally: &mut T) {
 /// Per-step scratch arrays of the lane loop.
 #[derive(Default)]
 struct Scratch {
-    /// The step's four random words per lane (see [`draw_words`]).
-    words: [U; 4],
+    /// The step's three random words per lane (see [`draw_words`]).
+    words: [U; 3],
     hit: B,
     fate: [u64; L],
     dep: F,
@@ -447,16 +453,17 @@ struct Scratch {
     fword: U,
 }
 
-/// Every lane step consumes four words of the lane's stream, drawn here at once whether or
+/// Every lane step consumes three words of the lane's stream, drawn here at once whether or
 /// not the step uses them (so no lane waits on a mask): [0] the optical depth −ln ξ (used
-/// when the previous one is spent), [1] the phase-function ξ, [2] the azimuth, [3] the
-/// roulette word (survives when ≤ 2³²/M − ½, i.e. ξ ≤ 1/M). A Fresnel ξ, drawn in
-/// [`interfaces`] only by a lane at an interface with 0 < R < 1, follows them. The words a photon consumes depend on its own history only.
+/// when the previous one is spent), [1] the phase-function ξ, [2] the azimuth. A Fresnel ξ,
+/// drawn in [`interfaces`] only by a lane at an interface with 0 < R < 1, or the roulette word
+/// (survives when ≤ 2³²/M − ½, i.e. ξ ≤ 1/M), drawn in [`roulette`] only by a lane that plays
+/// it, follows them. The words a photon consumes depend on its own history only.
 #[inline(always)]
 fn draw_words(st: &mut Lanes, sc: &mut Scratch) {
     for i in 0..L {
         let mut t = [st.s[0][i], st.s[1][i], st.s[2][i], st.s[3][i]];
-        for k in 0..4 {
+        for k in 0..3 {
             sc.words[k][i] = crate::rng::xoshiro128pp_next(&mut t);
         }
         for k in 0..4 {
@@ -509,6 +516,7 @@ fn run_lanes<T: Tally>(
     range: Range<u64>,
     tally: &mut T,
     cancel: &AtomicBool,
+    few: u32,
 ) -> Option<u64> {
     let last = lk.last;
     let mut st = Lanes::default();
@@ -542,15 +550,16 @@ fn run_lanes<T: Tally>(
             sample::<false>(&st, &mut sc);
         }
         if lk.any_clear {
-            advance::<true>(&mut st, &mut sc, T::PENDING);
+            advance::<true>(&mut st, &mut sc, T::PENDING, T::POSITIONS, T::TRACKS);
         } else {
-            advance::<false>(&mut st, &mut sc, T::PENDING);
+            advance::<false>(&mut st, &mut sc, T::PENDING, T::POSITIONS, T::TRACKS);
         }
         if sc.hit.iter().any(|&h| on(h)) {
-            if lk.matched {
-                interfaces::<true>(&mut st, &mut sc, last);
-            } else {
-                interfaces::<false>(&mut st, &mut sc, last);
+            match (lk.matched, lk.any_clear) {
+                (true, true) => interfaces::<true, false>(&mut st, &mut sc, last, T::TRACKS, few),
+                (true, false) => interfaces::<true, true>(&mut st, &mut sc, last, T::TRACKS, few),
+                (false, true) => interfaces::<false, false>(&mut st, &mut sc, last, T::TRACKS, few),
+                (false, false) => interfaces::<false, true>(&mut st, &mut sc, last, T::TRACKS, few),
             }
         }
         // Phase 4: absorption deposits (tallies with positions), then, only for the lanes that
@@ -569,7 +578,7 @@ fn run_lanes<T: Tally>(
             attention &= attention - 1;
             let mut f = sc.fate[i];
             if f == fate::ROULETTE {
-                let (control, survived) = roulette(&mut st, &sc, i);
+                let (control, survived) = roulette(&mut st, i);
                 tally.roulette(i, &packet(&st, i), control);
                 f = if survived { fate::MOVING } else { fate::DIED };
             }

@@ -65,10 +65,10 @@
 //! drive the same choices, so the published tables moved in their last digit only.
 //!
 //! Random-number order within a photon's stream (differs from the scalar reference kernel
-//! only there): source draws, then four words per lane step, drawn whether or not the step
-//! uses them (optical depth, phase ξ, azimuth φ = 2πu by [`math::cos_sin_2pi_f32`], roulette
-//! word compared as an integer),
-//! and a Fresnel ξ at an interface hit with 0 < R < 1 (see `kernel::draw_words`); the
+//! only there): source draws, then three words per lane step, drawn whether or not the step
+//! uses them (optical depth, phase ξ, azimuth φ = 2πu by [`math::cos_sin_2pi_f32`]), then a
+//! Fresnel ξ at an interface hit with 0 < R < 1 or a roulette word (compared as an integer)
+//! in a step that plays roulette, each drawn only there (see `kernel::draw_words`); the
 //! clear-layer bounce sampling of `mc::kernel` draws its two uniforms from the lane's stream.
 
 mod kernel;

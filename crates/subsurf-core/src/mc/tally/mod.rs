@@ -158,6 +158,11 @@ pub trait Tally: Send {
     /// Whether some part of the tally takes the lane kernel's per-lane sums of deposits
     /// ([`Tally::absorb_pending`]): a tally without positions; of a pair, either side.
     const PENDING: bool = !Self::POSITIONS;
+    /// Whether the tally reads a packet's lateral position (`p.pos[0]`, `p.pos[1]`) or its
+    /// optical path (`p.path`) in any event. `false` (the totals, the empty tally): the lane
+    /// kernel does not track them (they read 0; depth, layer, direction, weight and order are
+    /// always right).
+    const TRACKS: bool = true;
     /// Whether the tally needs [`Tally::end_batch`] calls (batch-means standard errors); the
     /// kernel then traces each batch of [`crate::mc::config::BATCH_PHOTONS`] to its end
     /// before starting the next.
@@ -219,6 +224,7 @@ pub trait Tally: Send {
 /// The empty tally: scores nothing (for runs that need only the engine's own counters).
 impl Tally for () {
     const POSITIONS: bool = false;
+    const TRACKS: bool = false;
     #[inline]
     fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
     #[inline]
@@ -247,6 +253,7 @@ impl Tally for () {
 impl<A: Tally, B: Tally> Tally for (A, B) {
     const POSITIONS: bool = A::POSITIONS || B::POSITIONS;
     const PENDING: bool = A::PENDING || B::PENDING;
+    const TRACKS: bool = A::TRACKS || B::TRACKS;
     fn batched(&self) -> bool {
         self.0.batched() || self.1.batched()
     }

@@ -235,6 +235,7 @@ fn score(first: bool, x: &[f64; W], sum: &mut [f64; W], sum2: &mut [f64; W], min
 
 impl Tally for Totals {
     const POSITIONS: bool = false;
+    const TRACKS: bool = false;
     #[inline]
     fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
     #[inline]
