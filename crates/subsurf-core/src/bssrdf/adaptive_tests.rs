@@ -143,6 +143,14 @@ fn curvature_scales_reproduce_the_sphere_escapes() {
         let (lo, hi) = (t.curvature_scale(0, h * (1.0 + 1e-9)), t.curvature_scale(0, h * (1.0 - 1e-9)));
         assert!((lo.near[0] - hi.near[0]).abs() < 1e-6 && (lo.far - hi.far).abs() < 1e-6);
     }
+    // the binned kernel's sampling inverts its CDF (the probe method draws radii with it)
+    let rho = cd.rho[2];
+    let sc = t.curvature_scale(0, 1.0 / rho);
+    let k = Binned::new(t.scaled(0, t.local(0, 2.0 * rho), (1.0, sc.far)).0, &sc);
+    for u in [1e-3, 0.1, 0.37, 0.5, 0.8, 0.99] {
+        let r = k.sample_r(u);
+        assert!((k.cdf(r) - u).abs() < 1e-6, "u = {u}: r = {r}, cdf {}", k.cdf(r));
+    }
     let tiny = t.curvature_scale(0, 1e-9);
     assert!(tiny.near.iter().all(|&x| (x - 1.0).abs() < 1e-4) && (tiny.far - 1.0).abs() < 1e-4);
     let cav = t.curvature_scale(0, -1.0 / cd.rho[0]);
