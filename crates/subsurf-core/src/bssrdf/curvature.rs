@@ -9,9 +9,9 @@
 //! - [`build_curvature`]: the engine's flat diffuse reflectance R_flat under
 //!   [`Source::Diffuse`] (seed + 64c + [`SEED_FLAT`], the table's photons), and the sphere and
 //!   cavity escapes P(ρ_j) (seeds + [`SEED_SPHERE`] + j, + [`SEED_CAVITY`] + j), with
-//!   [`curved_photons`] each: a quarter of the table's photons, as an escape fraction near 1
-//!   varies little from photon to photon (0.1–0.3 % standard error at 2 500 photons, below the
-//!   flat run's). The sphere's escape is also tallied by where it leaves: per chord bin of the
+//!   [`curved_photons`] each: a quarter of the table's photons, at most
+//!   [`MAX_CURVED_PHOTONS`], as an escape fraction near 1 varies little from photon to photon
+//!   (0.1–0.3 % standard error at 2 500 photons, below the flat run's). The sphere's escape is also tallied by where it leaves: per chord bin of the
 //!   entry's hemisphere ([`NEAR_BINS`] bins of equal area, [`bin_edges`]) and the far hemisphere.
 //! - [`Scales`]: C = P/R_flat is the curvature's own effect (the same illumination on both sides
 //!   of the ratio); the kernel's units are R_∞ (the semi-infinite total per entering power) per
@@ -57,9 +57,16 @@ pub const FAR_MIN: f64 = 0.02;
 /// Midpoints of the far-hemisphere quadrature.
 const FAR_STEPS: usize = 2048;
 
-/// Photons of each sphere and cavity run for `photons` per table node (a quarter, at least 2).
+/// Most photons of one sphere or cavity run: the escapes' standard errors there (≈ 0.15 % of the
+/// total, ≈ 1 % per chord bin) are an order below the model's remaining error, and the curved
+/// Monte Carlo is scalar code (a table of 10⁵ photons per node would otherwise spend most of
+/// its time here).
+pub const MAX_CURVED_PHOTONS: u64 = 5_000;
+
+/// Photons of each sphere and cavity run for `photons` per table node: a quarter, at least 2,
+/// at most [`MAX_CURVED_PHOTONS`].
 pub fn curved_photons(photons: u64) -> u64 {
-    (photons / 4).max(2)
+    (photons / 4).clamp(2, MAX_CURVED_PHOTONS)
 }
 
 /// One channel's curved-transport data.
