@@ -34,6 +34,9 @@ def test_cache_builds_once_and_round_trips(cache):
     assert AdaptiveTable.load(files[0]).key == t.key
     for d in (0.1, 0.5, 2.0, 100.0, np.inf):
         assert again.totals(0, d) == t.totals(0, d)
+    assert again.curvature() == t.curvature()  # the curvature data round-trip, scales re-derived equal
+    for h in (-1.0, -0.01, 0.0, 0.05, 2.0):
+        assert again.curvature_scale(0, h) == t.curvature_scale(0, h)
     # the same bits as a fresh build (deterministic)
     fresh = AdaptiveTable.build([STACK], photons=500, seed=2)
     assert fresh.totals(0, 0.7) == t.totals(0, 0.7)
@@ -71,6 +74,18 @@ def test_profiles_and_bad_input(cache):
         t.profile(0, 1.0, "X")
     with pytest.raises(ParameterError, match="photons"):
         AdaptiveTable.build([STACK], photons=1)
+    cd = t.curvature()[0]
+    assert cd["rho"] == _core.bssrdf_adaptive_curvature_nodes(STACK._to_core())
+    assert sum(cd["sphere_bins"][0]) == pytest.approx(cd["sphere_near"][0], rel=1e-12)
+    assert cd["scale_concave"][0] < 0.5  # a small cavity returns less light than a flat surface
+    assert t.curvature_scale(0, 0.0) == ([1.0] * 8, 1.0)
+    # the curved transport: a non-absorbing, index-matched sphere returns every photon
+    clear = Stack([Layer(1.0, 0.0, 2.0, 0.0)])._to_core()
+    assert _core.bssrdf_curved_escape(clear, "sphere", 1.0, 200, 1) == (1.0, 0.0)
+    with pytest.raises(ParameterError, match="kind"):
+        _core.bssrdf_curved_escape(clear, "cube", 1.0, 200, 1)
+    with pytest.raises(ParameterError, match="rho"):
+        _core.bssrdf_curved_escape(clear, "sphere", 0.0, 200, 1)
     # as a plain profile, "adaptive" is the semi-infinite Monte Carlo profile
     assert Profile.from_model("adaptive", 0.2, 2.0, 0.0, 1.4).total() > 0
 

@@ -220,14 +220,28 @@ class AdaptiveTable:
     ) -> AdaptiveTable: ...
     @staticmethod
     def assemble(
-        stacks_in: list[_StackTuple], nodes: list[list[dict]], photons: int, seed: int, max_rel_err: float
+        stacks_in: list[_StackTuple],
+        nodes: list[list[dict]],
+        curvature: list[dict],
+        photons: int,
+        seed: int,
+        max_rel_err: float,
     ) -> AdaptiveTable: ...
     def nodes(self) -> list[list[dict]]:
         """Per channel: {d, top, bottom} (top/bottom: the radial data dicts of Profile.mc_data)."""
+    def curvature(self) -> list[dict]:
+        """Per channel: {rho, sphere, sphere_stderr, sphere_near, sphere_near_stderr, sphere_bins,
+        the same for cavity (no bins), flat, flat_stderr, scale_convex, scale_convex_far,
+        scale_concave}."""
+    def curvature_scale(self, channel: int, h: float) -> tuple[list[float], float]: ...
     def totals(self, channel: int, d: float) -> tuple[float, float]: ...
     def profile(self, channel: int, d: float, which: str) -> Profile: ...
 
 def bssrdf_adaptive_nodes(stack: _StackTuple) -> list[float]: ...
+def bssrdf_adaptive_curvature_nodes(stack: _StackTuple) -> list[float]: ...
+def bssrdf_curved_escape(
+    stack: _StackTuple, kind: str, rho: float, photons: int, seed: int, threads: int | None = None
+) -> tuple[float, float]: ...
 
 class SlabTable:
     @staticmethod

@@ -3,8 +3,11 @@
 :class:`AdaptiveTable` holds, per colour channel, the engine's reflection R(r; d) and
 transmission T(r; d) profiles of the material cut into slabs of thickness d (nodes d = ℓ·2^j from
 ℓ/8 up to several diffusion lengths, plus the semi-infinite profile; the core's
-``subsurf_core::bssrdf::adaptive`` documents the grid, the seeds and the interpolation). The
-renderer picks them per shading point by the local thickness (``render::adaptive``).
+``subsurf_core::bssrdf::adaptive`` documents the grid, the seeds and the interpolation), and the
+curvature data: the exact escape of diffuse light from spheres and spherical cavities of radius
+ρ = ℓ·2^j relative to the flat half-space (``subsurf_core::bssrdf::curvature``). The renderer picks
+the profiles per shading point by the local thickness and scales them by the local mean curvature
+(``render::adaptive``).
 
 A table is deterministic: the same stacks, photons, seed and engine version give the same bits.
 :meth:`AdaptiveTable.cached` keeps each in subsurf's checksummed HDF5 container
@@ -25,8 +28,9 @@ from . import _core
 from .medium import Stack
 
 FORMAT = "subsurf-adaptive-table"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: the curvature data (sphere, cavity and flat escapes per channel)
 _ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
+_CURVATURE = ("rho",) + tuple(f"{k}{x}" for k in ("sphere", "cavity") for x in ("", "_stderr", "_near", "_near_stderr"))
 
 
 def cache_dir() -> str:
@@ -79,6 +83,19 @@ class AdaptiveTable:
         """(R, T): total reflectance and transmittance per unit entering power at thickness d (mm)."""
         return self._t.totals(int(channel), float(d))
 
+    def curvature(self) -> list:
+        """Per channel: a dict of the curvature nodes ``rho`` (mm), the sphere and cavity escapes
+        (``sphere``, ``cavity``, the part through the entry's hemisphere ``*_near``, and their
+        ``*_stderr``; ``sphere_bins``: the near part per chord bin), the flat one (``flat``,
+        ``flat_stderr``), and the kernel scales derived from them (``scale_convex``: the near
+        side's per bin, ``scale_convex_far``, ``scale_concave``)."""
+        return self._t.curvature()
+
+    def curvature_scale(self, channel, h) -> tuple:
+        """The scales (near side R per chord bin, far side T) of ``channel``'s profiles at mean
+        curvature ``h`` (mm⁻¹; > 0 convex, < 0 concave)."""
+        return self._t.curvature_scale(int(channel), float(h))
+
     def profile(self, channel, d, which="R"):
         """The reflection (``"R"``) or transmission (``"T"``) profile at thickness d (mm) as a
         :class:`subsurf.bssrdf.Profile` (per unit entering power)."""
@@ -107,6 +124,13 @@ class AdaptiveTable:
                         s.attrs["total"] = float(n[side]["total"])
                         s.attrs["total_stderr"] = float(n[side]["total_stderr"])
                         s.attrs["photons"] = int(n[side]["photons"])
+            for c, cd in enumerate(self._t.curvature()):
+                g = f.create_group(f"curvature/{c:02d}")
+                for k in _CURVATURE:
+                    g.create_dataset(k, data=np.asarray(cd[k], dtype=np.float64))
+                g.create_dataset("sphere_bins", data=np.asarray(cd["sphere_bins"], dtype=np.float64))
+                g.attrs["flat"] = float(cd["flat"])
+                g.attrs["flat_stderr"] = float(cd["flat_stderr"])
 
         return atomic.write_bytes(path, container.to_bytes(FORMAT, FORMAT_VERSION, fill), force=True)
 
@@ -132,9 +156,16 @@ class AdaptiveTable:
                         n[side]["photons"] = int(s.attrs["photons"])
                     ch.append(n)
                 nodes.append(ch)
+            curvature = []
+            for c in sorted(o.f["curvature"]):
+                g = o.f["curvature"][c]
+                cd = {k: [float(x) for x in g[k][()]] for k in _CURVATURE}
+                cd["sphere_bins"] = [[float(x) for x in row] for row in g["sphere_bins"][()]]
+                cd.update(flat=float(g.attrs["flat"]), flat_stderr=float(g.attrs["flat_stderr"]))
+                curvature.append(cd)
         try:
             st = [([(*l[:3], [tuple(x) for x in l[3]], l[4]) for l in s[0]], s[1], s[2]) for s in key["stacks"]]
-            core = _core.AdaptiveTable.assemble(st, nodes, key["photons"], key["seed"], key["max_rel_err"])
+            core = _core.AdaptiveTable.assemble(st, nodes, curvature, key["photons"], key["seed"], key["max_rel_err"])
         except (_core.ParameterError, TypeError, KeyError) as e:
             raise container.FileFormatError(f"{path}: not a valid adaptive table ({container.one_line(e)})") from None
         return cls(core, key)

@@ -8,8 +8,11 @@ use crate::medium::{stack_from_py, LayerTuple};
 use crate::wait::{interrupted, interruptible};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::Arc;
 use subsurf_core::bssrdf::adaptive::{thickness_nodes, AdaptiveSettings, AdaptiveTable, SlabData};
+use subsurf_core::bssrdf::curvature::{curvature_nodes, CurvatureData};
+use subsurf_core::bssrdf::curved::{escape, Curved, Escape};
 use subsurf_core::medium::Stack;
 use subsurf_core::Error;
 
@@ -56,12 +59,13 @@ impl PyAdaptiveTable {
         }
     }
 
-    /// Assemble from the stacks, one list of node dicts per channel ({d, top, bottom}) and the
-    /// settings it was built with.
+    /// Assemble from the stacks, one list of node dicts per channel ({d, top, bottom}), one
+    /// curvature dict per channel (as `curvature()` gives them) and the settings it was built with.
     #[staticmethod]
     fn assemble(
         stacks_in: Vec<StackTuple>,
         nodes: Vec<Vec<Bound<'_, PyDict>>>,
+        curvature: Vec<Bound<'_, PyDict>>,
         photons: u64,
         seed: u64,
         max_rel_err: f64,
@@ -77,8 +81,45 @@ impl PyAdaptiveTable {
             }
             data.push(v);
         }
+        let curv = curvature.iter().map(curvature_from_py).collect::<PyResult<Vec<_>>>()?;
         let s = AdaptiveSettings { photons, seed, threads: None, max_rel_err };
-        Ok(PyAdaptiveTable { inner: Arc::new(AdaptiveTable::assemble(&st, data, s).py()?) })
+        Ok(PyAdaptiveTable { inner: Arc::new(AdaptiveTable::assemble(&st, data, curv, s).py()?) })
+    }
+
+    /// Per channel: {rho, sphere, sphere_stderr, sphere_near, sphere_near_stderr, the same for
+    /// cavity, flat, flat_stderr, scale_convex, scale_convex_far, scale_concave} (lists over the
+    /// curvature nodes; `scale_*` derived, not read back).
+    fn curvature<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let mut out = vec![];
+        for (c, cd) in self.inner.curvature().iter().enumerate() {
+            let o = PyDict::new(py);
+            o.set_item("rho", cd.rho.clone())?;
+            for (k, v) in [("sphere", &cd.sphere), ("cavity", &cd.cavity)] {
+                o.set_item(k, v.iter().map(|e| e.mean).collect::<Vec<_>>())?;
+                o.set_item(format!("{k}_stderr"), v.iter().map(|e| e.stderr).collect::<Vec<_>>())?;
+                o.set_item(format!("{k}_near"), v.iter().map(|e| e.near).collect::<Vec<_>>())?;
+                o.set_item(format!("{k}_near_stderr"), v.iter().map(|e| e.near_stderr).collect::<Vec<_>>())?;
+            }
+            o.set_item("sphere_bins", cd.sphere.iter().map(|e| e.bins.clone()).collect::<Vec<_>>())?;
+            o.set_item("flat", cd.flat.mean)?;
+            o.set_item("flat_stderr", cd.flat.stderr)?;
+            o.set_item("scale_convex", self.inner.scales(c).convex.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
+            o.set_item("scale_convex_far", self.inner.scales(c).convex_far.clone())?;
+            o.set_item("scale_concave", self.inner.scales(c).concave.clone())?;
+            out.push(o);
+        }
+        Ok(out)
+    }
+
+    /// The curvature scales (near side per chord bin, far side) of `channel` at mean curvature
+    /// `h` (mm⁻¹; > 0 convex, < 0 concave).
+    fn curvature_scale(&self, channel: usize, h: f64) -> PyResult<(Vec<f64>, f64)> {
+        self.check(channel, 1.0)?;
+        if !h.is_finite() {
+            return Err(to_py(Error::param("h", h, "a finite mean curvature (mm^-1)")));
+        }
+        let s = self.inner.curvature_scale(channel, h);
+        Ok((s.near.to_vec(), s.far))
     }
 
     /// The nodes: per channel, a list of {d, top, bottom} dicts.
@@ -131,6 +172,64 @@ impl PyAdaptiveTable {
     }
 }
 
+fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
+    let list = |k: &str| -> PyResult<Vec<f64>> { item(d, k)?.extract() };
+    let pairs = |k: &str| -> PyResult<Vec<Escape>> {
+        let (m, e) = (list(k)?, list(&format!("{k}_stderr"))?);
+        let (a, b) = (list(&format!("{k}_near"))?, list(&format!("{k}_near_stderr"))?);
+        if [e.len(), a.len(), b.len()].iter().any(|&l| l != m.len()) {
+            return Err(to_py(Error::Invalid(format!("adaptive table curvature: {k}'s lists differ in length"))));
+        }
+        Ok((0..m.len())
+            .map(|i| Escape { mean: m[i], stderr: e[i], near: a[i], near_stderr: b[i], bins: vec![] })
+            .collect())
+    };
+    let (mean, stderr) = (item(d, "flat")?.extract()?, item(d, "flat_stderr")?.extract()?);
+    let flat = Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![] };
+    let mut sphere = pairs("sphere")?;
+    let bins: Vec<Vec<f64>> = item(d, "sphere_bins")?.extract()?;
+    if bins.len() != sphere.len() {
+        return Err(to_py(Error::Invalid("adaptive table curvature: sphere_bins has another length".into())));
+    }
+    for (e, b) in sphere.iter_mut().zip(bins) {
+        e.bins = b;
+    }
+    Ok(CurvatureData { rho: list("rho")?, sphere, cavity: pairs("cavity")?, flat })
+}
+
+/// The curvature nodes (mm) of a stack's adaptive table.
+#[pyfunction]
+fn bssrdf_adaptive_curvature_nodes(stack: StackTuple) -> PyResult<Vec<f64>> {
+    curvature_nodes(&stack_from_py(&stack.0, stack.1, stack.2).py()?).py()
+}
+
+/// Escape fraction (mean, stderr) of uniform diffuse light from a sphere, a spherical cavity or
+/// an infinite cylinder of radius `rho` (mm) made of `stack` (exact transport).
+#[pyfunction]
+#[pyo3(signature = (stack, kind, rho, photons, seed, threads=None))]
+fn bssrdf_curved_escape(
+    py: Python<'_>,
+    stack: StackTuple,
+    kind: &str,
+    rho: f64,
+    photons: u64,
+    seed: u64,
+    threads: Option<usize>,
+) -> PyResult<(f64, f64)> {
+    let k = match kind {
+        "sphere" => Curved::Sphere,
+        "cavity" => Curved::Cavity,
+        "cylinder" => Curved::Cylinder,
+        w => {
+            return Err(to_py(Error::Invalid(format!("kind = {w:?}: must be \"sphere\", \"cavity\" or \"cylinder\""))))
+        }
+    };
+    let st = stack_from_py(&stack.0, stack.1, stack.2).py()?;
+    let out = py.detach(|| escape(&st, k, rho, photons, seed, threads, &AtomicBool::new(false), &AtomicU64::new(0)));
+    let e = out.py()?.expect("not cancelled");
+    Ok((e.mean, e.stderr))
+}
+
 /// The thickness nodes (mm) of a stack's adaptive table (∞ not listed).
 #[pyfunction]
 fn bssrdf_adaptive_nodes(stack: StackTuple) -> PyResult<Vec<f64>> {
@@ -140,5 +239,7 @@ fn bssrdf_adaptive_nodes(stack: StackTuple) -> PyResult<Vec<f64>> {
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyAdaptiveTable>()?;
     m.add_function(wrap_pyfunction!(bssrdf_adaptive_nodes, m)?)?;
+    m.add_function(wrap_pyfunction!(bssrdf_adaptive_curvature_nodes, m)?)?;
+    m.add_function(wrap_pyfunction!(bssrdf_curved_escape, m)?)?;
     Ok(())
 }

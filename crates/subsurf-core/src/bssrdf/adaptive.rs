@@ -26,6 +26,7 @@
 //! keyed by the stacks, the settings and the engine's version holds exactly what a rebuild makes
 //! (`subsurf.bssrdf.AdaptiveTable`, HDF5).
 
+use super::curvature::{build_curvature, curvature_photons, sphere_gather, CurvatureData, LocalScale, Scales};
 use super::monte_carlo::{default_edges, McSettings, MonteCarloProfile, RadialData, RadialTally};
 use super::RadialProfile;
 use crate::error::{Error, Result};
@@ -97,7 +98,7 @@ pub struct SlabData {
 }
 
 /// Largest transport mean free path 1/σt' over the layers that interact (mm).
-fn transport_length(stack: &Stack) -> f64 {
+pub(crate) fn transport_length(stack: &Stack) -> f64 {
     stack.layers.iter().filter(|l| l.sigma_t_prime() > 0.0).map(|l| 1.0 / l.sigma_t_prime()).fold(0.0, f64::max)
 }
 
@@ -226,6 +227,8 @@ pub struct AdaptiveTable {
     pub median_radius: f64,
     channels: Vec<ChannelTable>,
     data: Vec<Vec<SlabData>>,
+    curvature: Vec<CurvatureData>,
+    scales: Vec<Scales>,
     settings: AdaptiveSettings,
 }
 
@@ -246,12 +249,19 @@ impl std::fmt::Debug for AdaptiveTable {
 }
 
 impl AdaptiveTable {
-    /// Assemble a table from the nodes of each channel (`data[c]`: thickness nodes then ∞).
-    pub fn assemble(stacks: &[Stack], data: Vec<Vec<SlabData>>, settings: AdaptiveSettings) -> Result<AdaptiveTable> {
-        if stacks.len() != data.len() || stacks.is_empty() {
+    /// Assemble a table from the nodes of each channel (`data[c]`: thickness nodes then ∞) and
+    /// its curvature data (`curvature[c]`, [`crate::bssrdf::curvature`]).
+    pub fn assemble(
+        stacks: &[Stack],
+        data: Vec<Vec<SlabData>>,
+        curvature: Vec<CurvatureData>,
+        settings: AdaptiveSettings,
+    ) -> Result<AdaptiveTable> {
+        if stacks.len() != data.len() || stacks.len() != curvature.len() || stacks.is_empty() {
             return Err(Error::Invalid(format!(
-                "adaptive table: {} channels of nodes for {} stacks",
+                "adaptive table: {} channels of nodes and {} of curvature data for {} stacks",
                 data.len(),
+                curvature.len(),
                 stacks.len()
             )));
         }
@@ -290,7 +300,24 @@ impl AdaptiveTable {
                 semi.radius_for_fraction(0.5)
             })
             .fold(0.0, f64::max);
-        Ok(AdaptiveTable { median_radius, channels, data, settings })
+        let mut table = AdaptiveTable { median_radius, channels, data, curvature, scales: vec![], settings };
+        for (c, stack) in stacks.iter().enumerate() {
+            let cd = &table.curvature[c];
+            if cd.rho != super::curvature::curvature_nodes(stack)? {
+                return Err(Error::Invalid(format!(
+                    "adaptive table: channel {c}'s curvature nodes do not match its stack"
+                )));
+            }
+            let n = table.channels[c].d.len();
+            let semi = table.reflection(c, Local { i: n - 2, t: 1.0 });
+            let gather = |rho: f64| {
+                let at = table.local(c, 2.0 * rho);
+                sphere_gather(&table.reflection(c, at), &table.transmission(c, at), rho)
+            };
+            let sc = Scales::new(cd, gather, &semi)?;
+            table.scales.push(sc);
+        }
+        Ok(table)
     }
 
     /// Build every node here, channel by channel (each run uses the settings' threads); `None`
@@ -302,7 +329,12 @@ impl AdaptiveTable {
         progress: &AtomicU64,
     ) -> Result<Option<AdaptiveTable>> {
         let mut data = vec![];
+        let mut curvature = vec![];
         for (c, stack) in stacks.iter().enumerate() {
+            match build_curvature(stack, c, s, cancel, progress)? {
+                Some(cd) => curvature.push(cd),
+                None => return Ok(None),
+            }
             let mut nodes = vec![];
             let ds = thickness_nodes(stack)?;
             for (j, &d) in ds.iter().chain([&f64::INFINITY]).enumerate() {
@@ -313,18 +345,32 @@ impl AdaptiveTable {
             }
             data.push(nodes);
         }
-        Self::assemble(stacks, data, *s).map(Some)
+        Self::assemble(stacks, data, curvature, *s).map(Some)
     }
 
     /// Photons a build of `stacks` traces (its progress total).
     pub fn photons(stacks: &[Stack], s: &AdaptiveSettings) -> u64 {
         let nodes: usize = stacks.iter().map(|st| thickness_nodes(st).map_or(0, |v| v.len() + 1)).sum();
-        s.photons.saturating_mul(nodes as u64)
+        let curved: u64 = stacks.iter().map(|st| curvature_photons(st, s.photons)).sum();
+        s.photons.saturating_mul(nodes as u64).saturating_add(curved)
     }
 
     /// The nodes each channel was built from.
     pub fn data(&self) -> &[Vec<SlabData>] {
         &self.data
+    }
+    /// The curvature data of each channel.
+    pub fn curvature(&self) -> &[CurvatureData] {
+        &self.curvature
+    }
+    /// The curvature scales (near side R per chord bin, far side T) of channel `c` at mean
+    /// curvature `h` (mm⁻¹; > 0 convex, < 0 concave).
+    pub fn curvature_scale(&self, c: usize, h: f64) -> LocalScale {
+        self.scales[c].at(h)
+    }
+    /// The curvature scales of channel `c` (convex, concave) at its nodes.
+    pub fn scales(&self, c: usize) -> &Scales {
+        &self.scales[c]
     }
     /// The settings it was built with.
     pub fn settings(&self) -> &AdaptiveSettings {
@@ -353,6 +399,15 @@ impl AdaptiveTable {
     pub fn reflection(&self, c: usize, at: Local) -> Mix {
         let ch = &self.channels[c];
         Mix::new([Some(ch.r[at.i].clone()), Some(ch.r[at.i + 1].clone())], at.t, ch.entering)
+    }
+
+    /// The reflection and transmission profiles of channel `c` at `at`, scaled by `k.0` and `k.1`.
+    pub fn scaled(&self, c: usize, at: Local, k: (f64, f64)) -> (Mix, Mix) {
+        let ch = &self.channels[c];
+        (
+            Mix::new([Some(ch.r[at.i].clone()), Some(ch.r[at.i + 1].clone())], at.t, k.0 * ch.entering),
+            Mix::new([ch.t[at.i].clone(), ch.t[at.i + 1].clone()], at.t, k.1 * ch.entering),
+        )
     }
 
     /// The transmission profile of channel `c` at `at` (per unit entering power; 0 at d = ∞).

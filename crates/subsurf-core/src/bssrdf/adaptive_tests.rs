@@ -103,3 +103,56 @@ fn local_interpolation_is_continuous_and_totals_match_the_nodes() {
     let tot: Vec<(f64, f64)> = ds.iter().map(|&d| t.totals(0, d)).collect();
     assert!(tot.windows(2).all(|w| w[1].1 < w[0].1), "{tot:?}");
 }
+
+/// The curvature scales reproduce, by construction, the exact sphere escapes: the kernel at a
+/// node radius ρ_j (thickness 2ρ_j, mean curvature 1/ρ_j) integrated over the sphere is its
+/// escape (in the kernel's units R_∞/R_flat), distributed over the near-side chord bins as the
+/// escapes are (where the far side holds under 2 % of the kernel, its escape is spread over them
+/// alike); the scales go to 1 as the curvature goes to 0 and are continuous at the nodes.
+#[test]
+fn curvature_scales_reproduce_the_sphere_escapes() {
+    use crate::bssrdf::curvature::{bin_edges, sphere_gather, Binned};
+    use crate::bssrdf::curved::NEAR_BINS;
+    let s = one_layer(0.2, 2.0, 0.0);
+    let t = AdaptiveTable::build(std::slice::from_ref(&s), &settings(800), &AtomicBool::new(false), &AtomicU64::new(0))
+        .unwrap()
+        .unwrap();
+    let cd = &t.curvature()[0];
+    let semi = t.reflection(0, t.local(0, f64::INFINITY));
+    let unit = semi.total() / cd.flat.mean;
+    for (j, &rho) in cd.rho.iter().enumerate() {
+        let sc = t.curvature_scale(0, 1.0 / rho);
+        let (r, tr) = t.scaled(0, t.local(0, 2.0 * rho), (1.0, sc.far));
+        let k = Binned::new(r.clone(), &sc);
+        let mut e = bin_edges(rho);
+        e[NEAR_BINS] = rho * std::f64::consts::SQRT_2;
+        let sph = &cd.sphere[j];
+        let got: Vec<f64> = (0..NEAR_BINS).map(|b| k.total() * (k.cdf(e[b + 1]) - k.cdf(e[b]))).collect();
+        let spill = got[0] / (sph.bins[0] * unit);
+        for b in 0..NEAR_BINS {
+            let want = sph.bins[b] * unit * spill;
+            assert!((got[b] - want).abs() < 1e-9 * want.max(1e-6), "node {j} bin {b}: {} vs {want}", got[b]);
+        }
+        let (_, far) = sphere_gather(&r, &tr, rho);
+        let all = got.iter().sum::<f64>() + far;
+        assert!((all - sph.mean * unit).abs() < 1e-6 * sph.mean, "node {j}: {all} vs {}", sph.mean * unit);
+        if (spill - 1.0).abs() > 1e-9 {
+            assert!(sc.far == 1.0 && far < 0.02 * all, "node {j}: spill {spill} with far {far}");
+        }
+        let h = 1.0 / rho;
+        let (lo, hi) = (t.curvature_scale(0, h * (1.0 + 1e-9)), t.curvature_scale(0, h * (1.0 - 1e-9)));
+        assert!((lo.near[0] - hi.near[0]).abs() < 1e-6 && (lo.far - hi.far).abs() < 1e-6);
+    }
+    // the binned kernel's sampling inverts its CDF (the probe method draws radii with it)
+    let rho = cd.rho[2];
+    let sc = t.curvature_scale(0, 1.0 / rho);
+    let k = Binned::new(t.scaled(0, t.local(0, 2.0 * rho), (1.0, sc.far)).0, &sc);
+    for u in [1e-3, 0.1, 0.37, 0.5, 0.8, 0.99] {
+        let r = k.sample_r(u);
+        assert!((k.cdf(r) - u).abs() < 1e-6, "u = {u}: r = {r}, cdf {}", k.cdf(r));
+    }
+    let tiny = t.curvature_scale(0, 1e-9);
+    assert!(tiny.near.iter().all(|&x| (x - 1.0).abs() < 1e-4) && (tiny.far - 1.0).abs() < 1e-4);
+    let cav = t.curvature_scale(0, -1.0 / cd.rho[0]);
+    assert!(cav.near.iter().all(|&x| x == cav.far) && cav.far < 1.0);
+}

@@ -20,6 +20,8 @@ pub mod adaptive;
 pub mod better_dipole;
 pub mod cdf;
 pub mod chandrasekhar;
+pub mod curvature;
+pub mod curved;
 pub mod dipole;
 pub mod inverse;
 pub mod monte_carlo;

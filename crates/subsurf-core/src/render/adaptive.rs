@@ -8,14 +8,17 @@
 //! - h > d/2 (across): T(r⊥; d) with r⊥ = √(‖x_o − x_i‖² − h²), the lateral offset in the
 //!   slab tangent at x_o — light that crossed a thin part (ears, leaves, a cup's handle).
 //!
-//! Curvature: a convex part of radius ρ leaks light through its curved surface sooner than a slab
-//! as thick as its diameter. The kernel evaluates the profiles of the slab with the same mean
-//! chord length 4V/S (the mean path of diffuse light across the part; Cauchy's formula): a sphere
-//! (d = 2ρ, mean curvature H = 1/ρ) has 4V/S = 4ρ/3, the mean chord of a slab of thickness 2ρ/3;
-//! an infinite cylinder (d = 2ρ, H = 1/(2ρ)) 2ρ, that of a slab of thickness ρ. Both are
-//! d_eff = d / (1 + d·H), with H ≥ 0 estimated at x_o from the normals of the surface one
-//! `median_radius` away along two tangents (two probe rays); concave points (H < 0) keep d.
-//! The near/far split uses the probed d.
+//! Curvature: the mean curvature H at x_o (mm⁻¹; > 0 convex, < 0 concave) is estimated from the
+//! normals of the surface one `median_radius` away along two tangents (two probe rays), and the
+//! profiles are scaled by the table's scales at H ([`AdaptiveTable::curvature_scale`],
+//! [`crate::bssrdf::curvature`]): R per chord bin of a sphere of radius 1/|H| ([`Binned`]) and T
+//! as a whole, so that this kernel, integrated over each bin of the near hemisphere and over the
+//! far hemisphere of that sphere, gives the exact escape there of diffuse light entering the
+//! sphere (traced by [`crate::bssrdf::curved`]); concave points scale R by the cavity's total.
+//! The thickness part is inside those integrals (the sphere's probed d is its diameter), so a
+//! sphere's light is counted once. (The mean-chord slab
+//! d/(1 + dH) used before moved light into T, to the far side, where on a sphere the extra light
+//! leaves near where it entered; measured worse on spheres and the torus, see `docs/render.md`.)
 //!
 //! On a flat surface of a thick object (d ≥ the table's last node, several diffusion lengths)
 //! this is the semi-infinite Monte Carlo profile, so exitance = total × E_t as for
@@ -27,6 +30,7 @@ use super::hierarchical::PairProfiles;
 use super::math::{dot, length, madd, neg, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use crate::bssrdf::adaptive::{AdaptiveTable, Mix};
+use crate::bssrdf::curvature::Binned;
 use crate::bssrdf::RadialProfile;
 
 /// Most surfaces a thickness probe passes (other objects' or back faces) before it gives up (∞).
@@ -75,23 +79,15 @@ pub fn mean_curvature(scene: &Scene, hit: &Hit, s: f64) -> f64 {
     0.5 * k
 }
 
-/// The slab thickness with the mean chord of a part of probed thickness `d` and mean curvature
-/// `h` (see the module docs).
-pub fn equivalent_thickness(d: f64, h: f64) -> f64 {
-    if h > 0.0 && d.is_finite() {
-        d / (1.0 + d * h)
-    } else {
-        d
-    }
-}
-
 /// The adaptive BSSRDF at one shading point (see the module docs).
 pub struct Kernel {
     p: V3,
     n: V3,
     /// Local thickness, mm.
     pub d: f64,
-    r: [Mix; 3],
+    /// Local mean curvature, mm⁻¹ (> 0 convex).
+    pub h: f64,
+    r: [Binned; 3],
     t: [Mix; 3],
 }
 
@@ -100,22 +96,21 @@ impl Kernel {
     pub fn at(scene: &Scene, table: &AdaptiveTable, hit: &Hit) -> Kernel {
         let d = thickness(scene, hit);
         let s = table.median_radius.min(0.25 * d);
-        let d_eff = if s > 0.0 { equivalent_thickness(d, mean_curvature(scene, hit, s)) } else { d };
-        let local = |k: usize| table.local(k.min(table.channels() - 1), d_eff);
-        Kernel {
-            p: hit.p,
-            n: hit.n,
-            d,
-            r: std::array::from_fn(|k| table.reflection(k, local(k))),
-            t: std::array::from_fn(|k| table.transmission(k, local(k))),
-        }
+        let h = if s > 0.0 { mean_curvature(scene, hit, s) } else { 0.0 };
+        let pair = |k: usize| {
+            let c = k.min(table.channels() - 1);
+            let sc = table.curvature_scale(c, h);
+            let (r, t) = table.scaled(c, table.local(c, d), (1.0, sc.far));
+            (Binned::new(r, &sc), t)
+        };
+        let [a, b, c] = [pair(0), pair(1), pair(2)];
+        Kernel { p: hit.p, n: hit.n, d, h, r: [a.0, b.0, c.0], t: [a.1, b.1, c.1] }
     }
 
     /// The profile value per channel (mm⁻²) for light entering at `q`.
     pub fn value(&self, q: V3) -> Rgb {
         let (c, r) = self.class(self.p, q);
-        let prof = if c == 0 { &self.r } else { &self.t };
-        std::array::from_fn(|k| prof[k].rd(r))
+        std::array::from_fn(|k| self.profile(c, k).rd(r))
     }
 }
 

@@ -102,11 +102,13 @@ fn thin_slab_lit_from_below_transmits() {
 }
 
 /// The curvature probe: 1/ρ on a sphere (icosphere level 5, radius 10 mm: facets 0.7 mm, so
-/// within 10 %), 0 in the middle of a flat face; the equivalent thickness gives the mean chord
-/// 4V/S of a sphere (2ρ/3 as a slab) and of an infinite cylinder (ρ), and keeps d when flat.
+/// within 10 %), 0 in the middle of a flat face; the kernel's profiles there are the table's at
+/// the probed thickness scaled by the table's curvature scale (1 when flat).
 #[test]
-fn curvature_and_equivalent_thickness() {
-    use super::{equivalent_thickness, mean_curvature, thickness};
+fn curvature_probe_and_kernel_scale() {
+    use super::super::hierarchical::PairProfiles;
+    use super::{mean_curvature, thickness, Kernel};
+    use crate::bssrdf::RadialProfile;
     use crate::render::accel::Hit;
     let sphere = super::super::shapes::icosphere([0.0; 3], 10.0, 5).unwrap();
     let obj = Object { name: "s".into(), mesh: sphere, material: 0 };
@@ -118,9 +120,24 @@ fn curvature_and_equivalent_thickness() {
     let flat = slab_scene(30.0, [0.0, 0.0, 1.0]);
     let mid: Hit = flat.accel.intersect([0.3, 0.2, 50.0], [0.0, 0.0, -1.0], f64::INFINITY, u32::MAX).unwrap();
     assert_eq!(mean_curvature(&flat, &mid, 2.0), 0.0);
-    let rho = 3.0;
-    assert!((equivalent_thickness(2.0 * rho, 1.0 / rho) - 2.0 * rho / 3.0).abs() < 1e-12);
-    assert!((equivalent_thickness(2.0 * rho, 0.5 / rho) - rho).abs() < 1e-12);
-    assert_eq!(equivalent_thickness(5.0, 0.0), 5.0);
-    assert_eq!(equivalent_thickness(5.0, -0.1), 5.0);
+    let (t, _) = table(&s);
+    let k = Kernel::at(&s, &t, &top);
+    assert!((k.h * 10.0 - 1.0).abs() < 0.1 && (k.d - 20.0).abs() < 0.1);
+    for c in 0..3 {
+        let sc = t.curvature_scale(c, k.h);
+        let (r, tr) = t.scaled(c, t.local(c, k.d), (1.0, sc.far));
+        assert_eq!(k.profile(1, c).total(), tr.total());
+        let want = crate::bssrdf::curvature::Binned::new(r, &sc);
+        assert_eq!(k.profile(0, c).total(), want.total());
+    }
+    assert!((t.curvature_scale(0, k.h).near[0] - 1.0).abs() > 1e-3, "a curved point is corrected");
+    assert_eq!(t.curvature_scale(0, 0.0), crate::bssrdf::curvature::LocalScale::ONE);
+    // flat: the bins' edges are all at ∞ and the kernel is the slab profile itself
+    let (r, _) = t.scaled(0, t.local(0, 20.0), (1.0, 1.0));
+    let flat = crate::bssrdf::curvature::Binned::new(r.clone(), &crate::bssrdf::curvature::LocalScale::ONE);
+    assert_eq!(flat.total(), r.total());
+    for x in [0.01, 0.3, 3.0] {
+        assert_eq!(flat.rd(x), r.rd(x));
+        assert!((flat.cdf(x) - r.cdf(x)).abs() < 1e-12);
+    }
 }

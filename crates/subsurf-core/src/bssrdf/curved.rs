@@ -1,0 +1,315 @@
+//! Exact Monte Carlo transport in curved media with analytic geometry (no mesh): the fraction of
+//! uniform diffuse light that leaves a homogeneous or layered **sphere** of radius ρ, the medium
+//! around a **spherical cavity** of radius ρ (concave), or an infinite **cylinder** of radius ρ.
+//! These are the references of the `adaptive` model's curvature correction
+//! ([`crate::bssrdf::adaptive`]).
+//!
+//! Under uniform, isotropic radiance outside the medium (inside the cavity) every point of these
+//! surfaces receives the same Lambertian irradiance, so by symmetry one entry point suffices: the
+//! photon is launched at (ρ, 0, 0) with the engine's diffuse source (Malley's cosine-weighted
+//! direction refracted by Fresnel–Snell, `mc::source`; weight 1 − R_sp(θ)) and traced until it
+//! leaves through the outer surface anywhere. The result is the diffuse reflectance per unit
+//! *incident* power (specular excluded), directly comparable with the engine's flat
+//! [`crate::mc::tally::totals::Total::Diffuse`] under [`crate::mc::Source::Diffuse`].
+//!
+//! Physics and order of draws as the engine's kernel (`mc::kernel`, MCML, Wang, Jacques & Zheng
+//! 1995 §3): free paths s = −ln ξ consumed across interfaces, all-or-none Fresnel at every
+//! interface (the unpolarised [`fr_dielectric_cos_t`]; none at matched indices; total internal
+//! reflection), implicit capture w ← w σs/σt, the layer's phase function ([`Phase::sample`]) with
+//! the azimuth from a disc point, Russian roulette at [`ROULETTE_THRESHOLD`]·w₀ with survival
+//! 1/[`ROULETTE_M`]; photon k uses `PhotonRng::new(seed, k)`. Interfaces are curved: reflection
+//! and refraction about the local radial normal (projected on the xy-plane for the cylinder).
+//!
+//! Layers: the stack's layer i occupies depths [z_i, z_{i+1}) below the lit surface, i.e. radii
+//! ρ − z (sphere, cylinder) or ρ + z (cavity); the deepest layer fills the rest (to the centre or
+//! the axis, or to infinity around a cavity), whatever its own thickness. Photons are summed in
+//! chunks of [`CHUNK`] in photon order, so the result is the same bits for any thread count.
+
+use crate::error::{Error, Result};
+use crate::mc::config::{ROULETTE_M, ROULETTE_THRESHOLD};
+use crate::mc::source::Launcher;
+use crate::mc::tally::totals::mean_stderr;
+use crate::mc::Source;
+use crate::medium::Stack;
+use crate::optics::{fr_dielectric_cos_t, spin, Phase};
+use crate::rng::PhotonRng;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// Photons per chunk (the unit of parallel work, of cancellation and of progress).
+pub const CHUNK: u64 = 1024;
+
+/// Interactions after which a history counts as trapped (its weight is lost, as the engine's
+/// [`crate::mc::MAX_HITS_WITHOUT_INTERACTION`]): never reached by an allowed input.
+const MAX_EVENTS: u64 = 100_000_000;
+
+/// The curved geometries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Curved {
+    /// A sphere of radius ρ (convex; mean curvature 1/ρ).
+    Sphere,
+    /// A spherical cavity of radius ρ in an infinite medium (concave; mean curvature −1/ρ).
+    Cavity,
+    /// An infinite circular cylinder of radius ρ (convex; mean curvature 1/(2ρ)).
+    Cylinder,
+}
+
+/// Bins of the escapes through the entry's half by chord: bin b holds chords c (mm, from the
+/// entry point to the exit point) with c² / (2ρ²) in [b/N, (b+1)/N) (equal areas of a
+/// hemisphere, whose area within chord c is πc²).
+pub const NEAR_BINS: usize = 8;
+
+/// The escape fraction of a run: mean and standard error over photons.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Escape {
+    /// Diffuse reflectance per unit incident power (all that leaves, specular excluded).
+    pub mean: f64,
+    /// Its standard error.
+    pub stderr: f64,
+    /// The part that leaves through the entry's half (x > 0: the hemisphere around the entry
+    /// point of a sphere or cavity, the half of a cylinder), and its standard error.
+    pub near: f64,
+    /// See `near`.
+    pub near_stderr: f64,
+    /// `near` by chord bin ([`NEAR_BINS`]; they sum to `near` up to rounding).
+    pub bins: Vec<f64>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Shell {
+    /// Radius of the shell's face towards the lit surface (`r_top`) and away from it, mm.
+    r_top: f64,
+    r_bot: f64,
+    n: f64,
+    sigma_t: f64,
+    keep: f64,
+    phase: Phase,
+}
+
+struct Geometry {
+    kind: Curved,
+    shells: Vec<Shell>,
+    n_above: f64,
+    launcher: Launcher,
+}
+
+impl Geometry {
+    fn new(stack: &Stack, kind: Curved, rho: f64) -> Result<Geometry> {
+        let b = stack.boundaries();
+        let nl = stack.layers.len();
+        let mut shells = vec![];
+        for (i, l) in stack.layers.iter().enumerate() {
+            let (z0, z1) = (b[i], if i + 1 == nl { f64::INFINITY } else { b[i + 1] });
+            let (r_top, r_bot) = match kind {
+                Curved::Cavity => (rho + z0, rho + z1),
+                _ => (rho - z0, (rho - z1).max(0.0)),
+            };
+            if kind != Curved::Cavity && r_top <= 0.0 {
+                break; // the layers below the centre are not part of the object
+            }
+            let st = l.sigma_t();
+            if !(st > 0.0) {
+                return Err(Error::Invalid(format!("curved transport: layer {i} does not interact (σt = 0)")));
+            }
+            shells.push(Shell { r_top, r_bot, n: l.n, sigma_t: st, keep: l.mus / st, phase: l.phase });
+        }
+        let deep = shells.last().expect("a stack has a layer");
+        if kind == Curved::Cavity && !(deep.keep < 1.0) {
+            return Err(Error::Invalid(
+                "curved transport: a cavity needs an absorbing deepest layer (σa > 0), or light wanders off for ever"
+                    .into(),
+            ));
+        }
+        let launcher = Launcher::new(Source::Diffuse, stack.n_above, stack.layers[0].n);
+        Ok(Geometry { kind, shells, n_above: stack.n_above, launcher })
+    }
+
+    /// The radial unit vector at `p` (projected on the xy-plane for the cylinder) and |p⊥|.
+    fn radial(&self, p: [f64; 3]) -> ([f64; 3], f64) {
+        let z = if self.kind == Curved::Cylinder { 0.0 } else { p[2] };
+        let r = (p[0] * p[0] + p[1] * p[1] + z * z).sqrt();
+        ([p[0] / r, p[1] / r, z / r], r)
+    }
+
+    /// Distance along `u` from `p` to the sphere (cylinder) of radius `big` outwards and `small`
+    /// inwards; returns (distance, whether the face hit is the outer one).
+    fn to_face(&self, p: [f64; 3], u: [f64; 3], small: f64, big: f64) -> (f64, bool) {
+        let cyl = self.kind == Curved::Cylinder;
+        let a = if cyl { u[0] * u[0] + u[1] * u[1] } else { 1.0 };
+        if a <= 0.0 {
+            return (f64::INFINITY, true);
+        }
+        let bz = if cyl { 0.0 } else { p[2] * u[2] };
+        let b = p[0] * u[0] + p[1] * u[1] + bz;
+        let r2 = p[0] * p[0] + p[1] * p[1] + if cyl { 0.0 } else { p[2] * p[2] };
+        if small > 0.0 && b < 0.0 {
+            let disc = b * b - a * (r2 - small * small);
+            if disc >= 0.0 {
+                return ((-b - disc.sqrt()).max(0.0) / a, false);
+            }
+        }
+        if big.is_finite() {
+            let disc = (b * b - a * (r2 - big * big)).max(0.0);
+            return ((-b + disc.sqrt()).max(0.0) / a, true);
+        }
+        (f64::INFINITY, true)
+    }
+
+    /// The chord bin of an exit point `p` in the entry's half (x > 0), else `None`.
+    fn near_bin(&self, p: [f64; 3], rho: f64) -> Option<usize> {
+        if !(p[0] > 0.0) {
+            return None;
+        }
+        let c2 = (p[0] - rho).powi(2) + p[1] * p[1] + p[2] * p[2];
+        Some(((c2 / (2.0 * rho * rho) * NEAR_BINS as f64) as usize).min(NEAR_BINS - 1))
+    }
+
+    /// One photon's escaped weight and, if it left through the entry's half (x > 0), its chord bin.
+    fn trace(&self, seed: u64, photon: u64) -> (f64, Option<usize>) {
+        let mut rng = PhotonRng::new(seed, photon);
+        let (d, rsp) = self.launcher.launch(&mut rng);
+        let w0 = 1.0 - rsp;
+        if !(w0 > 0.0) {
+            return (0.0, None);
+        }
+        let rho = self.shells[0].r_top;
+        // engine frame (z into the medium) → the entry point (ρ, 0, 0), inward ∓x
+        let inward = if self.kind == Curved::Cavity { 1.0 } else { -1.0 };
+        let mut u = [inward * d[2], d[0], d[1]];
+        let mut p = [rho, 0.0, 0.0];
+        let (mut w, w_min) = (w0, ROULETTE_THRESHOLD * w0);
+        let (mut k, mut s_left) = (0usize, 0.0f64);
+        for _ in 0..MAX_EVENTS {
+            let sh = &self.shells[k];
+            let (small, big) = if self.kind == Curved::Cavity { (sh.r_top, sh.r_bot) } else { (sh.r_bot, sh.r_top) };
+            if s_left <= 0.0 {
+                s_left = -rng.uniform().ln();
+            }
+            let s = s_left / sh.sigma_t;
+            let (t, outer) = self.to_face(p, u, small, big);
+            if s >= t {
+                s_left -= t * sh.sigma_t;
+                let r_face = if outer { big } else { small };
+                p = [p[0] + t * u[0], p[1] + t * u[1], p[2] + t * u[2]];
+                let (nr, r) = self.radial(p);
+                let f = r_face / r; // snap onto the face
+                p = [p[0] * f, p[1] * f, if self.kind == Curved::Cylinder { p[2] } else { p[2] * f }];
+                let up = outer != (self.kind == Curved::Cavity); // towards the lit surface
+                let n_next = if up {
+                    if k == 0 {
+                        self.n_above
+                    } else {
+                        self.shells[k - 1].n
+                    }
+                } else {
+                    self.shells[k + 1].n
+                };
+                match cross(&mut u, nr, sh.n, n_next, &mut rng) {
+                    false => {}
+                    true if up && k == 0 => return (w, self.near_bin(p, rho)),
+                    true => k = if up { k - 1 } else { k + 1 },
+                }
+                continue;
+            }
+            p = [p[0] + s * u[0], p[1] + s * u[1], p[2] + s * u[2]];
+            s_left = 0.0;
+            w *= sh.keep;
+            let cos_t = sh.phase.sample(rng.uniform());
+            let (x, y) = rng.disc_point();
+            let r2 = x * x + y * y;
+            u = spin(u, cos_t, (x * x - y * y) / r2, 2.0 * x * y / r2);
+            if w < w_min {
+                if rng.uniform() * ROULETTE_M <= 1.0 {
+                    w *= ROULETTE_M;
+                } else {
+                    return (0.0, None);
+                }
+            }
+        }
+        (0.0, None)
+    }
+}
+
+/// All-or-none Fresnel at a curved interface of radial normal `nr` between indices `n1` (the
+/// photon's side) and `n2`: reflect `u` about the face (false) or refract it through (true).
+fn cross(u: &mut [f64; 3], nr: [f64; 3], n1: f64, n2: f64, rng: &mut PhotonRng) -> bool {
+    let un = u[0] * nr[0] + u[1] * nr[1] + u[2] * nr[2];
+    let cos_i = un.abs().min(1.0);
+    let m = if un >= 0.0 { nr } else { [-nr[0], -nr[1], -nr[2]] }; // along the travel
+    let (r, cos_t) = if n1 == n2 { (0.0, cos_i) } else { fr_dielectric_cos_t(cos_i, n1, n2) };
+    if r >= 1.0 || (r > 0.0 && rng.uniform() <= r) {
+        *u = [u[0] - 2.0 * un * nr[0], u[1] - 2.0 * un * nr[1], u[2] - 2.0 * un * nr[2]];
+        return false;
+    }
+    let eta = n1 / n2;
+    let k = cos_t - eta * cos_i;
+    let v = [eta * u[0] + k * m[0], eta * u[1] + k * m[1], eta * u[2] + k * m[2]];
+    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    *u = [v[0] / l, v[1] / l, v[2] / l];
+    true
+}
+
+/// The escape fraction of uniform diffuse light from `kind` of radius `rho` (mm) made of `stack`
+/// (see the module docs): `photons` photons of stream `seed`; `threads` workers (`None`: all
+/// cores). `None` when `cancel` stopped it; `progress` counts photons.
+#[allow(clippy::too_many_arguments)] // the engine's run inputs, spelled out
+pub fn escape(
+    stack: &Stack,
+    kind: Curved,
+    rho: f64,
+    photons: u64,
+    seed: u64,
+    threads: Option<usize>,
+    cancel: &AtomicBool,
+    progress: &AtomicU64,
+) -> Result<Option<Escape>> {
+    if !(rho > 0.0 && rho.is_finite()) {
+        return Err(Error::param("rho", rho, "a radius > 0 (mm)"));
+    }
+    if photons < 2 {
+        return Err(Error::param("photons", photons as f64, "an integer >= 2"));
+    }
+    let g = Geometry::new(stack, kind, rho)?;
+    let chunks = photons.div_ceil(CHUNK);
+    const NS: usize = 4 + NEAR_BINS;
+    let work = |c: u64| -> Option<[f64; NS]> {
+        if cancel.load(Ordering::Relaxed) {
+            return None;
+        }
+        let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(photons));
+        let mut s = [0.0; NS];
+        for k in lo..hi {
+            let (x, near) = g.trace(seed, k);
+            s[0] += x;
+            s[1] += x * x;
+            if let Some(b) = near {
+                s[2] += x;
+                s[3] += x * x;
+                s[4 + b] += x;
+            }
+        }
+        progress.fetch_add(hi - lo, Ordering::Relaxed);
+        Some(s)
+    };
+    let parts: Vec<Option<[f64; NS]>> = match threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build()
+            .map_err(|e| Error::Invalid(format!("curved transport: no thread pool ({e})")))?
+            .install(|| (0..chunks).into_par_iter().map(work).collect()),
+        None => (0..chunks).into_par_iter().map(work).collect(),
+    };
+    let mut s = [0.0; NS];
+    for p in parts {
+        let Some(a) = p else { return Ok(None) };
+        (0..NS).for_each(|i| s[i] += a[i]);
+    }
+    let (mean, stderr) = mean_stderr(s[0], s[1], photons);
+    let (near, near_stderr) = mean_stderr(s[2], s[3], photons);
+    let bins = s[4..].iter().map(|x| x / photons as f64).collect();
+    Ok(Some(Escape { mean, stderr, near, near_stderr, bins }))
+}
+
+#[cfg(test)]
+#[path = "curved_tests.rs"]
+mod tests;
