@@ -46,7 +46,7 @@ use super::light::Light;
 use super::material::{Material, Translucent};
 use super::math::{add, dot, madd, max3, mul, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
-use super::shade::{tint, trace, Translucency, MAX_DEPTH};
+use super::shade::{tint, trace, trace_no_environment, Translucency, MAX_DEPTH};
 use super::walk::{walk, Carrier, Crossing, Media};
 use crate::optics::{fr_dielectric, refract};
 use crate::rng::PhotonRng;
@@ -57,6 +57,10 @@ pub struct RandomWalk {
     pub nee: bool,
     /// The scale c of the connection probability ([`NEE_SCALE`]; other values in tests).
     pub nee_scale: f64,
+    /// Next-flight estimation of the environment through the boundary (opt-in, off by default:
+    /// measured to cost efficiency on every benchmark scene, docs/render.md "Random walk
+    /// speed"; see [`RandomWalk::env_next_flight`]). Needs `nee`.
+    pub env_nee: bool,
     /// A distance bound to the facets that can face a light (None: use the scene's bound).
     facing: Option<DistanceGrid>,
     /// The least σt over the translucent materials and channels, mm⁻¹.
@@ -159,6 +163,13 @@ impl Carrier for Radiance<'_> {
         Some(real)
     }
 
+    fn scattered(&mut self, scene: &Scene, m: &Translucent, media: &Media, p: V3, d: V3, rng: &mut PhotonRng) {
+        if self.rw.env_nee && self.rw.nee && self.depth < MAX_DEPTH {
+            let e = self.rw.env_next_flight(scene, m, media, p, d, rng);
+            self.l = add(self.l, mul(self.beta, e));
+        }
+    }
+
     fn roulette(&mut self, _p: V3, rng: &mut PhotonRng) -> bool {
         let q = max3(self.beta);
         if q < 1.0 {
@@ -192,7 +203,14 @@ impl Carrier for Radiance<'_> {
             return;
         }
         if self.depth < MAX_DEPTH {
-            self.l = add(self.l, mul(self.beta, trace(scene, h.p, d, h.tri, self.depth + 1, rng, self.rw)));
+            // A straight exit after a collision: its escape to the environment is what the
+            // collision's next-flight estimator counted (`env_next_flight`).
+            let li = if self.rw.env_nee && self.rw.nee && self.straight {
+                trace_no_environment(scene, h.p, d, h.tri, self.depth + 1, rng, self.rw)
+            } else {
+                trace(scene, h.p, d, h.tri, self.depth + 1, rng, self.rw)
+            };
+            self.l = add(self.l, mul(self.beta, li));
         }
     }
 
@@ -231,7 +249,7 @@ impl RandomWalk {
                 scene.accel.tris.iter().filter(|t| scene.lights.iter().any(|l| may_face(l, t, tol))).copied().collect();
             DistanceGrid::new(&tris, lo, hi)
         });
-        RandomWalk { nee, nee_scale, facing, sigma_t_min }
+        RandomWalk { nee, nee_scale, env_nee: false, facing, sigma_t_min }
     }
 
     /// Whether a straight exit (from the collision `last` = (point, media) through the
@@ -272,6 +290,41 @@ impl RandomWalk {
         }
         let q = (self.nee_scale * (-tau).exp()).min(1.0);
         (rng.uniform() < q).then_some(q)
+    }
+
+    /// The environment seen through the boundary along the next flight (an expected-value,
+    /// "next-flight" estimator: Spanier & Gelbard 1969 §3; the collision estimators of pbrt-v4's
+    /// and Cycles' volume integrators for surfaces): after a real collision at `p` (in `m` on
+    /// top of `media`) drew the new direction `d`, the walk leaves the objects along the straight
+    /// line (through index-matched interfaces, [`facet_nee::chain`]) with probability
+    /// T(ℓ)·F_t per channel (free path past the boundary, refraction at the outer facet), and
+    /// its refracted ray ω_out then escapes the scene or meets a light or a surface. This
+    /// returns that escape's expected radiance per unit β, T_k F_t(cos θ) L_env / q: the
+    /// Fresnel transmittance as a weight, not a choice; no η² factor (the walk's own exits
+    /// carry none: entry and exit factors cancel). The direction is the walk's own (pdf = the
+    /// phase function, so phase/pdf = 1), and the walk's straight exit after such a collision
+    /// that escapes counts no environment (`Radiance::exit`): the two estimators partition the
+    /// paths (exits after a reflection or a mismatched inner interface, or meeting a light or
+    /// a surface, still count). Made with probability q = min(1, e^{−σt,min(m) r}) (r: the
+    /// distance bound, [`super::distance`]; every flight's transmittance is ≤ e^{−σt,min r}, so
+    /// T/q ≤ 1), weighted by 1/q, one ξ where q < 1; two rays where made (the chain and the
+    /// escape test).
+    #[allow(clippy::too_many_arguments)]
+    fn env_next_flight(&self, scene: &Scene, m: &Translucent, media: &Media, p: V3, d: V3, rng: &mut PhotonRng) -> Rgb {
+        let q = (-m.sigma_t_floor() * scene.accel.clear_radius(p)).exp().min(1.0);
+        if q < 1.0 && !(rng.uniform() < q) {
+            return [0.0; 3];
+        }
+        let Some(c) = facet_nee::chain(scene, media, p, d) else { return [0.0; 3] };
+        let (h, eta) = (c.hit, media.index(scene));
+        let Some(out) = refract(d, h.n, eta, 1.0) else { return [0.0; 3] }; // total internal reflection
+        if scene.accel.intersect(h.p, out, f64::INFINITY, h.tri).is_some()
+            || scene.light_hit(h.p, out, f64::INFINITY).is_some()
+        {
+            return [0.0; 3];
+        }
+        let w = (1.0 - fr_dielectric(dot(d, h.n).abs(), eta, 1.0)) / q;
+        std::array::from_fn(|k| w * (-c.tau[k]).exp() * scene.environment[k])
     }
 
     /// Next-event estimation of every light from the collision at `p` (camera path direction

@@ -37,7 +37,8 @@
 //!
 //! Random-number order per event: the carrier's channel draw (renderer only), the free path,
 //! then at a collision the carrier's draws (next-event estimation), the phase ξ, the azimuth
-//! ξ and the carrier's roulette ξ; at a boundary with a mismatched index the Fresnel ξ.
+//! ξ, the carrier's draws for the new direction ([`Carrier::scattered`]) and its roulette ξ;
+//! at a boundary with a mismatched index the Fresnel ξ.
 
 use super::accel::Hit;
 use super::grid::Local;
@@ -183,6 +184,11 @@ pub trait Carrier {
         d: V3,
         rng: &mut PhotonRng,
     ) -> Option<bool>;
+    /// After a real collision at `p` in `m` (inside `media`) drew the new direction `d`, before
+    /// the roulette: estimators of the next flight (the renderer's environment next-event
+    /// estimation); nothing by default.
+    #[allow(clippy::too_many_arguments)]
+    fn scattered(&mut self, _scene: &Scene, _m: &Translucent, _media: &Media, _p: V3, _d: V3, _rng: &mut PhotonRng) {}
     /// After the new direction is drawn: Russian roulette.
     fn roulette(&mut self, p: V3, rng: &mut PhotonRng) -> bool;
     /// The path moved `t` through `m` to a boundary (before crossing it).
@@ -245,6 +251,7 @@ pub fn walk<C: Carrier>(
                 let cos = m.phase.sample(rng.uniform());
                 let phi = 2.0 * std::f64::consts::PI * rng.uniform();
                 d = spin(d, cos, phi.cos(), phi.sin());
+                c.scattered(scene, m, &media, p, d, rng);
                 if !c.roulette(p, rng) {
                     return;
                 }
