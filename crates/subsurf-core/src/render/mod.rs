@@ -21,6 +21,7 @@ pub mod distance;
 pub mod driver;
 pub mod facet_nee;
 pub mod grid;
+pub mod guide;
 pub mod hierarchical;
 pub mod irradiance;
 pub mod light;

@@ -19,8 +19,10 @@
 //!   per-channel weights, the spectral tracking of Kutz et al. 2017 with a per-channel
 //!   majorant): unbiased per channel, Σβ never grows; a constant grid has P = 1 everywhere and
 //!   is the homogeneous walk. Connections attenuate by the grid's exact optical depth;
-//! - Russian roulette on max_k β_k (survive with q = max β, β ← β/q; a radiance estimator
-//!   books no energy, so nothing is tallied for it).
+//! - Russian roulette on max_k β_k below a threshold θ (survive with q = max β/θ, β ← β/q; a
+//!   radiance estimator books no energy, so nothing is tallied for it); in scenes lit by the
+//!   environment alone one walk per colour channel and θ = 0.1, else one walk and θ = 1
+//!   (`split_channels`, `rr_threshold`: chosen by measurement).
 //!
 //! Light reaches the interior in two ways: the path leaves the objects and the ray continues
 //! outside ([`super::shade::trace`]: environment, area lights, Lambertian surfaces with
@@ -42,11 +44,12 @@ use super::accel::{Hit, Tri};
 use super::distance::DistanceGrid;
 use super::facet_nee::{self, Connection};
 use super::grid::Local;
+use super::guide::Flight;
 use super::light::Light;
 use super::material::{Material, Translucent};
 use super::math::{add, dot, madd, max3, mul, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
-use super::shade::{tint, trace, Translucency, MAX_DEPTH};
+use super::shade::{tint, trace, trace_no_environment, Translucency, MAX_DEPTH};
 use super::walk::{walk, Carrier, Crossing, Media};
 use crate::optics::{fr_dielectric, refract};
 use crate::rng::PhotonRng;
@@ -57,6 +60,26 @@ pub struct RandomWalk {
     pub nee: bool,
     /// The scale c of the connection probability ([`NEE_SCALE`]; other values in tests).
     pub nee_scale: f64,
+    /// Next-flight estimation of the environment through the boundary (opt-in, off by default:
+    /// measured to cost efficiency on every benchmark scene, docs/render.md "Random walk
+    /// speed"; see [`RandomWalk::env_next_flight`]). Needs `nee`.
+    pub env_nee: bool,
+    /// Guided sampling towards the surface with MIS against the classic walk
+    /// ([`super::guide`]).
+    pub guided: bool,
+    /// One walk per colour channel (β = e_k: the channel choice is then certain, and β_k the
+    /// single-channel implicit-capture weight) instead of one walk carrying all three with
+    /// spectral MIS, whose per-channel weights of long, high-albedo walks are heavy-tailed (95 %
+    /// of the marble sphere's per-channel variance in an environment was that chromatic noise:
+    /// the variance of the channels' mean was 5 % of theirs). On by default in scenes lit by
+    /// the environment alone.
+    pub split_channels: bool,
+    /// Russian roulette threshold θ: a path whose largest β_k is below θ survives with
+    /// probability max β/θ and is then weighted up to max β = θ. θ = 1 (the default under
+    /// lights) makes every collision of an implicit-capture walk an analog absorption event
+    /// (β = albedo < 1 at once), so a walk's score is all or nothing; θ = [`RR_THRESHOLD`] (the
+    /// default in an environment alone) lets β decay continuously first.
+    pub rr_threshold: f64,
     /// A distance bound to the facets that can face a light (None: use the scene's bound).
     facing: Option<DistanceGrid>,
     /// The least σt over the translucent materials and channels, mm⁻¹.
@@ -76,6 +99,8 @@ struct Radiance<'a> {
     /// a mismatched interface; `last` holds that collision's point and media).
     straight: bool,
     last: (V3, Media),
+    /// How the current flight was sampled (guided walks).
+    flight: Flight,
 }
 
 impl Carrier for Radiance<'_> {
@@ -107,7 +132,15 @@ impl Carrier for Radiance<'_> {
         rng: &mut PhotonRng,
     ) -> bool {
         let tr: Rgb = std::array::from_fn(|k| (-m.sigma_t[k] * s).exp());
-        let pbar = dot(self.w, mul(m.sigma_t, tr));
+        let mut pbar = dot(self.w, mul(m.sigma_t, tr));
+        let f = self.flight;
+        if f.gf > 0.0 {
+            // The one-sample MIS mixture of the classic and the guided flight (per unit phase
+            // pdf: the phase function cancels), balance heuristic (super::guide).
+            let st: Rgb = std::array::from_fn(|k| m.sigma_t[k] * f.stretch);
+            let trg: Rgb = std::array::from_fn(|k| (-st[k] * s).exp());
+            pbar = (1.0 - f.gf) * pbar + f.gf * f.factor * dot(self.w, mul(st, trg));
+        }
         if !(pbar > 0.0) {
             return false;
         }
@@ -159,8 +192,24 @@ impl Carrier for Radiance<'_> {
         Some(real)
     }
 
+    fn guided(&self) -> bool {
+        self.rw.guided
+    }
+
+    fn flight(&mut self, f: &Flight) {
+        self.flight = *f;
+    }
+
+    fn scattered(&mut self, scene: &Scene, m: &Translucent, media: &Media, p: V3, d: V3, rng: &mut PhotonRng) {
+        if self.rw.env_nee && self.rw.nee && self.depth < MAX_DEPTH {
+            let e = self.rw.env_next_flight(scene, m, media, p, d, rng);
+            self.l = add(self.l, mul(self.beta, e));
+        }
+    }
+
     fn roulette(&mut self, _p: V3, rng: &mut PhotonRng) -> bool {
-        let q = max3(self.beta);
+        let theta = self.rw.rr_threshold;
+        let q = max3(self.beta) / theta;
         if q < 1.0 {
             if rng.uniform() >= q {
                 return false;
@@ -172,7 +221,12 @@ impl Carrier for Radiance<'_> {
 
     fn reach(&mut self, m: &Translucent, t: f64) -> bool {
         let tr: Rgb = std::array::from_fn(|k| (-m.sigma_bar[k] * t).exp()); // σt, or the majorant
-        let pbar = dot(self.w, tr);
+        let mut pbar = dot(self.w, tr);
+        let f = self.flight;
+        if f.gf > 0.0 {
+            let trg: Rgb = std::array::from_fn(|k| (-m.sigma_bar[k] * f.stretch * t).exp());
+            pbar = (1.0 - f.gf) * pbar + f.gf * f.factor * dot(self.w, trg);
+        }
         if !(pbar > 0.0) {
             return false;
         }
@@ -192,7 +246,14 @@ impl Carrier for Radiance<'_> {
             return;
         }
         if self.depth < MAX_DEPTH {
-            self.l = add(self.l, mul(self.beta, trace(scene, h.p, d, h.tri, self.depth + 1, rng, self.rw)));
+            // A straight exit after a collision: its escape to the environment is what the
+            // collision's next-flight estimator counted (`env_next_flight`).
+            let li = if self.rw.env_nee && self.rw.nee && self.straight {
+                trace_no_environment(scene, h.p, d, h.tri, self.depth + 1, rng, self.rw)
+            } else {
+                trace(scene, h.p, d, h.tri, self.depth + 1, rng, self.rw)
+            };
+            self.l = add(self.l, mul(self.beta, li));
         }
     }
 
@@ -231,7 +292,20 @@ impl RandomWalk {
                 scene.accel.tris.iter().filter(|t| scene.lights.iter().any(|l| may_face(l, t, tol))).copied().collect();
             DistanceGrid::new(&tris, lo, hi)
         });
-        RandomWalk { nee, nee_scale, facing, sigma_t_min }
+        // Measured (docs/render.md, "Random walk speed"): in an environment alone, one walk per
+        // channel with roulette below β = 0.1 is 1.0–5× as efficient on the benchmark scenes;
+        // under lights it costs (three walks' light connections per camera path).
+        let env_only = scene.lights.is_empty() && scene.environment != [0.0; 3];
+        RandomWalk {
+            nee,
+            nee_scale,
+            env_nee: false,
+            guided: false,
+            split_channels: env_only,
+            rr_threshold: if env_only { RR_THRESHOLD } else { 1.0 },
+            facing,
+            sigma_t_min,
+        }
     }
 
     /// Whether a straight exit (from the collision `last` = (point, media) through the
@@ -272,6 +346,41 @@ impl RandomWalk {
         }
         let q = (self.nee_scale * (-tau).exp()).min(1.0);
         (rng.uniform() < q).then_some(q)
+    }
+
+    /// The environment seen through the boundary along the next flight (an expected-value,
+    /// "next-flight" estimator: Spanier & Gelbard 1969 §3; the collision estimators of pbrt-v4's
+    /// and Cycles' volume integrators for surfaces): after a real collision at `p` (in `m` on
+    /// top of `media`) drew the new direction `d`, the walk leaves the objects along the straight
+    /// line (through index-matched interfaces, [`facet_nee::chain`]) with probability
+    /// T(ℓ)·F_t per channel (free path past the boundary, refraction at the outer facet), and
+    /// its refracted ray ω_out then escapes the scene or meets a light or a surface. This
+    /// returns that escape's expected radiance per unit β, T_k F_t(cos θ) L_env / q: the
+    /// Fresnel transmittance as a weight, not a choice; no η² factor (the walk's own exits
+    /// carry none: entry and exit factors cancel). The direction is the walk's own (pdf = the
+    /// phase function, so phase/pdf = 1), and the walk's straight exit after such a collision
+    /// that escapes counts no environment (`Radiance::exit`): the two estimators partition the
+    /// paths (exits after a reflection or a mismatched inner interface, or meeting a light or
+    /// a surface, still count). Made with probability q = min(1, e^{−σt,min(m) r}) (r: the
+    /// distance bound, [`super::distance`]; every flight's transmittance is ≤ e^{−σt,min r}, so
+    /// T/q ≤ 1), weighted by 1/q, one ξ where q < 1; two rays where made (the chain and the
+    /// escape test).
+    #[allow(clippy::too_many_arguments)]
+    fn env_next_flight(&self, scene: &Scene, m: &Translucent, media: &Media, p: V3, d: V3, rng: &mut PhotonRng) -> Rgb {
+        let q = (-m.sigma_t_floor() * scene.accel.clear_radius(p)).exp().min(1.0);
+        if q < 1.0 && !(rng.uniform() < q) {
+            return [0.0; 3];
+        }
+        let Some(c) = facet_nee::chain(scene, media, p, d) else { return [0.0; 3] };
+        let (h, eta) = (c.hit, media.index(scene));
+        let Some(out) = refract(d, h.n, eta, 1.0) else { return [0.0; 3] }; // total internal reflection
+        if scene.accel.intersect(h.p, out, f64::INFINITY, h.tri).is_some()
+            || scene.light_hit(h.p, out, f64::INFINITY).is_some()
+        {
+            return [0.0; 3];
+        }
+        let w = (1.0 - fr_dielectric(dot(d, h.n).abs(), eta, 1.0)) / q;
+        std::array::from_fn(|k| w * (-c.tau[k]).exp() * scene.environment[k])
     }
 
     /// Next-event estimation of every light from the collision at `p` (camera path direction
@@ -330,6 +439,9 @@ fn may_face(light: &Light, t: &Tri, tol: f64) -> bool {
     }
 }
 
+/// The Russian roulette threshold θ on max_k β_k (see [`RandomWalk::rr_threshold`]).
+pub const RR_THRESHOLD: f64 = 0.1;
+
 /// The scale c of the connection probability q = min(1, c e^{−σt,min r}) (measured: on the
 /// marble sphere c = 1 has the noise of c = 4 and 20 without their fireflies' share, at 23 % and
 /// 39 % fewer walk instructions; docs/render.md, "Random walk speed").
@@ -341,16 +453,25 @@ impl Translucency for RandomWalk {
         let d = neg(wo);
         let f = fr_dielectric(dot(wo, hit.n), 1.0, m.eta);
         let Some(t) = refract(d, hit.n, 1.0, m.eta) else { return [0.0; 3] };
-        let mut c = Radiance {
-            rw: self,
-            depth,
-            beta: [1.0; 3],
-            w: [0.0; 3],
-            l: [0.0; 3],
-            straight: false,
-            last: (hit.p, Media::empty()),
-        };
-        walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);
-        scale(mul(c.l, tint(scene, hit)), 1.0 - f)
+        // One walk carrying every channel (spectral MIS), or one walk per channel.
+        const ALL: [Rgb; 1] = [[1.0; 3]];
+        const EACH: [Rgb; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let starts: &[Rgb] = if self.split_channels { &EACH } else { &ALL };
+        let mut l = [0.0; 3];
+        for &beta in starts {
+            let mut c = Radiance {
+                rw: self,
+                depth,
+                beta,
+                w: [0.0; 3],
+                l: [0.0; 3],
+                straight: false,
+                last: (hit.p, Media::empty()),
+                flight: Flight::CLASSIC,
+            };
+            walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);
+            l = add(l, c.l);
+        }
+        scale(mul(l, tint(scene, hit)), 1.0 - f)
     }
 }

@@ -40,6 +40,29 @@ pub fn trace(scene: &Scene, o: V3, d: V3, skip: u32, depth: u32, rng: &mut Photo
     shade(scene, hit, d, depth, rng, tr)
 }
 
+/// [`trace`] with the environment seen directly along the ray not counted (0 where the ray
+/// escapes the scene; lights and surfaces it meets count as in [`trace`]): the random walk's
+/// exits whose escape to the environment its next-flight estimator counts.
+pub fn trace_no_environment(
+    scene: &Scene,
+    o: V3,
+    d: V3,
+    skip: u32,
+    depth: u32,
+    rng: &mut PhotonRng,
+    tr: &dyn Translucency,
+) -> Rgb {
+    let hit = scene.accel.intersect(o, d, f64::INFINITY, skip);
+    let tmax = hit.map_or(f64::INFINITY, |h| h.t);
+    if let Some((_, le)) = scene.light_hit(o, d, tmax) {
+        return le;
+    }
+    if hit.is_none() {
+        return [0.0; 3];
+    }
+    shade(scene, hit, d, depth, rng, tr)
+}
+
 /// [`trace`] without the lights seen directly along the ray (area-light emission counts 0): the
 /// radiance a gathering ray adds to next-event estimation of every light (as in
 /// [`direct_irradiance`]), so each light path is counted once.

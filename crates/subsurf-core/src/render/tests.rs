@@ -164,16 +164,27 @@ fn tessellation_3_vs_5_within_one_percent() {
 }
 
 /// Furnace: albedo 1, no absorption, inside a constant environment: random_walk returns
-/// exactly the environment radiance at every pixel (equal σt in every channel: every sample
-/// is exact); with unequal σs the mean is the environment within 4σ. Power: exact to 10⁻¹² with
-/// equal σt; with unequal σs the 4σ band is 3.8 %, so a 4 % loss or gain of energy fails.
+/// exactly the environment radiance at every pixel (equal σt in every channel, or one walk per
+/// channel: every sample is exact); with unequal σs and spectral MIS, and with the
+/// environment's next-flight estimator, the mean is the environment within 4σ. Power: exact to 10⁻¹² with equal σt; with unequal σs the 4σ band
+/// is 3.8 % (2.1 % with the estimator), so a 4 % loss or gain of energy fails.
 #[test]
 fn furnace_random_walk_slow() {
-    for (sigma_s, exact) in [([2.0; 3], true), ([0.5, 2.0, 6.0], false)] {
+    use super::random_walk::RandomWalk;
+    let unequal = [0.5, 2.0, 6.0];
+    for (sigma_s, env_nee, split) in
+        [([2.0; 3], false, false), ([2.0; 3], true, false), (unequal, false, false), (unequal, false, true)]
+    {
+        let exact = (sigma_s == [2.0; 3] || split) && !env_nee;
         let m = test_material([0.5; 3], 1.0, [0.0; 3], sigma_s, 0.7, 1.4, false);
         let cam = Camera::new([0.0, -30.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 25.0, 8, 8).unwrap();
         let s = scene(vec![icosphere([0.0; 3], 5.0, 3).unwrap()], m, vec![], [0.25; 3], Some(cam));
-        let r = Renderer::new(s.clone(), Method::RandomWalk, 1, &HierarchicalParams::default()).unwrap();
+        // Exact per sample: the plain walk (every walk leaves with β = 1), with equal σt or one
+        // walk per channel. Spectral MIS over unequal σt and the environment's next-flight
+        // estimator (opt-in) give up that property: their means are checked within 4σ.
+        let mut rw = RandomWalk::new(&s);
+        (rw.env_nee, rw.split_channels, rw.rr_threshold) = (env_nee, split, if split { 0.1 } else { 1.0 });
+        let r = Renderer::from_parts(s.clone(), Box::new(rw), 1);
         if exact {
             for y in 0..8 {
                 for x in 0..8 {
@@ -185,7 +196,7 @@ fn furnace_random_walk_slow() {
             }
         } else {
             let (mean, se) = pixel_stats(&r, 4, 4, 20_000);
-            println!("unequal sigma_s furnace: {mean:?} ± {se:?}");
+            println!("furnace, sigma_s {sigma_s:?}: {mean:?} ± {se:?}");
             for k in 0..3 {
                 assert!((mean[k] - 0.25).abs() < 4.0 * se[k] + 1e-12, "channel {k}");
             }

@@ -267,7 +267,7 @@ fn hierarchical_and_walk_agree_with_a_map() {
     };
     let both = |sc: (Arc<Scene>, Arc<Scene>), cols: std::ops::Range<usize>, seed| {
         let h = region(&renderer(&sc.0, Method::Hierarchical, seed, &hp), cols.clone(), 1).0;
-        (h, region(&renderer(&sc.1, Method::RandomWalk, seed, &hp), cols, 500))
+        (h, region(&renderer(&sc.1, Method::RandomWalk, seed, &hp), cols, 800))
     };
     for (ab, cols) in [(A, 0..3), (B, 7..10)] {
         let (hp_, wp) = both((mk(ab, None, true), mk(ab, None, false)), cols.clone(), 21);

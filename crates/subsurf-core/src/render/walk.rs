@@ -38,14 +38,16 @@
 //!
 //! Random-number order per event: the carrier's channel draw (renderer only), the free path,
 //! then at a collision the carrier's draws (next-event estimation), the phase ξ, the azimuth
-//! ξ and the carrier's roulette ξ; at a boundary with a mismatched index the Fresnel ξ.
+//! ξ, the carrier's draws for the new direction ([`Carrier::scattered`]) and its roulette ξ;
+//! at a boundary with a mismatched index the Fresnel ξ.
 
 use super::accel::Hit;
 use super::grid::Local;
+use super::guide::{scatter, Dwivedi, Flight};
 use super::material::Translucent;
-use super::math::{dot, madd, V3};
+use super::math::{dot, madd, Frame, V3};
 use super::scene::Scene;
-use crate::optics::{fr_dielectric, reflect, refract, spin};
+use crate::optics::{fr_dielectric, reflect, refract};
 use crate::rng::PhotonRng;
 
 /// Safety net: most events (collisions and boundary hits) in one walk.
@@ -210,6 +212,19 @@ pub trait Carrier {
         d: V3,
         rng: &mut PhotonRng,
     ) -> Option<bool>;
+    /// Whether this carrier's walk is guided towards the surface ([`super::guide`]; it then
+    /// weights its flights by [`Carrier::flight`]'s mixture pdf).
+    fn guided(&self) -> bool {
+        false
+    }
+    /// A new flight starts (after a collision, or after a boundary): how its free path is
+    /// sampled, for the weights of [`Carrier::collide`] and [`Carrier::reach`].
+    fn flight(&mut self, _f: &Flight) {}
+    /// After a real collision at `p` in `m` (inside `media`) drew the new direction `d`, before
+    /// the roulette: estimators of the next flight (the renderer's environment next-event
+    /// estimation); nothing by default.
+    #[allow(clippy::too_many_arguments)]
+    fn scattered(&mut self, _scene: &Scene, _m: &Translucent, _media: &Media, _p: V3, _d: V3, _rng: &mut PhotonRng) {}
     /// After the new direction is drawn: Russian roulette.
     fn roulette(&mut self, p: V3, rng: &mut PhotonRng) -> bool;
     /// The path moved `t` through `m` to a boundary (before crossing it).
@@ -236,10 +251,16 @@ pub fn walk<C: Carrier>(
 ) {
     // Surface textures: the texel the innermost object was entered at sets its medium.
     media.enter_at(scene, skip, p);
+    // Guided walks: the frame of the entry facet's outward normal, the last medium's Dwivedi
+    // parameters (by address) and the current flight's sampling.
+    let frame = (c.guided() && skip != u32::MAX).then(|| Frame::new(scene.accel.tris[skip as usize].n));
+    let mut dwivedi: (*const Translucent, Option<Dwivedi>) = (std::ptr::null(), None);
+    let mut flight = Flight::CLASSIC;
     for _ in 0..MAX_EVENTS {
         let Some(m) = media.medium(scene) else { return c.lost(p, false) };
         let Some(k) = c.channel(rng) else { return };
-        let st = m.sigma_bar[k]; // σt, or a grid's majorant (delta tracking)
+        // σt, or a grid's majorant (delta tracking); stretched on a guided flight.
+        let st = m.sigma_bar[k] * flight.sample_factor();
         let s = if st > 0.0 { -(-rng.uniform()).ln_1p() / st } else { f64::INFINITY };
         // The boundary ahead, unless the collision comes first. A collision closer than every
         // surface (the distance grid's bound) needs no ray: the same path, the same numbers.
@@ -268,9 +289,17 @@ pub fn walk<C: Carrier>(
                     Some(false) => continue, // a null collision of delta tracking: straight on
                     Some(true) => {}
                 }
-                let cos = m.phase.sample(rng.uniform());
-                let phi = 2.0 * std::f64::consts::PI * rng.uniform();
-                d = spin(d, cos, phi.cos(), phi.sin());
+                let guide = frame.as_ref().and_then(|f| {
+                    if !std::ptr::eq(dwivedi.0, m) {
+                        dwivedi = (m, Dwivedi::for_medium(m));
+                    }
+                    dwivedi.1.as_ref().map(|dw| (f, dw))
+                });
+                (d, flight) = scatter(m, d, guide, rng);
+                if frame.is_some() {
+                    c.flight(&flight);
+                }
+                c.scattered(scene, m, &media, p, d, rng);
                 if !c.roulette(p, rng) {
                     return;
                 }
@@ -281,6 +310,10 @@ pub fn walk<C: Carrier>(
                 }
                 p = h.p;
                 skip = h.tri;
+                if flight.gf > 0.0 {
+                    flight = Flight::CLASSIC; // the rest of the flight is classic
+                    c.flight(&flight);
+                }
                 let x = cross_boundary(scene, &mut media, &h, d, rng);
                 match x {
                     Crossing::Opaque => return c.lost(p, false),
