@@ -62,7 +62,7 @@ pub struct RandomWalk {
     pub nee_scale: f64,
     /// Next-flight estimation of the environment through the boundary (opt-in, off by default:
     /// measured to cost efficiency on every benchmark scene, docs/render.md "Random walk
-    /// speed"; see [`RandomWalk::env_next_flight`]). Needs `nee`.
+    /// speed"; see `RandomWalk::env_next_flight`). Needs `nee`.
     pub env_nee: bool,
     /// Guided sampling towards the surface with MIS against the classic walk
     /// ([`super::guide`]).

@@ -44,7 +44,7 @@ pub struct TextureSpec {
     pub reflectance: Option<Vec<Rgb>>,
 }
 
-/// A profile of unit σt: (albedo in steps of 1/[`ALBEDO_STEPS`], reflectance bits or 0).
+/// A profile of unit σt: (albedo in steps of 1/`ALBEDO_STEPS`, reflectance bits or 0).
 pub type UnitKey = (u64, u64);
 
 /// Steps per unit albedo of a unit-profile key (2⁴⁴).
