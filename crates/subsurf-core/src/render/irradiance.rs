@@ -3,7 +3,7 @@
 //! `probe`'s entry points).
 //!
 //! The lights are sampled by next-event estimation (shadow rays, [`direct_irradiance`]); every
-//! other light arriving at the point is gathered with cosine-weighted rays ([`trace_unlit`]):
+//! other light arriving at the point is gathered with cosine-weighted rays ([`trace_seen`] with `Seen::NoLights`):
 //! the environment where it is visible, what Lambertian surfaces reflect (lit directly, as the
 //! camera and the random walk's exits see them), the specular paths of the dielectric boundaries,
 //! and translucent objects through the method's own [`Translucency`]. A gathering ray that reaches
@@ -18,7 +18,7 @@
 use super::accel::Hit;
 use super::math::{add, madd, scale, Frame, Rgb};
 use super::scene::Scene;
-use super::shade::{direct_irradiance, ft, trace_unlit, Translucency, MAX_DEPTH};
+use super::shade::{direct_irradiance, ft, trace_seen, Seen, Translucency, MAX_DEPTH};
 use crate::optics::sample_cosine_hemisphere;
 use crate::rng::PhotonRng;
 use std::f64::consts::PI;
@@ -57,7 +57,7 @@ pub fn transmitted_irradiance(
     let mut acc = [0.0; 3];
     for _ in 0..rays {
         let w = sample_cosine_hemisphere(rng.uniform(), rng.uniform());
-        let li = trace_unlit(scene, p, f.to_world(w), hit.tri, depth + 1, rng, tr);
+        let li = trace_seen(scene, (p, f.to_world(w), hit.tri), depth + 1, rng, tr, Seen::NoLights);
         acc = madd(acc, li, ft(eta, w[2]));
     }
     madd(e, acc, PI / rays as f64)

@@ -49,7 +49,7 @@ use super::light::Light;
 use super::material::{Material, Translucent};
 use super::math::{add, dot, madd, max3, mul, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
-use super::shade::{tint, trace, trace_no_environment, Translucency, MAX_DEPTH};
+use super::shade::{tint, trace_seen, Seen, Translucency, MAX_DEPTH};
 use super::walk::{walk, Carrier, Crossing, Media};
 use crate::optics::{fr_dielectric, refract};
 use crate::rng::PhotonRng;
@@ -248,11 +248,8 @@ impl Carrier for Radiance<'_> {
         if self.depth < MAX_DEPTH {
             // A straight exit after a collision: its escape to the environment is what the
             // collision's next-flight estimator counted (`env_next_flight`).
-            let li = if self.rw.env_nee && self.rw.nee && self.straight {
-                trace_no_environment(scene, h.p, d, h.tri, self.depth + 1, rng, self.rw)
-            } else {
-                trace(scene, h.p, d, h.tri, self.depth + 1, rng, self.rw)
-            };
+            let seen = if self.rw.env_nee && self.rw.nee && self.straight { Seen::NoEnvironment } else { Seen::All };
+            let li = trace_seen(scene, (h.p, d, h.tri), self.depth + 1, rng, self.rw, seen);
             self.l = add(self.l, mul(self.beta, li));
         }
     }

@@ -6,7 +6,7 @@
 //! Light transport outside the objects: Lambertian surfaces are lit directly (lights and the
 //! environment seen with shadow rays), plus the specular paths of the smooth dielectric
 //! boundaries (up to [`MAX_DEPTH`] bounces). Light arriving at a translucent surface is gathered
-//! with [`trace_unlit`] beside next-event estimation of the lights (see
+//! with [`trace_seen`] (`Seen::NoLights`) beside next-event estimation of the lights (see
 //! [`super::irradiance`]), so it includes what other surfaces reflect, as the random walk's exits
 //! see it. Each method supplies the translucent term through [`Translucency`].
 
@@ -32,52 +32,38 @@ pub trait Translucency: Send + Sync {
 /// Radiance arriving at `o` from direction `d` (unit), the first surface after skipping
 /// triangle `skip`.
 pub fn trace(scene: &Scene, o: V3, d: V3, skip: u32, depth: u32, rng: &mut PhotonRng, tr: &dyn Translucency) -> Rgb {
-    let hit = scene.accel.intersect(o, d, f64::INFINITY, skip);
-    let tmax = hit.map_or(f64::INFINITY, |h| h.t);
-    if let Some((_, le)) = scene.light_hit(o, d, tmax) {
-        return le;
-    }
-    shade(scene, hit, d, depth, rng, tr)
+    trace_seen(scene, (o, d, skip), depth, rng, tr, Seen::All)
 }
 
-/// [`trace`] with the environment seen directly along the ray not counted (0 where the ray
-/// escapes the scene; lights and surfaces it meets count as in [`trace`]): the random walk's
-/// exits whose escape to the environment its next-flight estimator counts.
-pub fn trace_no_environment(
+/// What a traced ray counts of the emitters it meets directly ([`trace_seen`]).
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Seen {
+    /// Lights and the environment ([`trace`]).
+    All,
+    /// Not the lights (area-light emission counts 0): a gathering ray adds to next-event
+    /// estimation of every light (as in [`direct_irradiance`]), so each light path is counted once.
+    NoLights,
+    /// Not the environment (0 where the ray escapes the scene): the random walk's exits whose
+    /// escape to the environment its next-flight estimator counts.
+    NoEnvironment,
+}
+
+/// [`trace`] of the ray `(o, d, skip)` with the directly seen emitters of `seen` only (what it
+/// meets beyond the first surface counts in full).
+pub fn trace_seen(
     scene: &Scene,
-    o: V3,
-    d: V3,
-    skip: u32,
+    (o, d, skip): (V3, V3, u32),
     depth: u32,
     rng: &mut PhotonRng,
     tr: &dyn Translucency,
+    seen: Seen,
 ) -> Rgb {
     let hit = scene.accel.intersect(o, d, f64::INFINITY, skip);
     let tmax = hit.map_or(f64::INFINITY, |h| h.t);
     if let Some((_, le)) = scene.light_hit(o, d, tmax) {
-        return le;
+        return if seen == Seen::NoLights { [0.0; 3] } else { le };
     }
-    if hit.is_none() {
-        return [0.0; 3];
-    }
-    shade(scene, hit, d, depth, rng, tr)
-}
-
-/// [`trace`] without the lights seen directly along the ray (area-light emission counts 0): the
-/// radiance a gathering ray adds to next-event estimation of every light (as in
-/// [`direct_irradiance`]), so each light path is counted once.
-pub fn trace_unlit(
-    scene: &Scene,
-    o: V3,
-    d: V3,
-    skip: u32,
-    depth: u32,
-    rng: &mut PhotonRng,
-    tr: &dyn Translucency,
-) -> Rgb {
-    let hit = scene.accel.intersect(o, d, f64::INFINITY, skip);
-    let tmax = hit.map_or(f64::INFINITY, |h| h.t);
-    if scene.light_hit(o, d, tmax).is_some() {
+    if hit.is_none() && seen == Seen::NoEnvironment {
         return [0.0; 3];
     }
     shade(scene, hit, d, depth, rng, tr)
@@ -156,7 +142,7 @@ pub fn direct_irradiance(
 /// The single-scattering radiance S⁽¹⁾ at `hit` towards `wo`: the Hanrahan–Krueger
 /// first-order BRDF of the semi-infinite medium (Jensen et al. 2001 §2.3, evaluated with the
 /// local tangent plane) under the lights (one shadow-ray sample each) and one cosine-weighted
-/// gathering ray ([`trace_unlit`] at `depth` + 1: the environment, light reflected by other
+/// gathering ray ([`trace_seen`], `Seen::NoLights`, at `depth` + 1: the environment, light reflected by other
 /// surfaces and translucent objects through `tr`; the environment alone, occluded, at
 /// [`MAX_DEPTH`]).
 pub fn single_scattering(
@@ -188,7 +174,7 @@ pub fn single_scattering(
     let w = sample_cosine_hemisphere(rng.uniform(), rng.uniform());
     let wi = f.to_world(w);
     let li = if depth < MAX_DEPTH {
-        trace_unlit(scene, p, wi, hit.tri, depth + 1, rng, tr)
+        trace_seen(scene, (p, wi, hit.tri), depth + 1, rng, tr, Seen::NoLights)
     } else if !scene.accel.occluded(p, wi, f64::INFINITY, hit.tri) && scene.light_hit(p, wi, f64::INFINITY).is_none() {
         scene.environment
     } else {
