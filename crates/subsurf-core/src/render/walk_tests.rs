@@ -134,7 +134,7 @@ fn nested_same_medium_is_invisible_environment() {
 /// bias fails (dropping the exits' exclusion, counting both, gives +60 %; a missing Fresnel
 /// weight +10 %).
 #[test]
-fn environment_next_flight_matches_path_tracing() {
+fn environment_next_flight_matches_path_tracing_slow() {
     let mats = vec![
         medium([0.2, 0.4, 0.8], [2.0, 2.5, 3.0], 0.5, 1.4),
         medium([0.6, 0.1, 0.3], [1.0, 4.0, 2.0], 0.0, 1.3),
@@ -163,7 +163,7 @@ fn environment_next_flight_matches_path_tracing() {
 /// Power: every band is checked below 5 %, so a 5 % bias fails (the MIS pdf without the
 /// guided direction's pdf ratio gave +4 to +8 % in the environment and failed).
 #[test]
-fn guided_walk_matches_the_classic_walk() {
+fn guided_walk_matches_the_classic_walk_slow() {
     let mats = vec![medium([0.05, 0.2, 0.5], [3.0; 3], 0.0, 1.4), medium([0.3, 0.1, 0.2], [4.0, 2.0, 3.0], 0.0, 1.3)];
     if let Material::Translucent(m) = &mats[0] {
         assert!(super::guide::Dwivedi::for_medium(m).is_some());
