@@ -8,11 +8,12 @@ use super::driver::{Method, Renderer};
 use super::hierarchical::HierarchicalParams;
 use super::light::Light;
 use super::material::{Material, TranslucentSpec};
-use super::math::{add, Rgb};
+use super::math::Rgb;
 use super::mesh::Mesh;
 use super::scene::{Object, Scene};
 use super::shapes::{cuboid, icosphere};
 use super::texture::TextureSpec;
+use super::walk_tests::columns_sum_stats;
 use super::Camera;
 use crate::medium::{Layer, Stack};
 use std::sync::atomic::{AtomicBool, AtomicU64};
@@ -89,26 +90,6 @@ fn renderer(s: &Arc<Scene>, method: Method, seed: u64, hp: &HierarchicalParams) 
     Renderer::new(s.clone(), method, seed, hp).unwrap()
 }
 
-/// Mean and standard error per channel of the sum over `cols` (all rows) of samples 0..n.
-fn region(r: &Renderer, cols: std::ops::Range<usize>, n: u32) -> (Rgb, Rgb) {
-    let cam = r.scene.camera.as_ref().unwrap();
-    let (mut s, mut s2) = ([0.0; 3], [0.0; 3]);
-    for i in 0..n {
-        let mut x = [0.0; 3];
-        for py in 0..cam.height {
-            for px in cols.clone() {
-                x = add(x, r.sample(px, py, i));
-            }
-        }
-        for k in 0..3 {
-            s[k] += x[k];
-            s2[k] += x[k] * x[k];
-        }
-    }
-    let m: Rgb = std::array::from_fn(|k| s[k] / n as f64);
-    (m, std::array::from_fn(|k| ((s2[k] / n as f64 - m[k] * m[k]).max(0.0) / (n as f64 - 1.0)).sqrt()))
-}
-
 /// `a` and `b` agree within 4σ + `bias` (relative) in every channel; the band must be below
 /// `power` of the mean, so a bias that large cannot pass.
 fn agree(name: &str, a: (Rgb, Rgb), b: (Rgb, Rgb), bias: f64, power: f64) {
@@ -171,7 +152,7 @@ fn constant_map_is_the_untextured_material() {
         renderer(&sphere_scene(material(&plain, true)), Method::Probe, 1, &hp),
         renderer(&sphere_scene(material(&tex, true)), Method::Probe, 2, &hp),
     );
-    agree("probe", region(&a, 0..8, 400), region(&b, 0..8, 400), 0.0, 0.05);
+    agree("probe", columns_sum_stats(&a, 0..8, 400), columns_sum_stats(&b, 0..8, 400), 0.0, 0.05);
     let (a, b) = (sphere_scene(material(&plain, false)), sphere_scene(material(&tex, false)));
     let (a, b) = (renderer(&a, Method::RandomWalk, 5, &hp), renderer(&b, Method::RandomWalk, 5, &hp));
     for s in 0..4 {
@@ -241,8 +222,8 @@ fn two_valued_map_gives_each_half_its_material() {
                 let name = format!("{} {cols:?}", method.name());
                 agree(
                     &name,
-                    region(&renderer(&plain, method, seed, &hp), cols.clone(), n),
-                    region(&tex, cols, n),
+                    columns_sum_stats(&renderer(&plain, method, seed, &hp), cols.clone(), n),
+                    columns_sum_stats(&tex, cols, n),
                     0.0,
                     0.06,
                 );
@@ -266,8 +247,8 @@ fn hierarchical_and_walk_agree_with_a_map() {
         flat_scene(material(&s, profiles))
     };
     let both = |sc: (Arc<Scene>, Arc<Scene>), cols: std::ops::Range<usize>, seed| {
-        let h = region(&renderer(&sc.0, Method::Hierarchical, seed, &hp), cols.clone(), 1).0;
-        (h, region(&renderer(&sc.1, Method::RandomWalk, seed, &hp), cols, 800))
+        let h = columns_sum_stats(&renderer(&sc.0, Method::Hierarchical, seed, &hp), cols.clone(), 1).0;
+        (h, columns_sum_stats(&renderer(&sc.1, Method::RandomWalk, seed, &hp), cols, 800))
     };
     for (ab, cols) in [(A, 0..3), (B, 7..10)] {
         let (hp_, wp) = both((mk(ab, None, true), mk(ab, None, false)), cols.clone(), 21);

@@ -37,12 +37,17 @@ fn spheres(nested: bool, light: Option<Light>, env: Rgb) -> Arc<Scene> {
 /// Mean and standard error, per channel, of the image sum over samples 0..n (each sample of
 /// the image is independent: per-pixel streams).
 pub(super) fn image_sum_stats(r: &Renderer, n: u32) -> (Rgb, Rgb) {
+    columns_sum_stats(r, 0..r.scene.camera.as_ref().unwrap().width, n)
+}
+
+/// [`image_sum_stats`] of the pixel columns `cols` (all rows).
+pub(super) fn columns_sum_stats(r: &Renderer, cols: std::ops::Range<usize>, n: u32) -> (Rgb, Rgb) {
     let cam = r.scene.camera.as_ref().unwrap();
     let (mut s, mut s2) = ([0.0; 3], [0.0; 3]);
     for i in 0..n {
         let mut x = [0.0; 3];
         for py in 0..cam.height {
-            for px in 0..cam.width {
+            for px in cols.clone() {
                 x = add(x, r.sample(px, py, i));
             }
         }
