@@ -211,7 +211,7 @@ pub(super) fn interfaces<const MATCHED: bool, const TRAP: bool>(
     tracks: bool,
     few: u32,
 ) {
-    let hit = lane_bits(&sc.hit);
+    let hit = lane_bits_full(&sc.hit);
     if hit.count_ones() <= few {
         // few lanes at an interface: theirs only, lane by lane (the same operations, so the
         // same bits; a lane without a hit would be left unchanged by the loops below)
