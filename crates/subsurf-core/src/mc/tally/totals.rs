@@ -155,14 +155,8 @@ impl Totals {
         &mut a[i / W][i % W]
     }
 
-    /// Lane `lane`'s current scores.
-    #[inline(always)]
-    fn cur_mut(&mut self, lane: usize) -> &mut [Block] {
-        &mut self.cur[lane * self.blocks..(lane + 1) * self.blocks]
-    }
-
     /// Lane `lane`'s first block of current scores (the [`Total`]s): one index, where
-    /// `cur_mut(lane)[0]` checked the slice's two bounds and then its length (a few
+    /// `cur[lane · blocks..][0]` checked the slice's two bounds and then its length (a few
     /// instructions at every photon of a short history).
     #[inline(always)]
     fn cur0(&mut self, lane: usize) -> &mut [f64; W] {
@@ -252,7 +246,8 @@ impl Tally for Totals {
     }
     #[inline]
     fn absorb(&mut self, lane: usize, p: &Packet, dw: f64) {
-        *Self::at_mut(self.cur_mut(lane), NQ + p.layer) += dw;
+        let k = NQ + p.layer;
+        self.cur[lane * self.blocks + k / W][k % W] += dw;
     }
     #[inline]
     fn roulette(&mut self, lane: usize, _p: &Packet, dw: f64) {
