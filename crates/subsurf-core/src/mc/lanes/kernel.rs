@@ -167,6 +167,9 @@ struct Lanes {
     refl: U,
     /// Interface hits since the last interaction (see `mc::kernel`'s termination rules).
     hits: U,
+    /// Without clear layers: the scattering order at the lane's last interface hit (a hit at
+    /// another order is the first since an interaction, see `step::fresnel`).
+    hit_order: U,
     /// Scattering events of the photons that ended: each adds its scattering order when it
     /// ends (`order` counts exactly the events; no per-step work for the count).
     events: u64,
