@@ -313,7 +313,7 @@ macro_rules! isa_entry {
 // NEON as sse (the same width); the baseline always lane by lane (its loops are mostly scalar).
 // The last: whether the samplers read their constants from a table (`math::KcLanes`) instead
 // of as constants: on AVX2 only, where a splat constant is a broadcast load that cannot be an
-// operand (callgrind, totals: avx2 a −0.3 %, c −1.2 %, d −1.3 % instructions; sse +0.3…0.8 %,
+// operand (callgrind, totals: avx2 a −0.3 %, c −1.2 %, d −1.3 % instructions; sse +0.5…0.8 %,
 // its constants are operands already; AVX-512's are operands as embedded broadcasts).
 // AVX2 and AVX-512 also take x86-64-v3's integer features (BMI1/2, LZCNT, POPCNT: the count of
 // interface hits was 15 instructions without POPCNT; callgrind, avx2: a −1.1 %, c −0.4 %).
