@@ -20,9 +20,7 @@
 
 mod step;
 
-use super::math::{
-    cos_sin_2pi_f32_k, neg_k, neg_ln_f32_k, open01_f32_fine_k, open01_f32_k, sel, sel_f32, to_f32_up, Kc, KcLanes,
-};
+use super::math::{cos_sin_2pi_f32, neg, neg_ln_f32, open01_f32, open01_f32_fine, sel, sel_f32, to_f32_up};
 use super::{Isa, LANES};
 use crate::mc::config::{ROULETTE_M, ROULETTE_THRESHOLD};
 use crate::mc::kernel::{KLayer, Kernel};
@@ -284,14 +282,14 @@ pub(crate) fn trace_range<T: Tally>(
         Isa::Sse4 => unsafe { sse4(&lk, seed, range, tally, cancel) },
         #[cfg(target_arch = "aarch64")]
         Isa::Neon => unsafe { neon(&lk, seed, range, tally, cancel) },
-        _ => run_lanes(&lk, seed, range, tally, cancel, FEW_HITS_SCALAR, false),
+        _ => run_lanes(&lk, seed, range, tally, cancel, FEW_HITS_SCALAR),
     }
 }
 
 /// The lane loop compiled for one instruction set (std's `#[target_feature]`; the loop is
 /// `#[inline(always)]`, so all of it is generated with these features).
 macro_rules! isa_entry {
-    ($arch:literal, $name:ident, $features:literal, $few:expr, $table:expr) => {
+    ($arch:literal, $name:ident, $features:literal, $few:expr) => {
         #[cfg(target_arch = $arch)]
         #[target_feature(enable = $features)]
         unsafe fn $name<T: Tally>(
@@ -301,7 +299,7 @@ macro_rules! isa_entry {
             tally: &mut T,
             cancel: &AtomicBool,
         ) -> Option<u64> {
-            run_lanes(lk, seed, range, tally, cancel, $few, $table)
+            run_lanes(lk, seed, range, tally, cancel, $few)
         }
     };
 }
@@ -311,17 +309,13 @@ macro_rules! isa_entry {
 // depend on how many lanes hit. Chosen from callgrind's instruction and branch-miss counts (avx2,
 // sse: 2 and 6 lanes; a branch miss costs avx2 more than it saves above 2) and timings (avx512);
 // NEON as sse (the same width); the baseline always lane by lane (its loops are mostly scalar).
-// The last: whether the samplers read their constants from a table (`math::KcLanes`) instead
-// of as constants: on AVX2 only, where a splat constant is a broadcast load that cannot be an
-// operand (callgrind, totals: avx2 a −0.3 %, c −1.2 %, d −1.3 % instructions; sse +0.5…0.8 %,
-// its constants are operands already; AVX-512's are operands as embedded broadcasts).
 // AVX2 and AVX-512 also take x86-64-v3's integer features (BMI1/2, LZCNT, POPCNT: the count of
 // interface hits was 15 instructions without POPCNT; callgrind, avx2: a −1.1 %, c −0.4 %).
 const FEW_HITS_SCALAR: u32 = L as u32;
-isa_entry!("x86_64", avx512, "avx512f,avx512vl,avx512dq,avx2,fma,bmi1,bmi2,lzcnt,popcnt", 2, false);
-isa_entry!("x86_64", avx2, "avx2,fma,bmi1,bmi2,lzcnt,popcnt", 2, true);
-isa_entry!("x86_64", sse4, "sse4.1,sse4.2,popcnt", 6, false);
-isa_entry!("aarch64", neon, "neon", 6, false);
+isa_entry!("x86_64", avx512, "avx512f,avx512vl,avx512dq,avx2,fma,bmi1,bmi2,lzcnt,popcnt", 2);
+isa_entry!("x86_64", avx2, "avx2,fma,bmi1,bmi2,lzcnt,popcnt", 2);
+isa_entry!("x86_64", sse4, "sse4.1,sse4.2,popcnt", 6);
+isa_entry!("aarch64", neon, "neon", 6);
 
 /// The packet of lane `i`, as the tallies see it.
 #[inline(always)]
@@ -543,7 +537,6 @@ fn run_lanes<T: Tally>(
     tally: &mut T,
     cancel: &AtomicBool,
     few: u32,
-    table: bool,
 ) -> Option<u64> {
     let last = lk.last;
     let mut st = Lanes::default();
@@ -558,9 +551,6 @@ fn run_lanes<T: Tally>(
     }
     let mut steps = 0u32;
     let mut sc = Scratch::default();
-    // (opaque to the compiler: the samplers read their constants as memory operands, see `Kc`)
-    let kt_own = KcLanes::default();
-    let kt = std::hint::black_box(&kt_own);
     loop {
         steps = steps.wrapping_add(1);
         if steps.is_multiple_of(STOP_POLL_STEPS) && cancel.load(Ordering::Relaxed) {
@@ -574,11 +564,10 @@ fn run_lanes<T: Tally>(
                 sc.one_minus_cos[i] = (1.0 - lk.mixture[j].sample(u32_to_open01(sc.words[1][i]))) as f32;
             }
         }
-        match (mixture, table) {
-            (true, true) => sample::<true, true>(&st, &mut sc, kt),
-            (true, false) => sample::<true, false>(&st, &mut sc, kt),
-            (false, true) => sample::<false, true>(&st, &mut sc, kt),
-            (false, false) => sample::<false, false>(&st, &mut sc, kt),
+        if mixture {
+            sample::<true>(&st, &mut sc);
+        } else {
+            sample::<false>(&st, &mut sc);
         }
         if lk.any_clear {
             advance::<true>(&mut st, &mut sc, T::PENDING, T::POSITIONS, T::TRACKS);

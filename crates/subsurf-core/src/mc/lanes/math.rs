@@ -18,116 +18,18 @@
 //! - [`open01_f32`]: a 32-bit word to the f32 uniform (k + ½)·2⁻²³, k = r >> 9, exact;
 //!   [`open01_f32_fine`] the finer one of the optical depth (31 bits, spacing ≤ 2⁻²³ relative).
 
-use super::LANES;
-
 /// fdlibm e_logf.c: ln 2 = LN2_HI_F + LN2_LO_F (LN2_HI_F has 12 trailing zero bits, so
 /// e · LN2_HI_F is exact for |e| < 2¹²), and the Remez coefficients Lg1…Lg4.
 const LN2_HI_F: f32 = 6.931_381_225_6e-01; // 0x3f31_7180
 const LN2_LO_F: f32 = 9.058_000_614_5e-06; // 0x3717_f7d1
 const LGF: [f32; 4] = [0.666_666_626_93, 0.400_009_721_52, 0.284_987_866_88, 0.242_790_788_41];
 
-/// The constants of the samplers below, as values: `Kc::VALUES` holds them, and the functions
-/// without `_k` use it (constants, folded by the compiler). The lane kernel's AVX2 path reads
-/// them instead from a table of one array per constant ([`KcLanes`], made opaque once per
-/// run): on AVX2 LLVM loads every splat constant with a broadcast, which cannot be an operand
-/// of the arithmetic, and with 16 vector registers it re-broadcast 24 of them per 8 lanes at
-/// each step; read from whole-width arrays most become memory operands (the same operations
-/// on the same values: the same bits; instruction counts in `kernel`'s `isa_entry!` list).
-macro_rules! sampler_consts {
-    ($($(#[$doc:meta])* $f:ident: $t:ty = $v:expr,)*) => {
-        /// The samplers' constants (see [`sampler_consts`]).
-        #[derive(Clone, Copy, Debug)]
-        pub struct Kc {
-            $($(#[$doc])* pub $f: $t,)*
-        }
-
-        impl Kc {
-            /// The constants' values.
-            pub const VALUES: Kc = Kc { $($f: $v,)* };
-        }
-
-        /// One array per constant of [`Kc`], every lane the same value.
-        #[repr(C, align(64))]
-        #[derive(Clone, Debug)]
-        pub struct KcLanes {
-            $($f: [$t; LANES],)*
-        }
-
-        impl Default for KcLanes {
-            fn default() -> Self {
-                KcLanes { $($f: [$v; LANES],)* }
-            }
-        }
-
-        impl KcLanes {
-            /// The constants of lane `i` (the same for every lane).
-            #[inline(always)]
-            pub fn lane(&self, i: usize) -> Kc {
-                Kc { $($f: self.$f[i],)* }
-            }
-        }
-    };
-}
-
-sampler_consts! {
-    one: f32 = 1.0,
-    two: f32 = 2.0,
-    half: f32 = 0.5,
-    three_halves: f32 = 1.5,
-    /// The sign bit (negation as an exclusive or, as `-x` compiles).
-    sign: u32 = 0x8000_0000,
-    /// The bits of 1.0 (the exponent field of [1, 2)).
-    one_bits: u32 = 0x3F80_0000,
-    /// 1 − 2⁻²⁴ ([`open01_f32`]).
-    open_off: f32 = 1.0 - 0.5 / 8_388_608.0,
-    /// 2⁻³¹ ([`open01_f32_fine`]).
-    inv_2_31: f32 = 1.0 / 2_147_483_648.0,
-    /// The bits of 2²³, and 2²³ + 127 ([`neg_ln_f32`]'s exponent without a conversion).
-    exp_bits: u32 = 0x4B00_0000,
-    exp_bias: f32 = 8_388_608.0 + 127.0,
-    mant_mask: u32 = 0x007F_FFFF,
-    sqrt2: f32 = std::f32::consts::SQRT_2,
-    lg1: f32 = LGF[0],
-    lg2: f32 = LGF[1],
-    lg3: f32 = LGF[2],
-    lg4: f32 = LGF[3],
-    ln2_hi: f32 = LN2_HI_F,
-    ln2_lo: f32 = LN2_LO_F,
-    /// 2²⁹ (the quadrant's rounding in [`cos_sin_2pi_f32`]) and 2π·2⁻³³.
-    quarter_half: u32 = 1 << 29,
-    tau_2_33: f32 = std::f32::consts::TAU / 8_589_934_592.0,
-    sf0: f32 = SF[0],
-    sf1: f32 = SF[1],
-    sf2: f32 = SF[2],
-    cf0: f32 = CF[0],
-    cf1: f32 = CF[1],
-    cf2: f32 = CF[2],
-    /// `step::spin_word`'s pole threshold.
-    pole_t2: f32 = POLE_T2,
-}
-
-/// |ux|² + |uy|² below which `kernel::step::spin_word` uses the normal-incidence form (the
-/// transverse part of an f32 direction keeps full relative precision down to here).
-pub const POLE_T2: f32 = 1e-12;
-
-/// −x as an exclusive or of the sign bit `k.sign` (the bits of `-x`).
-#[inline(always)]
-pub fn neg_k(x: f32, k: &Kc) -> f32 {
-    f32::from_bits(x.to_bits() ^ k.sign)
-}
-
 /// The f32 uniform (k + ½)·2⁻²³ of the top 23 bits k = r >> 9 of a 32-bit word, in (0, 1):
 /// 1 + k·2⁻²³ built from bits, minus 1 − 2⁻²⁴ (exact: the result needs 24 significant bits).
 /// (No int→float conversion: AVX2 has none for unsigned words.)
 #[inline(always)]
 pub fn open01_f32(r: u32) -> f32 {
-    open01_f32_k(r, &Kc::VALUES)
-}
-
-/// [`open01_f32`] with the constants `k`.
-#[inline(always)]
-pub fn open01_f32_k(r: u32, k: &Kc) -> f32 {
-    f32::from_bits(k.one_bits | (r >> 9)) - k.open_off
+    f32::from_bits(0x3F80_0000 | (r >> 9)) - (1.0 - 0.5 / 8_388_608.0)
 }
 
 /// The f32 uniform of the top 31 bits k = r >> 1 of a 32-bit word for the optical depth
@@ -140,40 +42,28 @@ pub fn open01_f32_k(r: u32, k: &Kc) -> f32 {
 /// moved to 0).
 #[inline(always)]
 pub fn open01_f32_fine(r: u32) -> f32 {
-    open01_f32_fine_k(r, &Kc::VALUES)
-}
-
-/// [`open01_f32_fine`] with the constants `k`.
-#[inline(always)]
-pub fn open01_f32_fine_k(r: u32, k: &Kc) -> f32 {
-    ((r >> 1) as i32 as f32 + k.half) * k.inv_2_31
+    ((r >> 1) as i32 as f32 + 0.5) * (1.0 / 2_147_483_648.0)
 }
 
 /// −ln u for a normal f32 0 < u ≤ 1 (see the module docs); ≥ 0 (−ln 1 = 0).
 #[inline(always)]
 pub fn neg_ln_f32(u: f32) -> f32 {
-    neg_ln_f32_k(u, &Kc::VALUES)
-}
-
-/// [`neg_ln_f32`] with the constants `k`.
-#[inline(always)]
-pub fn neg_ln_f32_k(u: f32, k: &Kc) -> f32 {
     let bits = u.to_bits();
     // The biased exponent as f32 without a conversion: bits 0x4B00_0000 + k is 2²³ + k.
-    let mut e = f32::from_bits(k.exp_bits | (bits >> 23)) - k.exp_bias;
-    let mut m = f32::from_bits((bits & k.mant_mask) | k.one_bits);
-    let big = m > k.sqrt2;
-    m = sel_f32(big, k.half * m, m);
-    e = sel_f32(big, e + k.one, e);
-    let f = m - k.one;
-    let s = f / (k.two + f);
+    let mut e = f32::from_bits(0x4B00_0000 | (bits >> 23)) - (8_388_608.0 + 127.0);
+    let mut m = f32::from_bits((bits & 0x007F_FFFF) | 0x3F80_0000);
+    let big = m > std::f32::consts::SQRT_2;
+    m = sel_f32(big, 0.5 * m, m);
+    e = sel_f32(big, e + 1.0, e);
+    let f = m - 1.0;
+    let s = f / (2.0 + f);
     let z = s * s;
     let w = z * z;
-    let t1 = w * (k.lg2 + w * k.lg4);
-    let t2 = z * (k.lg1 + w * k.lg3);
+    let t1 = w * (LGF[1] + w * LGF[3]);
+    let t2 = z * (LGF[0] + w * LGF[2]);
     let r = t2 + t1;
-    let hfsq = k.half * f * f;
-    neg_k(e * k.ln2_hi - ((hfsq - (s * (hfsq + r) + e * k.ln2_lo)) - f), k)
+    let hfsq = 0.5 * f * f;
+    neg(e * LN2_HI_F - ((hfsq - (s * (hfsq + r) + e * LN2_LO_F)) - f))
 }
 
 /// Cephes sinf.c / cosf.c polynomial coefficients (|x| ≤ π/4).
@@ -183,25 +73,27 @@ const CF: [f32; 3] = [2.443_315_711_809_948e-5, -1.388_731_625_493_765e-3, 4.166
 /// (cos 2πu, sin 2πu) in f32 for u = (r + ½)·2⁻³² (as [`crate::rng::u32_to_open01`]).
 #[inline(always)]
 pub fn cos_sin_2pi_f32(r: u32) -> (f32, f32) {
-    cos_sin_2pi_f32_k(r, &Kc::VALUES)
-}
-
-/// [`cos_sin_2pi_f32`] with the constants `k`.
-#[inline(always)]
-pub fn cos_sin_2pi_f32_k(r: u32, k: &Kc) -> (f32, f32) {
     // Quadrant q = round(4u) mod 4 and r′ = r − q·2³⁰ ∈ [−2²⁹, 2²⁹) in wrapping integer
     // arithmetic (exact), so 2π(u − q/4) = 2π(2r′ + 1)·2⁻³³ ∈ [−π/4, π/4]; the i32 → f32
     // conversion and the product round (correctly, on every instruction set).
-    let q = r.wrapping_add(k.quarter_half) >> 30;
+    let q = r.wrapping_add(1 << 29) >> 30;
     let rr = r.wrapping_sub(q << 30) as i32;
-    let x = (2 * rr + 1) as f32 * k.tau_2_33;
+    let x = (2 * rr + 1) as f32 * (std::f32::consts::TAU / 8_589_934_592.0);
     let z = x * x;
-    let sin = x + x * z * ((k.sf0 * z + k.sf1) * z + k.sf2);
-    let cos = k.one - k.half * z + z * z * ((k.cf0 * z + k.cf1) * z + k.cf2);
+    let sin = x + x * z * ((SF[0] * z + SF[1]) * z + SF[2]);
+    let cos = 1.0 - 0.5 * z + z * z * ((CF[0] * z + CF[1]) * z + CF[2]);
     let odd = q & 1 == 1;
-    let (c1, s1) = (sel_f32(odd, neg_k(sin, k), cos), sel_f32(odd, cos, sin));
+    let (c1, s1) = (sel_f32(odd, neg(sin), cos), sel_f32(odd, cos, sin));
     let half = q & 2 == 2;
-    (sel_f32(half, neg_k(c1, k), c1), sel_f32(half, neg_k(s1, k), s1))
+    (sel_f32(half, neg(c1), c1), sel_f32(half, neg(s1), s1))
+}
+
+/// −x as an exclusive or of the sign bit: the bits of `-x`, in a form LLVM keeps as an integer
+/// operation. (With `-x` the lane kernel took more instructions, callgrind per event with the
+/// totals: avx2 a +0.3 %, c +0.9 %, d +1.0 %; sse ≤ +0.2 %.)
+#[inline(always)]
+pub fn neg(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() ^ 0x8000_0000)
 }
 
 /// x rounded to f32 with its magnitude rounded up (away from zero) where nearest rounding

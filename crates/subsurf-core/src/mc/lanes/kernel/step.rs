@@ -10,50 +10,42 @@ use super::*;
 /// θ → 0 (so does sin²θ = m(2 − m) computed from it: the forward peak at g = 0.9) and needs
 /// no 1/g (g = 0 gives 2(1 − ξ) exactly: isotropic scattering without a special case).
 /// Constants `k` = 1 − g, 2g, 1 − g² (f32); the result is clamped to ≤ 2 (rounding).
-#[cfg(test)]
-pub(in crate::mc::lanes) fn hg_one_minus_cos(k: [f32; 3], u: f32) -> f32 {
-    hg_one_minus_cos_k(k, u, &Kc::VALUES)
-}
-
-/// [`hg_one_minus_cos`] with the samplers' constants `kc` (see `math::Kc`).
 #[inline(always)]
-fn hg_one_minus_cos_k(k: [f32; 3], u: f32, kc: &Kc) -> f32 {
+pub(in crate::mc::lanes) fn hg_one_minus_cos(k: [f32; 3], u: f32) -> f32 {
     let [omg, two_g, omg2] = k;
     let d = omg + two_g * u;
     let t = omg2 / d;
-    (omg * (kc.one - u) * (t + omg) / d).min(2.0)
+    (omg * (1.0 - u) * (t + omg) / d).min(2.0)
 }
+
+/// |ux|² + |uy|² below which [`spin_word`] uses the normal-incidence form (the transverse
+/// part of an f32 direction keeps full relative precision down to here).
+const POLE_T2: f32 = 1e-12;
 
 /// MCML's direction update (Wang et al. 1995, eq. 3.30; [`crate::optics::spin`]) in f32 of
 /// the direction (ux, uy, uz) by the polar angle given as m = 1 − cos θ and the azimuth
 /// φ = 2πu of the 32-bit `word` ([`cos_sin_2pi_f32`]), with one square root and one division:
 /// ρ² = ux² + uy² (not 1 − uz², which loses its relative precision as |uz| → 1),
 /// q = sin θ/ρ, u′x = q (ux uz cos φ − uy sin φ) + ux cos θ, u′y = q (uy uz cos φ +
-/// ux sin φ) + uy cos θ, u′z = −q cos φ ρ² + uz cos θ; for ρ² < `Kc::pole_t2` ([`POLE_T2`](crate::mc::lanes::math::POLE_T2)) the
+/// ux sin φ) + uy cos θ, u′z = −q cos φ ρ² + uz cos θ; for ρ² < [`POLE_T2`] the
 /// normal-incidence form (sin θ cos φ, sin θ sin φ, ± cos θ). Then one Newton step towards
 /// |u′| = 1, u′ ← u′ (3 − |u′|²)/2, so that f32 rounding does not random-walk |u| over a
 /// long history (see "Precision" in the module docs of `mc::lanes`).
-#[cfg(test)]
-pub(in crate::mc::lanes) fn spin_word(ux: f32, uy: f32, uz: f32, m: f32, word: u32) -> (f32, f32, f32) {
-    spin_word_k(ux, uy, uz, m, word, &Kc::VALUES)
-}
-
-/// [`spin_word`] with the samplers' constants `kc` (see `math::Kc`).
 #[inline(always)]
-fn spin_word_k(ux: f32, uy: f32, uz: f32, m: f32, word: u32, kc: &Kc) -> (f32, f32, f32) {
-    let (cp, sp) = cos_sin_2pi_f32_k(word, kc);
-    let cth = kc.one - m;
+pub(in crate::mc::lanes) fn spin_word(ux: f32, uy: f32, uz: f32, m: f32, word: u32) -> (f32, f32, f32) {
+    let (cp, sp) = cos_sin_2pi_f32(word);
+    let cth = 1.0 - m;
     let t2 = ux * ux + uy * uy;
-    let normal = t2 < kc.pole_t2;
-    let den = sel_f32(normal, kc.one, t2);
-    let q = (m * (kc.two - m) / den).sqrt();
+    let normal = t2 < POLE_T2;
+    let den = sel_f32(normal, 1.0, t2);
+    let q = (m * (2.0 - m) / den).sqrt();
     let (a, b) = (q * cp, q * sp);
     let gx = a * ux * uz - b * uy + ux * cth;
     let gy = a * uy * uz + b * ux + uy * cth;
-    let gz = neg_k(a, kc) * t2 + uz * cth;
-    let nz_normal = sel_f32(uz > 0.0, cth, neg_k(cth, kc));
+    let gz = neg(a) * t2 + uz * cth;
+    let nz_normal = sel_f32(uz > 0.0, cth, neg(cth));
     let (nx, ny, nz) = (sel_f32(normal, a, gx), sel_f32(normal, b, gy), sel_f32(normal, nz_normal, gz));
-    let k = kc.three_halves - kc.half * (nx * nx + ny * ny + nz * nz);
+    let k = 1.5 - 0.5 * (nx * nx + ny * ny + nz * nz);
     (nx * k, ny * k, nz * k)
 }
 
@@ -84,17 +76,16 @@ pub(super) fn roulette(st: &mut Lanes, i: usize) -> (f64, bool) {
 /// so that the loop holds no branch: with a run-time flag, LLVM kept the loop scalar for
 /// 128-bit vectors — SSE4.2 — judging the vector loop with its predicated load unprofitable.)
 #[inline(always)]
-pub(super) fn sample<const MIXTURE: bool, const TABLE: bool>(st: &Lanes, sc: &mut Scratch, kt: &KcLanes) {
+pub(super) fn sample<const MIXTURE: bool>(st: &Lanes, sc: &mut Scratch) {
     for i in 0..L {
-        let kc = &if TABLE { kt.lane(i) } else { Kc::VALUES };
-        sc.tau[i] = neg_ln_f32_k(open01_f32_fine_k(sc.words[0][i], kc), kc);
+        sc.tau[i] = neg_ln_f32(open01_f32_fine(sc.words[0][i]));
         let m = if MIXTURE {
             sc.one_minus_cos[i]
         } else {
             let hg = &st.l.hg;
-            hg_one_minus_cos_k([hg[0][i], hg[1][i], hg[2][i]], open01_f32_k(sc.words[1][i], kc), kc)
+            hg_one_minus_cos([hg[0][i], hg[1][i], hg[2][i]], open01_f32(sc.words[1][i]))
         };
-        (sc.nx[i], sc.ny[i], sc.nz[i]) = spin_word_k(st.ux[i], st.uy[i], st.uz[i], m, sc.words[2][i], kc);
+        (sc.nx[i], sc.ny[i], sc.nz[i]) = spin_word(st.ux[i], st.uy[i], st.uz[i], m, sc.words[2][i]);
     }
 }
 
