@@ -63,7 +63,7 @@ pub fn neg_ln_f32(u: f32) -> f32 {
     let t2 = z * (LGF[0] + w * LGF[2]);
     let r = t2 + t1;
     let hfsq = 0.5 * f * f;
-    -(e * LN2_HI_F - ((hfsq - (s * (hfsq + r) + e * LN2_LO_F)) - f))
+    neg(e * LN2_HI_F - ((hfsq - (s * (hfsq + r) + e * LN2_LO_F)) - f))
 }
 
 /// Cephes sinf.c / cosf.c polynomial coefficients (|x| ≤ π/4).
@@ -83,9 +83,17 @@ pub fn cos_sin_2pi_f32(r: u32) -> (f32, f32) {
     let sin = x + x * z * ((SF[0] * z + SF[1]) * z + SF[2]);
     let cos = 1.0 - 0.5 * z + z * z * ((CF[0] * z + CF[1]) * z + CF[2]);
     let odd = q & 1 == 1;
-    let (c1, s1) = (sel_f32(odd, -sin, cos), sel_f32(odd, cos, sin));
+    let (c1, s1) = (sel_f32(odd, neg(sin), cos), sel_f32(odd, cos, sin));
     let half = q & 2 == 2;
-    (sel_f32(half, -c1, c1), sel_f32(half, -s1, s1))
+    (sel_f32(half, neg(c1), c1), sel_f32(half, neg(s1), s1))
+}
+
+/// −x as an exclusive or of the sign bit: the bits of `-x`, in a form LLVM keeps as an integer
+/// operation. (With `-x` the lane kernel took more instructions, callgrind per event with the
+/// totals: avx2 a +0.3 %, c +0.9 %, d +1.0 %; sse ≤ +0.2 %.)
+#[inline(always)]
+pub fn neg(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() ^ 0x8000_0000)
 }
 
 /// x rounded to f32 with its magnitude rounded up (away from zero) where nearest rounding

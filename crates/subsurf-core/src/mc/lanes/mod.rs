@@ -95,7 +95,8 @@ pub enum Isa {
     /// x86-64 SSE4.2 + POPCNT (x86-64-v2): 128-bit vectors (4 f32 or 2 f64 per register), the
     /// width of arm64's NEON, which it stands in for on x86 machines.
     Sse4,
-    /// x86-64 AVX2 + FMA (x86-64-v3).
+    /// x86-64 AVX2 + FMA with x86-64-v3's BMI1, BMI2, LZCNT and POPCNT (integer only: the
+    /// lane loop's bit masks; every AVX2 processor has them).
     Avx2,
     /// x86-64 AVX-512 F/VL/DQ (x86-64-v4).
     Avx512,
@@ -119,7 +120,14 @@ impl Isa {
             #[cfg(target_arch = "x86_64")]
             Isa::Sse4 => std::arch::is_x86_feature_detected!("sse4.2") && std::arch::is_x86_feature_detected!("popcnt"),
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma"),
+            Isa::Avx2 => {
+                std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+                    && std::arch::is_x86_feature_detected!("bmi1")
+                    && std::arch::is_x86_feature_detected!("bmi2")
+                    && std::arch::is_x86_feature_detected!("lzcnt")
+                    && std::arch::is_x86_feature_detected!("popcnt")
+            }
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512 => {
                 std::arch::is_x86_feature_detected!("avx512f")

@@ -155,10 +155,12 @@ impl Totals {
         &mut a[i / W][i % W]
     }
 
-    /// Lane `lane`'s current scores.
+    /// Lane `lane`'s first block of current scores (the [`Total`]s): one index, where
+    /// `cur[lane · blocks..][0]` checked the slice's two bounds and then its length (a few
+    /// instructions at every photon of a short history).
     #[inline(always)]
-    fn cur_mut(&mut self, lane: usize) -> &mut [Block] {
-        &mut self.cur[lane * self.blocks..(lane + 1) * self.blocks]
+    fn cur0(&mut self, lane: usize) -> &mut [f64; W] {
+        &mut self.cur[lane * self.blocks]
     }
 
     /// Back to no photons, keeping the allocations (a tally is reused chunk after chunk).
@@ -240,19 +242,20 @@ impl Tally for Totals {
     fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
     #[inline]
     fn specular(&mut self, lane: usize, w: f64) {
-        self.cur_mut(lane)[0][Total::Specular as usize] += w;
+        self.cur0(lane)[Total::Specular as usize] += w;
     }
     #[inline]
     fn absorb(&mut self, lane: usize, p: &Packet, dw: f64) {
-        *Self::at_mut(self.cur_mut(lane), NQ + p.layer) += dw;
+        let k = NQ + p.layer;
+        self.cur[lane * self.blocks + k / W][k % W] += dw;
     }
     #[inline]
     fn roulette(&mut self, lane: usize, _p: &Packet, dw: f64) {
-        self.cur_mut(lane)[0][Total::Roulette as usize] += dw;
+        self.cur0(lane)[Total::Roulette as usize] += dw;
     }
     #[inline]
     fn escape(&mut self, lane: usize, p: &Packet, side: Side, _dir_out: [f64; 3], w: f64) {
-        let cur = &mut self.cur_mut(lane)[0];
+        let cur = self.cur0(lane);
         match side {
             Side::Top => cur[Total::Diffuse as usize] += w,
             Side::Bottom => {

@@ -42,8 +42,8 @@ pub(in crate::mc::lanes) fn spin_word(ux: f32, uy: f32, uz: f32, m: f32, word: u
     let (a, b) = (q * cp, q * sp);
     let gx = a * ux * uz - b * uy + ux * cth;
     let gy = a * uy * uz + b * ux + uy * cth;
-    let gz = -a * t2 + uz * cth;
-    let nz_normal = sel_f32(uz > 0.0, cth, -cth);
+    let gz = neg(a) * t2 + uz * cth;
+    let nz_normal = sel_f32(uz > 0.0, cth, neg(cth));
     let (nx, ny, nz) = (sel_f32(normal, a, gx), sel_f32(normal, b, gy), sel_f32(normal, nz_normal, gz));
     let k = 1.5 - 0.5 * (nx * nx + ny * ny + nz * nz);
     (nx * k, ny * k, nz * k)
@@ -143,11 +143,9 @@ pub(super) fn advance<const CLEAR: bool>(
         }
         st.z[i] = z + stp * uzd;
         st.s_left[i] = sel(moving & !h, 0.0, sl);
-        st.hits[i] = if CLEAR {
-            selu(h | bounces, h1, selu(moving, 0, st.hits[i]))
-        } else {
-            selu(moving & !h, 0, st.hits[i]) // `fresnel` counts the hits
-        };
+        if CLEAR {
+            st.hits[i] = selu(h | bounces, h1, selu(moving, 0, st.hits[i]));
+        } // (else `fresnel` counts the hits, and starts again after a scattering)
         sc.hit[i] = mk(h);
         let f = selq(clear_down, fate::CLEAR_DOWN, fate::MOVING);
         let f = selq(trapped, fate::TRAPPED, f);
@@ -202,7 +200,7 @@ pub(super) fn interfaces<const MATCHED: bool, const TRAP: bool>(
     tracks: bool,
     few: u32,
 ) {
-    let hit = lane_bits(&sc.hit);
+    let hit = lane_bits_full(&sc.hit);
     if hit.count_ones() <= few {
         // few lanes at an interface: theirs only, lane by lane (the same operations, so the
         // same bits; a lane without a hit would be left unchanged by the loops below)
@@ -230,7 +228,8 @@ pub(super) fn interfaces<const MATCHED: bool, const TRAP: bool>(
 /// `optics::fr_dielectric_cos_t`), and `sc.need` where a Fresnel word decides (0 < R < 1).
 /// With `TRAP` (no clear layer: [`advance`] left it here) it first counts the hit and ends the
 /// packet that exceeds `MAX_HITS_WITHOUT_INTERACTION` hits in a row (fate `TRAPPED`, not moved,
-/// as `advance` does with clear layers).
+/// as `advance` does with clear layers); hits in a row are hits at the same scattering order
+/// (`Lanes::hit_order`).
 #[inline(always)]
 fn fresnel<const MATCHED: bool, const TRAP: bool>(st: &mut Lanes, sc: &mut Scratch, tracks: bool) {
     for i in 0..L {
@@ -243,9 +242,15 @@ fn fresnel_lane<const MATCHED: bool, const TRAP: bool>(st: &mut Lanes, sc: &mut 
     let l = &st.l;
     let mut h = on(sc.hit[i]);
     if TRAP {
-        let h1 = st.hits[i].wrapping_add(1);
+        // (the count starts again at a hit after a scattering: the scattering order differs
+        // from the one at the lane's last hit; an interaction that does not scatter ends the
+        // history. `advance` then writes no counter at every step — on AVX2 LLVM made that
+        // write a masked store.)
+        let fresh = st.order[i] != st.hit_order[i];
+        let h1 = selu(fresh, 1, st.hits[i].wrapping_add(1));
         let trapped = h & (h1 > MAX_HITS_WITHOUT_INTERACTION);
         st.hits[i] = selu(h, h1, st.hits[i]);
+        st.hit_order[i] = selu(h, st.order[i], st.hit_order[i]);
         h &= !trapped;
         sc.hit[i] = mk(h);
         sc.fate[i] = selq(trapped, fate::TRAPPED, sc.fate[i]);
