@@ -341,12 +341,22 @@ impl RandomWalk {
         if !self.nee || scene.lights.is_empty() {
             return None;
         }
-        let mut tau = m.sigma_t_floor() * scene.accel.clear_radius(p);
-        if let Some(g) = &self.facing {
-            tau = tau.max(self.sigma_t_min * g.bound(p));
+        // The same decision as u < q with q = min(1, c e^{−max(τ₁, τ₂)}), cheapest test first:
+        // q ≤ min(1, c) and q ≤ min(1, c e^{−τ₁}) (no exponential or second lookup where u
+        // exceeds a bound already).
+        let u = rng.uniform();
+        if u >= self.nee_scale.min(1.0) {
+            return None;
         }
+        let tau = m.sigma_t_floor() * scene.accel.clear_radius(p);
         let q = (self.nee_scale * (-tau).exp()).min(1.0);
-        (rng.uniform() < q).then_some(q)
+        let Some(g) = &self.facing else { return (u < q).then_some(q) };
+        let tau_f = self.sigma_t_min * g.bound(p);
+        if u >= q || tau_f <= tau {
+            return (u < q).then_some(q);
+        }
+        let q = (self.nee_scale * (-tau_f).exp()).min(1.0);
+        (u < q).then_some(q)
     }
 
     /// The environment seen through the boundary along the next flight (an expected-value,
