@@ -228,6 +228,46 @@ impl Accel {
         self.distance.as_ref().map_or(0.0, |g| g.bound(p))
     }
 
+    /// Whether no triangle lies on the segment from `p` along the unit `d` to distance `s`, by
+    /// the distance bound alone (false when it cannot tell): sphere tracing (Hart 1996) with
+    /// the conservative bound, forward from `p` and one ball back from the end. Each ball
+    /// B(p + tᵢd, rᵢ), rᵢ = bound there, holds no surface point, so the balls at
+    /// t₀ = 0, tᵢ₊₁ = tᵢ + rᵢ cover [0, t_k] and the end's ball [s − r_end, s]: once
+    /// t_k ≥ s − r_end the segment is clear. At most [`Self::TRACE_STEPS`] forward lookups.
+    #[inline]
+    pub fn segment_clear(&self, p: V3, d: V3, s: f64) -> bool {
+        let Some(g) = &self.distance else { return false };
+        let mut t = g.bound(p);
+        if t >= s {
+            return true;
+        }
+        if !(t > 0.0 && s.is_finite()) {
+            return false;
+        }
+        let r_end = g.bound(madd(p, d, s));
+        for _ in 0..Self::TRACE_STEPS {
+            if t + r_end >= s {
+                return true;
+            }
+            let r = g.bound(madd(p, d, t));
+            if !(r > 0.0) {
+                return false;
+            }
+            t += r;
+        }
+        t + r_end >= s
+    }
+
+    /// Whether `p` lies in the box of the distance grid (the translucent objects' bounding box,
+    /// padded; true without a grid): a walk's collision outside it has leaked out of its mesh.
+    #[inline]
+    pub fn in_walk_box(&self, p: V3) -> bool {
+        self.distance.as_ref().is_none_or(|g| g.contains(p))
+    }
+
+    /// Most forward bound lookups of [`Self::segment_clear`].
+    pub const TRACE_STEPS: usize = 3;
+
     /// Offset a surface point by a few ulps of the scene extent along `n` (`side` = ±1).
     #[inline]
     pub fn offset(&self, p: V3, n: V3, side: f64) -> V3 {
@@ -312,5 +352,29 @@ mod tests {
             let d = normalize(d);
             assert!(acc.intersect([0.1, -0.2, 0.05], d, f64::INFINITY, u32::MAX).is_some(), "{d:?}");
         }
+    }
+    /// `segment_clear` never clears a segment that meets the mesh (the closest hit along the ray
+    /// lies beyond it), and it clears more than the bound at the start alone would (sphere
+    /// tracing pays): random segments of up to 3 mm inside a sphere of radius 5 mm.
+    #[test]
+    fn segment_clear_never_clears_a_segment_that_meets_the_mesh() {
+        let m = icosphere([0.0; 3], 5.0, 3).unwrap();
+        let mut acc = Accel::new(&[&m]);
+        acc.distance = Some(DistanceGrid::new(&acc.tris, acc.lo, acc.hi, 2.0));
+        let mut rng = crate::rng::PhotonRng::new(3, 4);
+        let (mut clear, mut traced) = (0, 0);
+        for _ in 0..20_000 {
+            let d = crate::optics::sample_uniform_sphere(rng.uniform(), rng.uniform());
+            let o = scale([rng.symmetric(), rng.symmetric(), rng.symmetric()], 2.8);
+            let s = 3.0 * rng.uniform();
+            if acc.segment_clear(o, d, s) {
+                clear += 1;
+                traced += usize::from(s >= acc.clear_radius(o));
+                let h = acc.intersect(o, d, f64::INFINITY, u32::MAX).expect("closed");
+                assert!(h.t > s, "{o:?} {d:?}: hit at {} within {s}", h.t);
+                assert!(acc.intersect(o, d, s, u32::MAX).is_none());
+            }
+        }
+        assert!(clear > 5_000 && traced > 1_000, "{clear} clear, {traced} by tracing");
     }
 }

@@ -23,20 +23,33 @@ pub struct DistanceGrid {
 }
 
 impl DistanceGrid {
-    /// Cells per axis of the longest side of the bounding box `lo`..`hi`.
-    pub const CELLS: usize = 64;
+    /// Cells per axis of the longest side of the bounding box: at least [`Self::MIN_CELLS`], and
+    /// up to [`Self::MAX_CELLS`] so that a cell is at most a third of the least mean free path
+    /// (the bound is (D − √3) h: its loss near the surface is what makes collisions cast rays and
+    /// make connections; measured on the 81,920-triangle marble sphere, 64 → 128 cells: −20 %
+    /// render instructions at the same noise, 8 MB per grid, about 0.1 s to build).
+    pub const MIN_CELLS: usize = 64;
+    pub const MAX_CELLS: usize = 128;
 
-    /// Build over the box `lo`..`hi` (the translucent objects', where walks run). A triangle
-    /// outside the box marks the cells of its bounding box clamped into the box: clamping onto a
-    /// convex box brings no point closer to a point inside it, so the bound stays conservative.
-    pub fn new(tris: &[Tri], lo: V3, hi: V3) -> DistanceGrid {
+    /// Build over the box `lo`..`hi` (the translucent objects', where walks run), with cells
+    /// sized for the least extinction coefficient `sigma_t` (mm⁻¹) of the media walked. A
+    /// triangle outside the box marks the cells of its bounding box clamped into the box:
+    /// clamping onto a convex box brings no point closer to a point inside it, so the bound
+    /// stays conservative.
+    pub fn new(tris: &[Tri], lo: V3, hi: V3, sigma_t: f64) -> DistanceGrid {
         let side = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f64, f64::max);
-        let h = side / Self::CELLS as f64;
+        let want = 3.0 * side * sigma_t;
+        let cells = if want.is_finite() {
+            (want.ceil() as usize).clamp(Self::MIN_CELLS, Self::MAX_CELLS)
+        } else {
+            Self::MIN_CELLS
+        };
+        let h = side / cells as f64;
         if !(h > 0.0 && h.is_finite()) || tris.is_empty() {
             return DistanceGrid { lo, h: 0.0, n: [0; 3], bound: vec![] };
         }
         let pad = 1e-6 * side;
-        let n: [usize; 3] = std::array::from_fn(|a| (((hi[a] - lo[a]) / h).ceil() as usize).clamp(1, Self::CELLS));
+        let n: [usize; 3] = std::array::from_fn(|a| (((hi[a] - lo[a]) / h).ceil() as usize).clamp(1, cells));
         let lo = std::array::from_fn(|a| lo[a] - pad);
         let h = (0..3).map(|a| (hi[a] + pad - lo[a]) / n[a] as f64).fold(0.0f64, f64::max);
         let mut g = DistanceGrid { lo, h, n, bound: vec![] };
@@ -54,23 +67,26 @@ impl DistanceGrid {
                 }
             }
         }
-        // Squared distances by three separable 1-D passes (x, then y, then z).
+        // Squared distances by three separable 1-D passes (x, then y, then z), with buffers
+        // reused across lines.
+        let mut env = Envelope::new(n.iter().copied().max().unwrap_or(1));
+        let stride = [n[1] * n[2], n[2], 1];
         for axis in 0..3 {
             let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
-            let mut line = vec![0.0; n[axis]];
             for i in 0..n[a] {
                 for j in 0..n[b] {
-                    let at = |t: usize| {
-                        let mut c = [0; 3];
-                        (c[axis], c[a], c[b]) = (t, i, j);
-                        g.flat(c)
-                    };
-                    for (t, v) in line.iter_mut().enumerate() {
-                        *v = d2[at(t)];
+                    let base = i * stride[a] + j * stride[b];
+                    let (len, st) = (n[axis], stride[axis]);
+                    for t in 0..len {
+                        env.f[t] = d2[base + t * st];
                     }
-                    let out = envelope(&line);
-                    for (t, v) in out.into_iter().enumerate() {
-                        d2[at(t)] = v;
+                    if axis == 0 {
+                        env.scan(len); // binary marks: the 1-D distance by two sweeps
+                    } else {
+                        env.run(len);
+                    }
+                    for t in 0..len {
+                        d2[base + t * st] = env.out[t];
                     }
                 }
             }
@@ -88,6 +104,12 @@ impl DistanceGrid {
     #[inline]
     fn flat(&self, c: [usize; 3]) -> usize {
         (c[0] * self.n[1] + c[1]) * self.n[2] + c[2]
+    }
+
+    /// Whether `p` lies in the grid's box (always, for an empty grid).
+    #[inline]
+    pub fn contains(&self, p: V3) -> bool {
+        self.bound.is_empty() || (0..3).all(|a| p[a] >= self.lo[a] && p[a] <= self.lo[a] + self.n[a] as f64 * self.h)
     }
 
     /// A distance (mm) not above the distance from `p` to the nearest triangle (0 outside the
@@ -108,43 +130,79 @@ impl DistanceGrid {
 }
 
 /// The lower envelope of the parabolas (q − t)² + f(q) at every t (Felzenszwalb & Huttenlocher
-/// 2012, Algorithm 1); infinite f(q) contribute nothing.
-fn envelope(f: &[f64]) -> Vec<f64> {
-    let n = f.len();
-    let mut out = vec![f64::INFINITY; n];
-    let (mut v, mut z) = (Vec::with_capacity(n), Vec::with_capacity(n + 1));
-    for q in (0..n).filter(|&q| f[q].is_finite()) {
-        let fq = f[q] + (q * q) as f64;
-        loop {
-            let Some(&p) = v.last() else {
-                v.push(q);
-                z.push(f64::NEG_INFINITY);
-                break;
-            };
-            let p: usize = p;
-            let s = (fq - (f[p] + (p * p) as f64)) / (2.0 * (q as f64 - p as f64));
-            if s <= *z.last().expect("one per vertex") {
-                v.pop();
-                z.pop();
-            } else {
-                v.push(q);
-                z.push(s);
-                break;
+/// 2012, Algorithm 1); infinite f(q) contribute nothing. Buffers for lines of up to `cap` cells.
+struct Envelope {
+    f: Vec<f64>,
+    out: Vec<f64>,
+    v: Vec<usize>,
+    z: Vec<f64>,
+}
+
+impl Envelope {
+    fn new(cap: usize) -> Envelope {
+        Envelope { f: vec![0.0; cap], out: vec![0.0; cap], v: Vec::with_capacity(cap), z: Vec::with_capacity(cap + 1) }
+    }
+
+    /// `out[..n]` ← the squared distance to the nearest finite `f[..n]` when every finite value
+    /// is 0 (the marked cells): two sweeps, the same values as [`Self::run`].
+    fn scan(&mut self, n: usize) {
+        let (f, out) = (&self.f[..n], &mut self.out[..n]);
+        let mut last = f64::NEG_INFINITY;
+        for t in 0..n {
+            if f[t] == 0.0 {
+                last = t as f64;
+            }
+            out[t] = t as f64 - last;
+        }
+        let mut next = f64::INFINITY;
+        for t in (0..n).rev() {
+            if f[t] == 0.0 {
+                next = t as f64;
+            }
+            let d = out[t].min(next - t as f64);
+            out[t] = d * d;
+        }
+    }
+
+    /// `out[..n]` ← the envelope of `f[..n]`.
+    fn run(&mut self, n: usize) {
+        let (f, v, z) = (&self.f[..n], &mut self.v, &mut self.z);
+        v.clear();
+        z.clear();
+        for q in (0..n).filter(|&q| f[q].is_finite()) {
+            let fq = f[q] + (q * q) as f64;
+            loop {
+                let Some(&p) = v.last() else {
+                    v.push(q);
+                    z.push(f64::NEG_INFINITY);
+                    break;
+                };
+                let p: usize = p;
+                let s = (fq - (f[p] + (p * p) as f64)) / (2.0 * (q as f64 - p as f64));
+                if s <= *z.last().expect("one per vertex") {
+                    v.pop();
+                    z.pop();
+                } else {
+                    v.push(q);
+                    z.push(s);
+                    break;
+                }
             }
         }
-    }
-    if v.is_empty() {
-        return out;
-    }
-    let mut k = 0;
-    for (t, o) in out.iter_mut().enumerate() {
-        while k + 1 < v.len() && z[k + 1] < t as f64 {
-            k += 1;
+        let out = &mut self.out[..n];
+        if v.is_empty() {
+            out.fill(f64::INFINITY);
+            return;
         }
-        let d = t as f64 - v[k] as f64;
-        *o = d * d + f[v[k]];
+        let mut k = 0;
+        for (t, o) in out.iter_mut().enumerate() {
+            while k + 1 < v.len() && z[k + 1] < t as f64 {
+                k += 1;
+            }
+            let d = t as f64 - v[k] as f64;
+            *o = d * d + f[v[k]];
+        }
     }
-    out
 }
 
 #[cfg(test)]
@@ -161,7 +219,7 @@ mod tests {
         let r = 5.0;
         let m: Mesh = icosphere([0.0; 3], r, 3).unwrap();
         let acc = crate::render::accel::Accel::new(&[&m]);
-        let g = DistanceGrid::new(&acc.tris, acc.lo, acc.hi);
+        let g = DistanceGrid::new(&acc.tris, acc.lo, acc.hi, 0.0);
         let delta = r * (1.0 - 0.16f64.cos()); // faces span < 0.16 rad from their centre
         let mut rng = crate::rng::PhotonRng::new(1, 0);
         for _ in 0..20_000 {

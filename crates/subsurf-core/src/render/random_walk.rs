@@ -74,6 +74,9 @@ pub struct RandomWalk {
     /// the variance of the channels' mean was 5 % of theirs). On by default in scenes lit by
     /// the environment alone.
     pub split_channels: bool,
+    /// With `split_channels`: split only the walks entering a material whose every channel's
+    /// reduced albedo σs'/(σs' + σa) is at least this ([`SPLIT_ALBEDO`]; 0 splits every walk).
+    pub split_albedo: f64,
     /// Russian roulette threshold θ: a path whose largest β_k is below θ survives with
     /// probability max β/θ and is then weighted up to max β = θ. θ = 1 (the default under
     /// lights) makes every collision of an implicit-capture walk an analog absorption event
@@ -271,7 +274,7 @@ impl Radiance<'_> {
 
 impl RandomWalk {
     pub fn new(scene: &Scene) -> RandomWalk {
-        RandomWalk::variant(scene, true, NEE_SCALE)
+        RandomWalk::variant(scene, true, nee_scale(scene))
     }
 
     /// The method with next-event estimation on or off and a connection-probability scale c
@@ -287,7 +290,7 @@ impl RandomWalk {
             let tol = 1e-6 * scene.accel.extent;
             let tris: Vec<Tri> =
                 scene.accel.tris.iter().filter(|t| scene.lights.iter().any(|l| may_face(l, t, tol))).copied().collect();
-            DistanceGrid::new(&tris, lo, hi)
+            DistanceGrid::new(&tris, lo, hi, sigma_t_min)
         });
         // Measured (docs/render.md, "Random walk speed"): in an environment alone, one walk per
         // channel with roulette below β = 0.1 is 1.0–5× as efficient on the benchmark scenes;
@@ -299,6 +302,7 @@ impl RandomWalk {
             env_nee: false,
             guided: false,
             split_channels: env_only,
+            split_albedo: SPLIT_ALBEDO,
             rr_threshold: if env_only { RR_THRESHOLD } else { 1.0 },
             facing,
             sigma_t_min,
@@ -337,12 +341,22 @@ impl RandomWalk {
         if !self.nee || scene.lights.is_empty() {
             return None;
         }
-        let mut tau = m.sigma_t_floor() * scene.accel.clear_radius(p);
-        if let Some(g) = &self.facing {
-            tau = tau.max(self.sigma_t_min * g.bound(p));
+        // The same decision as u < q with q = min(1, c e^{−max(τ₁, τ₂)}), cheapest test first:
+        // q ≤ min(1, c) and q ≤ min(1, c e^{−τ₁}) (no exponential or second lookup where u
+        // exceeds a bound already).
+        let u = rng.uniform();
+        if u >= self.nee_scale.min(1.0) {
+            return None;
         }
+        let tau = m.sigma_t_floor() * scene.accel.clear_radius(p);
         let q = (self.nee_scale * (-tau).exp()).min(1.0);
-        (rng.uniform() < q).then_some(q)
+        let Some(g) = &self.facing else { return (u < q).then_some(q) };
+        let tau_f = self.sigma_t_min * g.bound(p);
+        if u >= q || tau_f <= tau {
+            return (u < q).then_some(q);
+        }
+        let q = (self.nee_scale * (-tau_f).exp()).min(1.0);
+        (u < q).then_some(q)
     }
 
     /// The environment seen through the boundary along the next flight (an expected-value,
@@ -436,13 +450,52 @@ fn may_face(light: &Light, t: &Tri, tol: f64) -> bool {
     }
 }
 
+/// Whether one walk per channel pays for a walk entering `m` (with `split_channels` on): where
+/// every channel's reduced albedo σs'/(σs' + σa) is at least `least` ([`SPLIT_ALBEDO`]). Measured in the
+/// environment (docs/render.md): the split (with θ = 0.1) removes the chromatic noise of long
+/// walks, marble (reduced albedo ≥ 0.998) 5×, ear-like skin2 (≥ 0.925) 1.8× the efficiency; on
+/// skin1 (red 0.96, blue 0.68) the short blue and green walks gain nothing and the red one
+/// dominates the variance: θ = 0.1 alone 1.3× against 0.95× with the split. A rule of the
+/// material, fixed per walk: unbiased either way.
+fn split_pays(m: &Translucent, least: f64) -> bool {
+    (0..3).all(|k| {
+        let sp = m.sigma_s[k] * (1.0 - m.g);
+        sp >= least * (sp + m.sigma_a[k])
+    })
+}
+
+/// The least reduced albedo of every channel for one walk per channel (see `split_pays`).
+pub const SPLIT_ALBEDO: f64 = 0.9;
+
 /// The Russian roulette threshold θ on max_k β_k (see [`RandomWalk::rr_threshold`]).
 pub const RR_THRESHOLD: f64 = 0.1;
 
-/// The scale c of the connection probability q = min(1, c e^{−σt,min r}) (measured: on the
-/// marble sphere c = 1 has the noise of c = 4 and 20 without their fireflies' share, at 23 % and
-/// 39 % fewer walk instructions; docs/render.md, "Random walk speed").
+/// The scale c of the connection probability q = min(1, c e^{−σt,min r}) with point or
+/// directional lights in the scene (any c > 0 is unbiased: a connection's transmittance is at
+/// most e^{−σt,min r}, so its weight T/q ≤ 1/c). Measured (docs/render.md, "Random walk
+/// speed"): on the 5,120-triangle marble sphere c = 1 has the noise of c = 4 and 20 at 23 % and
+/// 39 % fewer walk instructions; with a point or directional light on a small sphere (the
+/// nested-sphere tests) c = 0.25 multiplies the variance by 2.4 at 2.2× less time: neutral, so
+/// those scenes keep c = 1.
 pub const NEE_SCALE: f64 = 1.0;
+
+/// The scale c in scenes lit by area lights only (sphere, rect) and the environment. Measured:
+/// the 81,920-triangle marble sphere (32×32 px, 6 renders of 4 spp, callgrind) renders with
+/// 51 % fewer instructions than c = 1 at 1.22× the per-pixel variance (1.7× the efficiency);
+/// the benchmark scenes under the rect light (docs/scripts/walk_efficiency.py) 1.4–2× the
+/// efficiency of c = 1 (variance ×1.25 marble, ×1.14 skin, ×0.99 ear, at 0.5–0.6× the CPU
+/// seconds); c = 0.1: 18 % fewer instructions again at 1.4× the variance of c = 0.25.
+pub const NEE_SCALE_AREA: f64 = 0.25;
+
+/// The default scale c of `scene` ([`NEE_SCALE_AREA`] when every light is an area light, else
+/// [`NEE_SCALE`]).
+pub fn nee_scale(scene: &Scene) -> f64 {
+    if scene.lights.iter().all(|l| matches!(l, Light::Sphere { .. } | Light::Rect { .. })) {
+        NEE_SCALE_AREA
+    } else {
+        NEE_SCALE
+    }
+}
 
 impl Translucency for RandomWalk {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
@@ -453,7 +506,7 @@ impl Translucency for RandomWalk {
         // One walk carrying every channel (spectral MIS), or one walk per channel.
         const ALL: [Rgb; 1] = [[1.0; 3]];
         const EACH: [Rgb; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        let starts: &[Rgb] = if self.split_channels { &EACH } else { &ALL };
+        let starts: &[Rgb] = if self.split_channels && split_pays(m, self.split_albedo) { &EACH } else { &ALL };
         let mut l = [0.0; 3];
         for &beta in starts {
             let mut c = Radiance {

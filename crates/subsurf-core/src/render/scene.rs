@@ -72,7 +72,13 @@ impl Scene {
         let accel = Accel::new(&meshes);
         let mut scene = Scene { objects, materials, lights, environment, camera, accel };
         if let Some((lo, hi)) = scene.translucent_box() {
-            scene.accel.distance = Some(DistanceGrid::new(&scene.accel.tris, lo, hi));
+            let st = scene
+                .materials
+                .iter()
+                .filter_map(|m| m.translucent())
+                .map(|m| m.sigma_t_floor())
+                .fold(f64::INFINITY, f64::min);
+            scene.accel.distance = Some(DistanceGrid::new(&scene.accel.tris, lo, hi, st));
         }
         if let Some(cam) = &scene.camera {
             if let Some(name) = scene.enclosing_object(cam.position) {
