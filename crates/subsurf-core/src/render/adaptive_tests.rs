@@ -124,13 +124,14 @@ fn curvature_probe_and_kernel_scale() {
     let k = Kernel::at(&s, &t, &top);
     assert!((k.h * 10.0 - 1.0).abs() < 0.1 && (k.d - 20.0).abs() < 0.1);
     for c in 0..3 {
-        let sc = t.curvature_scale(c, k.h);
+        let sc = t.curvature_scale_principal(c, k.k.0, k.k.1);
         let (r, tr) = t.scaled(c, t.local(c, k.d), (1.0, sc.far));
         assert_eq!(k.profile(1, c).total(), tr.total());
         let want = crate::bssrdf::curvature::Binned::new(r, &sc);
         assert_eq!(k.profile(0, c).total(), want.total());
     }
     assert!((t.curvature_scale(0, k.h).near[0] - 1.0).abs() > 1e-3, "a curved point is corrected");
+    assert!((k.k.0 * 10.0 - 1.0).abs() < 0.1 && (k.k.1 * 10.0 - 1.0).abs() < 0.1, "umbilic: {:?}", k.k);
     assert_eq!(t.curvature_scale(0, 0.0), crate::bssrdf::curvature::LocalScale::ONE);
     // flat: the bins' edges are all at ∞ and the kernel is the slab profile itself
     let (r, _) = t.scaled(0, t.local(0, 20.0), (1.0, 1.0));
@@ -139,5 +140,28 @@ fn curvature_probe_and_kernel_scale() {
     for x in [0.01, 0.3, 3.0] {
         assert_eq!(flat.rd(x), r.rd(x));
         assert!((flat.cdf(x) - r.cdf(x)).abs() < 1e-12);
+    }
+}
+
+/// The principal curvatures of a torus (major 7, tube 2.5 mm, 0.12–0.2 mm facets) from the three
+/// probe rays: on the outer equator 1/2.5 and 1/9.5 mm⁻¹, on the top of the tube 1/2.5 and 0,
+/// on the inner equator 1/2.5 and −1/4.5 (a saddle); within 10 % of the tube's 1/2.5, 0.02 mm⁻¹
+/// for the ring's direction.
+#[test]
+fn principal_curvatures_of_a_torus() {
+    use super::principal_curvatures;
+    let mesh = super::super::shapes::torus([0.0; 3], 7.0, 2.5, 384, 96).unwrap();
+    let obj = Object { name: "t".into(), mesh, material: 0 };
+    let grey = Material::lambertian("m", [0.5; 3]).unwrap();
+    let s = Scene::new(vec![obj], vec![grey], vec![], [0.0; 3], None).unwrap();
+    let probe = |o: [f64; 3], d: [f64; 3]| s.accel.intersect(o, d, f64::INFINITY, u32::MAX).unwrap();
+    let cases = [
+        (probe([50.0, 0.01, 0.02], [-1.0, 0.0, 0.0]), 1.0 / 9.5),
+        (probe([7.01, 0.02, 50.0], [0.0, 0.0, -1.0]), 0.0),
+        (probe([0.01, 0.02, 0.03], [1.0, 0.0, 0.0]), -1.0 / 4.5),
+    ];
+    for (hit, k2) in cases {
+        let (a, b) = principal_curvatures(&s, &hit, 0.6);
+        assert!(a >= b && (a * 2.5 - 1.0).abs() < 0.1 && (b - k2).abs() < 0.02, "κ = ({a}, {b}), want {k2}");
     }
 }
