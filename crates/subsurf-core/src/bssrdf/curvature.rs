@@ -7,13 +7,13 @@
 //! - [`curvature_nodes`]: ρ_j = ℓ·2^j (ℓ the largest 1/σt' of the stack), j = −1, 0, …, up to
 //!   the first node ≥ max(8ℓ, 8L) (L the deepest layer's diffusion length), at most 2⁸ℓ.
 //! - [`build_curvature`]: the engine's flat diffuse reflectance R_flat under
-//!   [`Source::Diffuse`] (seed + 64c + [`SEED_FLAT`], the table's photons), and the sphere and
-//!   cylinder and cavity escapes P(ρ_j) (seeds + [`SEED_SPHERE`] + j, + [`SEED_CYLINDER`] + j,
-//!   + [`SEED_CAVITY`] + j), with
-//!   [`curved_photons`] each: a quarter of the table's photons, at most
-//!   [`MAX_CURVED_PHOTONS`], as an escape fraction near 1 varies little from photon to photon
-//!   (0.1–0.3 % standard error at 2 500 photons, below the flat run's). The sphere's escape is also tallied by where it leaves: per chord bin of the
-//!   entry's hemisphere ([`NEAR_BINS`] bins of equal area, [`bin_edges`]) and the far hemisphere.
+//!   [`Source::Diffuse`] (seed + 64c + [`SEED_FLAT`], the table's photons), and the sphere,
+//!   cylinder and cavity escapes P(ρ_j) (seed offsets [`SEED_SPHERE`] + j, [`SEED_CYLINDER`] + j
+//!   and [`SEED_CAVITY`] + j), with [`curved_photons`] each: a quarter of the table's photons,
+//!   at most [`MAX_CURVED_PHOTONS`], as an escape fraction near 1 varies little from photon to
+//!   photon (0.1–0.3 % standard error at 2 500 photons, below the flat run's). The sphere's and
+//!   the cylinder's escapes are also tallied by where they leave: per chord bin of the entry's
+//!   half ([`NEAR_BINS`] bins, of equal area on the sphere, [`bin_edges`]) and the far half.
 //! - [`Scales`]: C = P/R_flat is the curvature's own effect (the same illumination on both sides
 //!   of the ratio); the kernel's units are R_∞ (the semi-infinite total per entering power) per
 //!   R_flat. On a sphere of radius ρ the kernel of `render::adaptive` (thickness d = 2ρ) puts

@@ -165,3 +165,17 @@ fn principal_curvatures_of_a_torus() {
         assert!(a >= b && (a * 2.5 - 1.0).abs() < 0.1 && (b - k2).abs() < 0.02, "κ = ({a}, {b}), want {k2}");
     }
 }
+
+/// A cube's flat face: no curvature in its middle (every probe finds the face), a convex one
+/// within a probe step of an edge (the probes that fall off count [`super::EDGE_SAG`]).
+#[test]
+fn edges_count_as_convex() {
+    use super::principal_curvatures;
+    let grey = Material::lambertian("m", [0.5; 3]).unwrap();
+    let obj = Object { name: "c".into(), mesh: cuboid([-5.0; 3], [5.0; 3]).unwrap(), material: 0 };
+    let s = Scene::new(vec![obj], vec![grey], vec![], [0.0; 3], None).unwrap();
+    let at = |x: f64, y: f64| s.accel.intersect([x, y, 50.0], [0.0, 0.0, -1.0], f64::INFINITY, u32::MAX).unwrap();
+    assert_eq!(principal_curvatures(&s, &at(0.3, 0.2), 1.0), (0.0, 0.0));
+    let (k1, k2) = principal_curvatures(&s, &at(4.6, 0.2), 1.0);
+    assert!(k1 > 0.1 && k1 >= k2, "κ = ({k1}, {k2})");
+}
