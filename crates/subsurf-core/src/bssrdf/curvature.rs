@@ -36,8 +36,10 @@
 //!
 //! Scales are interpolated linearly in ln ρ between nodes, held below the first node, and go to 1
 //! beyond the last node ρ_n as 1 + (s_n − 1)·ρ_n/ρ (the curvature effect is first order in 1/ρ).
-//! Under uniform light on a sphere the kernel is then exact up to the tables' noise; under a
-//! directional light the shape within each bin and across the far side is the slab's.
+//! Under uniform light on a sphere the kernel's integral is then the traced escape up to the
+//! tables' noise (the rendered exitance also carries the renderer's flat-surface exit term, off
+//! on optically small spheres: `docs/render.md`); under a directional light the shape within
+//! each bin and across the far side is the slab's.
 
 use super::adaptive::{thickness_nodes, transport_length, AdaptiveSettings, Mix};
 use super::curved::{escape, Curved, Escape, NEAR_BINS};
