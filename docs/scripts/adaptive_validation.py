@@ -213,10 +213,11 @@ def main():
             r = ", ".join(f"{100 * x:.0f}" for x in rel)
             print(f"| {name} | {b} % | {r} % | {rmse:.3e} | {dt:.1f} |", flush=True)
         rw = res["rows"][f"random_walk {a.spp_low} spp"]
-        hi = res["rows"]["hierarchical adaptive"]
-        eff = (1 / (hi[1] ** 2 * hi[3])) / (1 / (rw[1] ** 2 * rw[3]))
-        print(f"efficiency hierarchical+adaptive / random_walk: {eff:.1f}x")
-        res["efficiency_ratio"] = eff
+        hi = res["rows"].get("hierarchical adaptive")
+        if hi is not None:  # --models without it: no efficiency
+            eff = (1 / (hi[1] ** 2 * hi[3])) / (1 / (rw[1] ** 2 * rw[3]))
+            print(f"efficiency hierarchical+adaptive / random_walk: {eff:.1f}x")
+            res["efficiency_ratio"] = eff
     if a.json:
         with open(a.json, "w") as f:
             json.dump(
