@@ -97,7 +97,7 @@ impl Dwivedi {
 /// (2x√(1 − ρ²), 2y√(1 − ρ²), 1 − 2ρ²); otherwise cos θ is sampled ([`Phase::sample`], one ξ)
 /// and the azimuth is the doubled angle of a disc point, cos φ = (x² − y²)/ρ², sin φ = 2xy/ρ²
 /// (uniform; von Neumann 1951, as the engine's kernel draws it), then MCML's [`spin`].
-/// Measured on the 81,920-triangle marble sphere: 275 → about 60 instructions per collision
+/// Measured on the 81,920-triangle marble sphere: 275 → 111 instructions per collision
 /// against cos θ, φ = 2πξ and `sincos` (docs/render.md, "Per-collision work").
 ///
 /// [`Phase::sample`]: crate::optics::Phase::sample
