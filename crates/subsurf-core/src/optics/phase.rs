@@ -146,6 +146,12 @@ impl Phase {
         &self.lobes[..self.count]
     }
 
+    /// Whether this is one lobe that [`sample_hg`] treats as isotropic (|g| < [`G_ISOTROPIC`]).
+    #[inline]
+    pub fn is_isotropic(&self) -> bool {
+        self.count == 1 && self.lobes[0].g.abs() < G_ISOTROPIC
+    }
+
     /// Mean cosine of the mixture, Σ w_l g_l.
     pub fn g(&self) -> f64 {
         self.lobes().iter().map(|l| l.weight * l.g).sum()

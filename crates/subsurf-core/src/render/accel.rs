@@ -236,8 +236,24 @@ impl Accel {
     /// t_k ≥ s − r_end the segment is clear. At most [`Self::TRACE_STEPS`] forward lookups.
     #[inline]
     pub fn segment_clear(&self, p: V3, d: V3, s: f64) -> bool {
+        let mut ball = Ball::NONE;
+        self.segment_clear_in(&mut ball, p, d, s)
+    }
+
+    /// [`Self::segment_clear`] with a ball known free of surfaces (`ball`: from an earlier
+    /// lookup of the same walk): a segment whose two ends lie in it is clear without a lookup
+    /// (a ball is convex); otherwise `ball` becomes B(p, bound at p) and the segment is traced.
+    /// The same answer wherever the ball decides (it only says clear where a segment is), so
+    /// the walk takes the same path; a deep walker (mean free path ≪ bound) keeps its ball for
+    /// many collisions.
+    #[inline]
+    pub fn segment_clear_in(&self, ball: &mut Ball, p: V3, d: V3, s: f64) -> bool {
         let Some(g) = &self.distance else { return false };
+        if s.is_finite() && ball.holds(p) && ball.holds(madd(p, d, s)) {
+            return true;
+        }
         let mut t = g.bound(p);
+        *ball = Ball { c: p, r2: t * t };
         if t >= s {
             return true;
         }
@@ -272,6 +288,26 @@ impl Accel {
     #[inline]
     pub fn offset(&self, p: V3, n: V3, side: f64) -> V3 {
         madd(p, scale(n, side), self.extent * 1e-9)
+    }
+}
+
+/// A ball (centre, squared radius in mm²) that holds no surface point: a bound of
+/// [`super::distance`] at its centre.
+#[derive(Clone, Copy, Debug)]
+pub struct Ball {
+    c: V3,
+    r2: f64,
+}
+
+impl Ball {
+    /// The empty ball (holds nothing).
+    pub const NONE: Ball = Ball { c: [0.0; 3], r2: -1.0 };
+
+    /// Whether `q` lies in the ball (strictly within the bound's radius).
+    #[inline]
+    fn holds(&self, q: V3) -> bool {
+        let v = sub(q, self.c);
+        dot(v, v) < self.r2
     }
 }
 

@@ -157,6 +157,16 @@ fn attempt(scene: &Scene, media: &Media, eta: f64, v: V3, y: V3, tri: u32, insid
     let (pv, py) = (madd(v, n, hv), madd(y, n, -hy));
     let dd = sub(py, pv);
     let big_d = dot(dd, dd).sqrt();
+    if inside && big_d > 1e-300 {
+        // The Fermat point lies between pv and the straight line's point (η ≥ 1; between that
+        // and py for η < 1): where both ends are beyond one edge of the triangle, so is it
+        // (barycentric coordinates are affine), and the Newton solve is skipped.
+        let ps = madd(pv, dd, hv / (hv + hy));
+        let (a, b) = if eta >= 1.0 { (pv, ps) } else { (ps, py) };
+        if beyond_one_edge(tr, a, b) {
+            return Attempt::Fail;
+        }
+    }
     let t = if big_d > 1e-300 { fermat_t(eta, hv, hy, big_d) } else { 0.0 };
     let p = if big_d > 1e-300 { madd(pv, dd, t / big_d) } else { pv };
     if inside && !in_triangle(tr, p) {
@@ -182,13 +192,29 @@ fn attempt(scene: &Scene, media: &Media, eta: f64, v: V3, y: V3, tri: u32, insid
 /// Whether `p` (on the plane of `t`) lies in the triangle, with a relative margin of 10⁻⁹ (a
 /// point the margin wrongly admits only costs a ray: the chain decides).
 fn in_triangle(t: &super::accel::Tri, p: V3) -> bool {
+    let (b1, b2) = barycentric(t, p);
+    b1 >= -IN_EPS && b2 >= -IN_EPS && b1 + b2 <= 1.0 + IN_EPS
+}
+
+/// The relative margin of [`in_triangle`].
+const IN_EPS: f64 = 1e-9;
+
+/// Barycentric coordinates (b₁, b₂) of `p` (on the plane of `t`) along its edges e₁, e₂.
+fn barycentric(t: &super::accel::Tri, p: V3) -> (f64, f64) {
     let w = sub(p, t.v0);
     let (d00, d01, d11) = (dot(t.e1, t.e1), dot(t.e1, t.e2), dot(t.e2, t.e2));
     let (d20, d21) = (dot(w, t.e1), dot(w, t.e2));
     let den = d00 * d11 - d01 * d01;
-    let (b1, b2) = ((d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den);
-    let eps = 1e-9;
-    b1 >= -eps && b2 >= -eps && b1 + b2 <= 1.0 + eps
+    ((d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den)
+}
+
+/// Whether the points `a` and `b` (on the plane of `t`) are both beyond the same edge of the
+/// triangle by more than [`in_triangle`]'s margin: then every point between them fails it.
+fn beyond_one_edge(t: &super::accel::Tri, a: V3, b: V3) -> bool {
+    let ((a1, a2), (b1, b2)) = (barycentric(t, a), barycentric(t, b));
+    (a1 < -IN_EPS && b1 < -IN_EPS)
+        || (a2 < -IN_EPS && b2 < -IN_EPS)
+        || (a1 + a2 > 1.0 + IN_EPS && b1 + b2 > 1.0 + IN_EPS)
 }
 
 /// The ray-tube geometry factor of a point source seen through a flat interface (module docs):

@@ -91,17 +91,36 @@ impl Dwivedi {
     }
 }
 
+/// A new direction from the phase function of `m` after travelling along `d`, without
+/// trigonometry: isotropic scattering takes Marsaglia's (1972) uniform direction from a point
+/// (x, y) uniform in the unit disc ([`PhotonRng::disc_point`], ρ² = x² + y²):
+/// (2x√(1 − ρ²), 2y√(1 − ρ²), 1 − 2ρ²); otherwise cos θ is sampled ([`Phase::sample`], one ξ)
+/// and the azimuth is the doubled angle of a disc point, cos φ = (x² − y²)/ρ², sin φ = 2xy/ρ²
+/// (uniform; von Neumann 1951, as the engine's kernel draws it), then MCML's [`spin`].
+/// Measured on the 81,920-triangle marble sphere: 275 → 111 instructions per collision
+/// against cos θ, φ = 2πξ and `sincos` (docs/render.md, "Per-collision work").
+///
+/// [`Phase::sample`]: crate::optics::Phase::sample
+#[inline]
+pub fn classic(m: &Translucent, d: V3, rng: &mut PhotonRng) -> V3 {
+    if m.phase.is_isotropic() {
+        let (x, y) = rng.disc_point();
+        let r2 = x * x + y * y;
+        let a = 2.0 * (1.0 - r2).sqrt();
+        return [a * x, a * y, 1.0 - 2.0 * r2];
+    }
+    let cos = m.phase.sample(rng.uniform());
+    let (x, y) = rng.disc_point();
+    let r2 = x * x + y * y;
+    spin(d, cos, (x * x - y * y) / r2, 2.0 * x * y / r2)
+}
+
 /// The new direction at a real collision in `m` of a walk arriving along `d`, and how its
-/// flight is sampled. Without a guide (`None`): the phase function (ξ for cos θ, ξ for the
-/// azimuth: the classic walk's numbers). With one (the entry frame around N and the medium's
-/// parameters): a ξ for the technique, then the same two ξ for cos θ (phase or Dwivedi) and
-/// the azimuth (about d or about N).
+/// flight is sampled. Without a guide (`None`): the phase function ([`classic`]: the classic
+/// walk's numbers). With one (the entry frame around N and the medium's parameters): a ξ for
+/// the technique, then two ξ for cos θ (phase or Dwivedi) and the azimuth (about d or about N).
 pub fn scatter(m: &Translucent, d: V3, guide: Option<(&Frame, &Dwivedi)>, rng: &mut PhotonRng) -> (V3, Flight) {
-    let Some((frame, dw)) = guide else {
-        let cos = m.phase.sample(rng.uniform());
-        let phi = 2.0 * PI * rng.uniform();
-        return (spin(d, cos, phi.cos(), phi.sin()), Flight::CLASSIC);
-    };
+    let Some((frame, dw)) = guide else { return (classic(m, d, rng), Flight::CLASSIC) };
     let guided = rng.uniform() < dw.gf;
     let (u1, u2) = (rng.uniform(), rng.uniform());
     let phi = 2.0 * PI * u2;

@@ -38,11 +38,15 @@
 //! collision.
 //!
 //! Random-number order per event: the carrier's channel draw (renderer only), the free path,
-//! then at a collision the carrier's draws (next-event estimation), the phase ξ, the azimuth
-//! ξ, the carrier's draws for the new direction ([`Carrier::scattered`]) and its roulette ξ;
-//! at a boundary with a mismatched index the Fresnel ξ.
+//! then at a collision the carrier's draws (next-event estimation), the new direction's (the
+//! phase ξ unless isotropic, then a disc point by rejection, [`super::guide::classic`]), the
+//! carrier's draws for the new direction ([`Carrier::scattered`]) and its roulette ξ; at a
+//! boundary with a mismatched index the Fresnel ξ.
+//!
+//! The free-path test keeps a ball free of surfaces ([`Ball`], from the last bound looked up):
+//! while the walk's collisions stay inside it, no lookup is made.
 
-use super::accel::Hit;
+use super::accel::{Ball, Hit};
 use super::grid::Local;
 use super::guide::{scatter, Dwivedi, Flight};
 use super::material::Translucent;
@@ -261,6 +265,8 @@ pub fn walk<C: Carrier>(
     let frame = (c.guided() && skip != u32::MAX).then(|| Frame::new(scene.accel.tris[skip as usize].n));
     let mut dwivedi: (*const Translucent, Option<Dwivedi>) = (std::ptr::null(), None);
     let mut flight = Flight::CLASSIC;
+    // A ball free of surfaces around the recent collisions (`Accel::segment_clear_in`).
+    let mut ball = Ball::NONE;
     for _ in 0..MAX_EVENTS {
         let Some(m) = media.medium(scene) else { return c.lost(p, false) };
         let Some(k) = c.channel(rng) else { return };
@@ -274,7 +280,8 @@ pub fn walk<C: Carrier>(
         // of a closed mesh (about 10⁻⁴ of the weight at a cuboid's edges) is booked as lost
         // when it next meets a surface of an object it is inside from that object's outside,
         // or collides outside the walk's box (`Accel::in_walk_box`).
-        let ahead = if scene.accel.segment_clear(p, d, s) { None } else { scene.accel.intersect(p, d, s, skip) };
+        let clear = scene.accel.segment_clear_in(&mut ball, p, d, s);
+        let ahead = if clear { None } else { scene.accel.intersect(p, d, s, skip) };
         match ahead {
             None => {
                 p = madd(p, d, s);
