@@ -76,7 +76,9 @@ def test_profiles_and_bad_input(cache):
         AdaptiveTable.build([STACK], photons=1)
     cd = t.curvature()[0]
     assert cd["rho"] == _core.bssrdf_adaptive_curvature_nodes(STACK._to_core())
-    assert sum(cd["sphere_bins"][0]) == pytest.approx(cd["sphere_near"][0], rel=1e-12)
+    for k in ("sphere", "cylinder"):
+        assert sum(cd[f"{k}_bins"][0]) == pytest.approx(cd[f"{k}_near"][0], rel=1e-12)
+    assert len(cd["scale_cylinder"]) == len(cd["scale_cylinder_far"]) == len(cd["rho"])
     assert cd["scale_concave"][0] < 0.5  # a small cavity returns less light than a flat surface
     assert t.curvature_scale(0, 0.0) == ([1.0] * 8, 1.0)
     # the curved transport: a non-absorbing, index-matched sphere returns every photon

@@ -4,9 +4,9 @@
 transmission T(r; d) profiles of the material cut into slabs of thickness d (nodes d = ℓ·2^j from
 ℓ/8 up to several diffusion lengths, plus the semi-infinite profile; the core's
 ``subsurf_core::bssrdf::adaptive`` documents the grid, the seeds and the interpolation), and the
-curvature data: the exact escape of diffuse light from spheres and spherical cavities of radius
+curvature data: the exact escape of diffuse light from spheres, spherical cavities and cylinders of radius
 ρ = ℓ·2^j relative to the flat half-space (``subsurf_core::bssrdf::curvature``). The renderer picks
-the profiles per shading point by the local thickness and scales them by the local mean curvature
+the profiles per shading point by the local thickness and scales them by the local principal curvatures
 (``render::adaptive``).
 
 A table is deterministic: the same stacks, photons, seed and engine version give the same bits.
@@ -28,9 +28,11 @@ from . import _core
 from .medium import Stack
 
 FORMAT = "subsurf-adaptive-table"
-FORMAT_VERSION = 2  # 2: the curvature data (sphere, cavity and flat escapes per channel)
+FORMAT_VERSION = 3  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders
+_BINNED = ("sphere", "cylinder")
 _ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
-_CURVATURE = ("rho",) + tuple(f"{k}{x}" for k in ("sphere", "cavity") for x in ("", "_stderr", "_near", "_near_stderr"))
+_SUFFIXES = ("", "_stderr", "_near", "_near_stderr")
+_CURVATURE = ("rho",) + tuple(f"{k}{x}" for k in ("sphere", "cavity", "cylinder") for x in _SUFFIXES)
 
 
 def cache_dir() -> str:
@@ -128,7 +130,8 @@ class AdaptiveTable:
                 g = f.create_group(f"curvature/{c:02d}")
                 for k in _CURVATURE:
                     g.create_dataset(k, data=np.asarray(cd[k], dtype=np.float64))
-                g.create_dataset("sphere_bins", data=np.asarray(cd["sphere_bins"], dtype=np.float64))
+                for k in _BINNED:
+                    g.create_dataset(f"{k}_bins", data=np.asarray(cd[f"{k}_bins"], dtype=np.float64))
                 g.attrs["flat"] = float(cd["flat"])
                 g.attrs["flat_stderr"] = float(cd["flat_stderr"])
 
@@ -160,7 +163,8 @@ class AdaptiveTable:
             for c in sorted(o.f["curvature"]):
                 g = o.f["curvature"][c]
                 cd = {k: [float(x) for x in g[k][()]] for k in _CURVATURE}
-                cd["sphere_bins"] = [[float(x) for x in row] for row in g["sphere_bins"][()]]
+                for k in _BINNED:
+                    cd[f"{k}_bins"] = [[float(x) for x in row] for row in g[f"{k}_bins"][()]]
                 cd.update(flat=float(g.attrs["flat"]), flat_stderr=float(g.attrs["flat_stderr"]))
                 curvature.append(cd)
         try:

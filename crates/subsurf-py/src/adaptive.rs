@@ -87,24 +87,28 @@ impl PyAdaptiveTable {
     }
 
     /// Per channel: {rho, sphere, sphere_stderr, sphere_near, sphere_near_stderr, the same for
-    /// cavity, flat, flat_stderr, scale_convex, scale_convex_far, scale_concave} (lists over the
+    /// cavity and cylinder, sphere_bins, cylinder_bins, flat, flat_stderr, scale_convex,
+    /// scale_convex_far, scale_cylinder, scale_cylinder_far, scale_concave} (lists over the
     /// curvature nodes; `scale_*` derived, not read back).
     fn curvature<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         let mut out = vec![];
         for (c, cd) in self.inner.curvature().iter().enumerate() {
             let o = PyDict::new(py);
             o.set_item("rho", cd.rho.clone())?;
-            for (k, v) in [("sphere", &cd.sphere), ("cavity", &cd.cavity)] {
+            for (k, v) in [("sphere", &cd.sphere), ("cavity", &cd.cavity), ("cylinder", &cd.cylinder)] {
                 o.set_item(k, v.iter().map(|e| e.mean).collect::<Vec<_>>())?;
                 o.set_item(format!("{k}_stderr"), v.iter().map(|e| e.stderr).collect::<Vec<_>>())?;
                 o.set_item(format!("{k}_near"), v.iter().map(|e| e.near).collect::<Vec<_>>())?;
                 o.set_item(format!("{k}_near_stderr"), v.iter().map(|e| e.near_stderr).collect::<Vec<_>>())?;
             }
             o.set_item("sphere_bins", cd.sphere.iter().map(|e| e.bins.clone()).collect::<Vec<_>>())?;
+            o.set_item("cylinder_bins", cd.cylinder.iter().map(|e| e.bins.clone()).collect::<Vec<_>>())?;
             o.set_item("flat", cd.flat.mean)?;
             o.set_item("flat_stderr", cd.flat.stderr)?;
             o.set_item("scale_convex", self.inner.scales(c).convex.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
             o.set_item("scale_convex_far", self.inner.scales(c).convex_far.clone())?;
+            o.set_item("scale_cylinder", self.inner.scales(c).cylinder.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
+            o.set_item("scale_cylinder_far", self.inner.scales(c).cylinder_far.clone())?;
             o.set_item("scale_concave", self.inner.scales(c).concave.clone())?;
             out.push(o);
         }
@@ -186,15 +190,19 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
     };
     let (mean, stderr) = (item(d, "flat")?.extract()?, item(d, "flat_stderr")?.extract()?);
     let flat = Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![] };
-    let mut sphere = pairs("sphere")?;
-    let bins: Vec<Vec<f64>> = item(d, "sphere_bins")?.extract()?;
-    if bins.len() != sphere.len() {
-        return Err(to_py(Error::Invalid("adaptive table curvature: sphere_bins has another length".into())));
-    }
-    for (e, b) in sphere.iter_mut().zip(bins) {
-        e.bins = b;
-    }
-    Ok(CurvatureData { rho: list("rho")?, sphere, cavity: pairs("cavity")?, flat })
+    let binned = |k: &str| -> PyResult<Vec<Escape>> {
+        let mut v = pairs(k)?;
+        let bins: Vec<Vec<f64>> = item(d, &format!("{k}_bins"))?.extract()?;
+        if bins.len() != v.len() {
+            return Err(to_py(Error::Invalid(format!("adaptive table curvature: {k}_bins has another length"))));
+        }
+        for (e, b) in v.iter_mut().zip(bins) {
+            e.bins = b;
+        }
+        Ok(v)
+    };
+    let (sphere, cylinder) = (binned("sphere")?, binned("cylinder")?);
+    Ok(CurvatureData { rho: list("rho")?, sphere, cavity: pairs("cavity")?, cylinder, flat })
 }
 
 /// The curvature nodes (mm) of a stack's adaptive table.

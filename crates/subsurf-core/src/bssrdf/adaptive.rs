@@ -26,7 +26,9 @@
 //! keyed by the stacks, the settings and the engine's version holds exactly what a rebuild makes
 //! (`subsurf.bssrdf.AdaptiveTable`, HDF5).
 
-use super::curvature::{build_curvature, curvature_photons, sphere_gather, CurvatureData, LocalScale, Scales};
+use super::curvature::{
+    build_curvature, curvature_photons, cylinder_gather, sphere_gather, CurvatureData, Gathers, LocalScale, Scales,
+};
 use super::monte_carlo::{default_edges, McSettings, MonteCarloProfile, RadialData, RadialTally};
 use super::RadialProfile;
 use crate::error::{Error, Result};
@@ -310,11 +312,15 @@ impl AdaptiveTable {
             }
             let n = table.channels[c].d.len();
             let semi = table.reflection(c, Local { i: n - 2, t: 1.0 });
-            let gather = |rho: f64| {
+            let sphere = |rho: f64| {
                 let at = table.local(c, 2.0 * rho);
                 sphere_gather(&table.reflection(c, at), &table.transmission(c, at), rho)
             };
-            let sc = Scales::new(cd, gather, &semi)?;
+            let cylinder = |rho: f64| {
+                let at = table.local(c, 2.0 * rho);
+                cylinder_gather(&table.reflection(c, at), &table.transmission(c, at), rho)
+            };
+            let sc = Scales::new(cd, Gathers { sphere: &sphere, cylinder: &cylinder }, &semi)?;
             table.scales.push(sc);
         }
         Ok(table)
@@ -367,6 +373,11 @@ impl AdaptiveTable {
     /// curvature `h` (mm⁻¹; > 0 convex, < 0 concave).
     pub fn curvature_scale(&self, c: usize, h: f64) -> LocalScale {
         self.scales[c].at(h)
+    }
+    /// The curvature scales of channel `c` at principal curvatures `k1`, `k2` (mm⁻¹; sphere,
+    /// cylinder or cavity, [`Scales::at_principal`]).
+    pub fn curvature_scale_principal(&self, c: usize, k1: f64, k2: f64) -> LocalScale {
+        self.scales[c].at_principal(k1, k2)
     }
     /// The curvature scales of channel `c` (convex, concave) at its nodes.
     pub fn scales(&self, c: usize) -> &Scales {

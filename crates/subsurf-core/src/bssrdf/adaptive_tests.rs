@@ -156,3 +156,93 @@ fn curvature_scales_reproduce_the_sphere_escapes() {
     let cav = t.curvature_scale(0, -1.0 / cd.rho[0]);
     assert!(cav.near.iter().all(|&x| x == cav.far) && cav.far < 1.0);
 }
+
+/// The cylinder's areas against a direct count on a (φ, z) grid (the entry's half within chord
+/// c, the far half within lateral offset u), πc² for c ≪ ρ and 4ρ² for u = ρ exactly; the
+/// kernel's cylinder integral (far side, near bins beyond the peak) against a direct midpoint
+/// sum over the surface; and the scales reproduce the cylinder escapes per bin and far side,
+/// a principal-curvature ratio of 1 being the sphere's scales, 0 the cylinder's, ½ a quarter of
+/// the sphere's.
+#[test]
+fn cylinder_scales_reproduce_the_cylinder_escapes() {
+    use crate::bssrdf::curvature::{bin_edges, cylinder_far_area, cylinder_gather, cylinder_near_area};
+    use crate::bssrdf::curved::NEAR_BINS;
+    use std::f64::consts::PI;
+    let rho = 2.0;
+    let (nphi, nz, zmax) = (800usize, 800usize, 8.0);
+    let (hp, hz) = (PI / nphi as f64, 2.0 * zmax / nz as f64);
+    let grid = |f: &dyn Fn(f64, f64) -> f64| -> f64 {
+        let mut s = 0.0;
+        for i in 0..nphi {
+            let phi = -0.5 * PI + (i as f64 + 0.5) * hp;
+            for k in 0..nz {
+                s += f(phi, -zmax + (k as f64 + 0.5) * hz);
+            }
+        }
+        s * rho * hp * hz
+    };
+    for c in [0.7, 2.0, 3.5] {
+        let want = grid(&|p, z| if 2.0 * rho * rho * (1.0 - p.cos()) + z * z <= c * c { 1.0 } else { 0.0 });
+        let got = cylinder_near_area(c, rho);
+        assert!((got / want - 1.0).abs() < 0.01, "near c = {c}: {got} vs {want}");
+        let want = grid(&|p, z| if (rho * p.sin()).powi(2) + z * z <= c * c { 1.0 } else { 0.0 });
+        let got = cylinder_far_area(c, rho);
+        assert!((got / want - 1.0).abs() < 0.01, "far u = {c}: {got} vs {want}");
+    }
+    assert!((cylinder_near_area(1e-3, rho) / (PI * 1e-6) - 1.0).abs() < 1e-5);
+    assert!((cylinder_far_area(rho, rho) / (4.0 * rho * rho) - 1.0).abs() < 1e-4);
+    // a smooth profile (Gaussian, width 1.5 mm) for the kernel's integrals, R and T alike
+    let (r, tr) = (Gauss(1.5, 0.3), Gauss(1.5, 0.1));
+    let (near, far) = cylinder_gather(&r, &tr, rho);
+    let want_far = grid(&|p, z| tr.rd(((rho * p.sin()).powi(2) + z * z).sqrt()));
+    assert!((far / want_far - 1.0).abs() < 0.01, "far: {far} vs {want_far}");
+    let e = bin_edges(rho);
+    for b in 0..NEAR_BINS {
+        let want = grid(&|p, z| {
+            let c = (2.0 * rho * rho * (1.0 - p.cos()) + z * z).sqrt();
+            if c >= e[b] && c < e[b + 1] {
+                r.rd(c)
+            } else {
+                0.0
+            }
+        });
+        assert!((near[b] / want - 1.0).abs() < 0.01, "bin {b}: {} vs {want}", near[b]);
+    }
+    let s = one_layer(0.2, 2.0, 0.0);
+    let t = AdaptiveTable::build(std::slice::from_ref(&s), &settings(800), &AtomicBool::new(false), &AtomicU64::new(0))
+        .unwrap()
+        .unwrap();
+    // the scales at a node: kernel × scale = the escape (kernel units), per bin and far side
+    let cd = &t.curvature()[0];
+    let unit = t.reflection(0, t.local(0, f64::INFINITY)).total() / cd.flat.mean;
+    for (j, &rho) in cd.rho.iter().enumerate() {
+        let sc = t.curvature_scale_principal(0, 1.0 / rho, 0.0);
+        let at = t.local(0, 2.0 * rho);
+        let (near, far) = cylinder_gather(&t.reflection(0, at), &t.transmission(0, at), rho);
+        let cy = &cd.cylinder[j];
+        let got: f64 = (0..NEAR_BINS).map(|b| near[b] * sc.near[b]).sum::<f64>() + far * sc.far;
+        assert!((got - cy.mean * unit).abs() < 1e-6 * cy.mean, "node {j}: {got} vs {}", cy.mean * unit);
+        let sp = t.curvature_scale_principal(0, 1.0 / rho, 1.0 / rho);
+        assert_eq!(sp, t.curvature_scale(0, 1.0 / rho));
+        let half = t.curvature_scale_principal(0, 1.0 / rho, 0.5 / rho);
+        assert!((half.far - (0.25 * sp.far + 0.75 * sc.far)).abs() < 1e-12);
+    }
+}
+
+/// A Gaussian radial profile of width `0` (mm) and total `1`.
+struct Gauss(f64, f64);
+
+impl crate::bssrdf::RadialProfile for Gauss {
+    fn rd(&self, r: f64) -> f64 {
+        self.1 * (-0.5 * r * r / (self.0 * self.0)).exp() / (2.0 * std::f64::consts::PI * self.0 * self.0)
+    }
+    fn total(&self) -> f64 {
+        self.1
+    }
+    fn cdf(&self, r: f64) -> f64 {
+        1.0 - (-0.5 * r * r / (self.0 * self.0)).exp()
+    }
+    fn sample_r(&self, u: f64) -> f64 {
+        self.0 * (-2.0 * (1.0 - u).ln()).sqrt()
+    }
+}

@@ -1,5 +1,5 @@
 //! The curvature part of the `adaptive` model: per channel, the escape of uniform diffuse light
-//! from spheres and from spherical cavities of radius ρ (exact transport,
+//! from spheres, infinite cylinders and spherical cavities of radius ρ (exact transport,
 //! [`crate::bssrdf::curved`]) relative to the flat half-space (the engine itself), turned into
 //! scales of the renderer's kernel so that it integrates, over a sphere (cavity) of radius ρ, to
 //! the exact escape, distributed over the sphere as the exact one is.
@@ -7,12 +7,13 @@
 //! - [`curvature_nodes`]: ρ_j = ℓ·2^j (ℓ the largest 1/σt' of the stack), j = −1, 0, …, up to
 //!   the first node ≥ max(8ℓ, 8L) (L the deepest layer's diffusion length), at most 2⁸ℓ.
 //! - [`build_curvature`]: the engine's flat diffuse reflectance R_flat under
-//!   [`Source::Diffuse`] (seed + 64c + [`SEED_FLAT`], the table's photons), and the sphere and
-//!   cavity escapes P(ρ_j) (seeds + [`SEED_SPHERE`] + j, + [`SEED_CAVITY`] + j), with
-//!   [`curved_photons`] each: a quarter of the table's photons, at most
-//!   [`MAX_CURVED_PHOTONS`], as an escape fraction near 1 varies little from photon to photon
-//!   (0.1–0.3 % standard error at 2 500 photons, below the flat run's). The sphere's escape is also tallied by where it leaves: per chord bin of the
-//!   entry's hemisphere ([`NEAR_BINS`] bins of equal area, [`bin_edges`]) and the far hemisphere.
+//!   [`Source::Diffuse`] (seed + 64c + [`SEED_FLAT`], the table's photons), and the sphere,
+//!   cylinder and cavity escapes P(ρ_j) (seed offsets [`SEED_SPHERE`] + j, [`SEED_CYLINDER`] + j
+//!   and [`SEED_CAVITY`] + j), with [`curved_photons`] each: a quarter of the table's photons,
+//!   at most [`MAX_CURVED_PHOTONS`], as an escape fraction near 1 varies little from photon to
+//!   photon (0.1–0.3 % standard error at 2 500 photons, below the flat run's). The sphere's and
+//!   the cylinder's escapes are also tallied by where they leave: per chord bin of the entry's
+//!   half ([`NEAR_BINS`] bins, of equal area on the sphere, [`bin_edges`]) and the far half.
 //! - [`Scales`]: C = P/R_flat is the curvature's own effect (the same illumination on both sides
 //!   of the ratio); the kernel's units are R_∞ (the semi-infinite total per entering power) per
 //!   R_flat. On a sphere of radius ρ the kernel of `render::adaptive` (thickness d = 2ρ) puts
@@ -26,10 +27,19 @@
 //!   A cavity's kernel (entry points all above the tangent plane, thickness ∞) gathers R_∞·F_∞(2ρ)
 //!   (F the CDF): its one scale is C_cav/F_∞(2ρ).
 //!
+//! - The cylinder's scales alike, from the kernel's integral over an infinite cylinder of radius ρ
+//!   ([`cylinder_gather`]: the entry's half per chord bin, the far half by lateral offset, with
+//!   the exact area of the cylinder within a chord / an offset, [`cylinder_near_area`],
+//!   [`cylinder_far_area`]) and its escapes tallied alike. A point of principal curvatures
+//!   κ₁ ≥ κ₂ takes a mixture of the sphere's and the cylinder's scales of radius 1/κ₁
+//!   ([`Scales::at_principal`]).
+//!
 //! Scales are interpolated linearly in ln ρ between nodes, held below the first node, and go to 1
 //! beyond the last node ρ_n as 1 + (s_n − 1)·ρ_n/ρ (the curvature effect is first order in 1/ρ).
-//! Under uniform light on a sphere the kernel is then exact up to the tables' noise; under a
-//! directional light the shape within each bin and across the far side is the slab's.
+//! Under uniform light on a sphere the kernel's integral is then the traced escape up to the
+//! tables' noise (the rendered exitance also carries the renderer's flat-surface exit term, off
+//! on optically small spheres: `docs/render.md`); under a directional light the shape within
+//! each bin and across the far side is the slab's.
 
 use super::adaptive::{thickness_nodes, transport_length, AdaptiveSettings, Mix};
 use super::curved::{escape, Curved, Escape, NEAR_BINS};
@@ -49,6 +59,8 @@ pub const LAST_RHO_LOG2: i32 = 8;
 pub const SEED_SPHERE: u64 = 20;
 /// See [`SEED_SPHERE`].
 pub const SEED_CAVITY: u64 = 40;
+/// See [`SEED_SPHERE`].
+pub const SEED_CYLINDER: u64 = 50;
 /// See [`SEED_SPHERE`].
 pub const SEED_FLAT: u64 = 60;
 /// Below this fraction of the kernel's sphere integral on the far side, the far side is not
@@ -78,6 +90,8 @@ pub struct CurvatureData {
     pub sphere: Vec<Escape>,
     /// Escape from the cavity of radius ρ_j.
     pub cavity: Vec<Escape>,
+    /// Escape from the infinite cylinder of radius ρ_j.
+    pub cylinder: Vec<Escape>,
     /// The engine's flat half-space diffuse reflectance under diffuse light.
     pub flat: Escape,
 }
@@ -130,24 +144,28 @@ pub fn build_curvature(
         return Ok(None);
     };
     let rho = curvature_nodes(stack)?;
-    let mut sphere = vec![];
-    let mut cavity = vec![];
+    let (mut sphere, mut cavity, mut cylinder) = (vec![], vec![], vec![]);
     for (j, &r) in rho.iter().enumerate() {
         let j = j as u64;
         let one =
             |kind, off| escape(stack, kind, r, curved_photons(s.photons), base + off + j, s.threads, cancel, progress);
-        let (Some(a), Some(b)) = (one(Curved::Sphere, SEED_SPHERE)?, one(Curved::Cavity, SEED_CAVITY)?) else {
+        let (Some(a), Some(b), Some(c)) = (
+            one(Curved::Sphere, SEED_SPHERE)?,
+            one(Curved::Cavity, SEED_CAVITY)?,
+            one(Curved::Cylinder, SEED_CYLINDER)?,
+        ) else {
             return Ok(None);
         };
         sphere.push(a);
         cavity.push(b);
+        cylinder.push(c);
     }
-    Ok(Some(CurvatureData { rho, sphere, cavity, flat }))
+    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat }))
 }
 
 /// Photons a channel's curvature data traces.
 pub fn curvature_photons(stack: &Stack, photons: u64) -> u64 {
-    let n = curvature_nodes(stack).map_or(0, |v| 2 * v.len()) as u64;
+    let n = curvature_nodes(stack).map_or(0, |v| 3 * v.len()) as u64;
     photons.saturating_add(curved_photons(photons).saturating_mul(n))
 }
 
@@ -182,6 +200,102 @@ pub fn sphere_gather(r: &Mix, t: &Mix, rho: f64) -> ([f64; NEAR_BINS], f64) {
     (near, far)
 }
 
+/// ∫₀^b √(c² − a² sin²θ)₊ dθ, by the midpoint rule on a smooth integrand: in θ when c ≥ a sin b
+/// (the root never vanishes), else in ψ with sin θ = (c/a) sin ψ.
+fn arc_integral(c: f64, a: f64, b: f64) -> f64 {
+    const N: usize = 96;
+    if c >= a * b.sin() {
+        let h = b / N as f64;
+        let f = |i: usize| (c * c - (a * ((i as f64 + 0.5) * h).sin()).powi(2)).max(0.0).sqrt();
+        (0..N).map(f).sum::<f64>() * h
+    } else {
+        let (k, h) = (c / a, 0.5 * PI / N as f64);
+        let f = |i: usize| {
+            let p = (i as f64 + 0.5) * h;
+            p.cos().powi(2) / (1.0 - (k * p.sin()).powi(2)).max(1e-300).sqrt()
+        };
+        (0..N).map(f).sum::<f64>() * h * c * c / a
+    }
+}
+
+/// Area (mm²) of the entry's half of an infinite cylinder of radius `rho` within chord `c` of
+/// the entry point: chord² = 4ρ² sin²(φ/2) + z², |φ| ≤ π/2 (πc² for c ≪ ρ).
+pub fn cylinder_near_area(c: f64, rho: f64) -> f64 {
+    8.0 * rho * arc_integral(c, 2.0 * rho, 0.25 * PI)
+}
+
+/// Area (mm²) of the far half of an infinite cylinder of radius `rho` within lateral offset `u`
+/// of the entry's normal line: u² = ρ² sin²φ + z², |φ − π| ≤ π/2.
+pub fn cylinder_far_area(u: f64, rho: f64) -> f64 {
+    4.0 * rho * arc_integral(u, rho, 0.5 * PI)
+}
+
+/// ∫ p(x) dA(x) over x in the consecutive points `xs` (the last may be ∞): per step the CDF's
+/// mass times the area's density relative to the plane, ΔA/(πΔx²) (the tail beyond the last
+/// finite point takes the last step's density).
+fn gather_area(p: &dyn RadialProfile, xs: &[f64], area: &dyn Fn(f64) -> f64) -> f64 {
+    let mut g_last = 1.0;
+    let mut sum = 0.0;
+    for w in xs.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if b.is_finite() {
+            g_last = (area(b) - area(a)) / (PI * (b * b - a * a));
+        }
+        sum += (cdf_at(p, b) - cdf_at(p, a)).max(0.0) * g_last;
+    }
+    sum * p.total()
+}
+
+/// Points from `lo` to `hi` (finite): `n` steps uniform in x².
+fn steps_sq(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    (0..=n).map(|i| (lo * lo + (hi * hi - lo * lo) * i as f64 / n as f64).sqrt()).collect()
+}
+
+/// Points from `lo` (> 0) geometrically (2^⅛) over 16 octaves, then ∞.
+fn steps_to_inf(lo: f64) -> Vec<f64> {
+    (0..=128).map(|i| lo * 2f64.powf(i as f64 / 8.0)).chain([f64::INFINITY]).collect()
+}
+
+/// The kernel's integral over an infinite cylinder of radius `rho` (R, T the slab profiles at
+/// d = 2ρ, the cylinder's diameter, which the thickness probe measures): the entry's half
+/// (depth ≤ ρ) per chord bin of [`bin_edges`] (the last open), and the far half by the lateral
+/// offset r⊥ (as `render::adaptive` classes them).
+pub fn cylinder_gather(r: &dyn RadialProfile, t: &dyn RadialProfile, rho: f64) -> ([f64; NEAR_BINS], f64) {
+    let e = bin_edges(rho);
+    let near_area = |c: f64| cylinder_near_area(c, rho);
+    let near = std::array::from_fn(|b| {
+        let xs = if b + 1 < NEAR_BINS { steps_sq(e[b], e[b + 1], 16) } else { steps_to_inf(e[b]) };
+        if r.total() > 0.0 {
+            gather_area(r, &xs, &near_area)
+        } else {
+            0.0
+        }
+    });
+    let far = if t.total() > 0.0 {
+        let mut xs = steps_sq(0.0, rho, 64);
+        xs.extend(steps_to_inf(rho).into_iter().skip(1));
+        gather_area(t, &xs, &|u| cylinder_far_area(u, rho))
+    } else {
+        0.0
+    };
+    (near, far)
+}
+
+/// Per-bin near scales and the far scale that make a kernel whose integral is `(k_near, k_far)`
+/// give the escape `esc` (`unit`: escape per incident power → the kernel's units).
+fn convex_scales(esc: &Escape, (k_near, k_far): ([f64; NEAR_BINS], f64), unit: f64) -> ([f64; NEAR_BINS], f64) {
+    let k_tot: f64 = k_near.iter().sum::<f64>() + k_far;
+    let (far, spill) = if k_far > FAR_MIN * k_tot {
+        ((esc.mean - esc.near) * unit / k_far, 1.0)
+    } else {
+        // no transmission to speak of: the far side's escape goes to the near side
+        let near = esc.near * unit;
+        (1.0, if near > 0.0 { (esc.mean * unit - k_far) / near } else { 1.0 })
+    };
+    let near = std::array::from_fn(|b| if k_near[b] > 0.0 { esc.bins[b] * unit * spill / k_near[b] } else { 1.0 });
+    (near, far)
+}
+
 /// One channel's scales at its nodes (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scales {
@@ -191,6 +305,10 @@ pub struct Scales {
     pub convex: Vec<[f64; NEAR_BINS]>,
     /// Convex scales of the far side (T).
     pub convex_far: Vec<f64>,
+    /// Cylinder scales of the near side, per chord bin.
+    pub cylinder: Vec<[f64; NEAR_BINS]>,
+    /// Cylinder scales of the far side.
+    pub cylinder_far: Vec<f64>,
     /// Concave (cavity) scales.
     pub concave: Vec<f64>,
 }
@@ -212,65 +330,81 @@ impl LocalScale {
     pub const ONE: LocalScale = LocalScale { rho: f64::INFINITY, near: [1.0; NEAR_BINS], far: 1.0 };
 }
 
+/// The kernel's integrals over a sphere and over a cylinder of radius ρ.
+pub struct Gathers<'a> {
+    /// [`sphere_gather`] at ρ.
+    pub sphere: &'a dyn Fn(f64) -> ([f64; NEAR_BINS], f64),
+    /// [`cylinder_gather`] at ρ.
+    pub cylinder: &'a dyn Fn(f64) -> ([f64; NEAR_BINS], f64),
+}
+
 impl Scales {
-    /// The scales of `data`: `gather(ρ)` is the kernel's integral over a sphere of radius ρ
-    /// ([`sphere_gather`]), `semi` the semi-infinite reflection profile (per unit entering power).
-    pub fn new(
-        data: &CurvatureData,
-        gather: impl Fn(f64) -> ([f64; NEAR_BINS], f64),
-        semi: &dyn RadialProfile,
-    ) -> Result<Scales> {
+    /// The scales of `data`: `gather` the kernel's integrals over a sphere and a cylinder of
+    /// radius ρ, `semi` the semi-infinite reflection profile (per unit entering power).
+    pub fn new(data: &CurvatureData, gather: Gathers<'_>, semi: &dyn RadialProfile) -> Result<Scales> {
         let n = data.rho.len();
-        if n == 0 || data.sphere.len() != n || data.cavity.len() != n {
+        if n == 0 || data.sphere.len() != n || data.cavity.len() != n || data.cylinder.len() != n {
             return Err(Error::Invalid("adaptive table: curvature data of unequal lengths".into()));
         }
-        if data.sphere.iter().any(|e| e.bins.len() != NEAR_BINS) {
-            return Err(Error::Invalid(format!("adaptive table: the sphere escapes need {NEAR_BINS} chord bins")));
+        if data.sphere.iter().chain(&data.cylinder).any(|e| e.bins.len() != NEAR_BINS) {
+            return Err(Error::Invalid(format!(
+                "adaptive table: the sphere and cylinder escapes need {NEAR_BINS} chord bins"
+            )));
         }
         if !(data.flat.mean > 0.0) {
             return Err(Error::param("curvature.flat", data.flat.mean, "a flat diffuse reflectance > 0"));
         }
         let unit = semi.total() / data.flat.mean; // escape per incident → the kernel's units
         let (mut convex, mut convex_far, mut concave) = (vec![], vec![], vec![]);
+        let (mut cylinder, mut cylinder_far) = (vec![], vec![]);
         for j in 0..n {
             let rho = data.rho[j];
-            let (k_near, k_far) = gather(rho);
-            let sph = &data.sphere[j];
-            let k_tot: f64 = k_near.iter().sum::<f64>() + k_far;
-            let (far, spill) = if k_far > FAR_MIN * k_tot {
-                ((sph.mean - sph.near) * unit / k_far, 1.0)
-            } else {
-                // no transmission to speak of: the far side's escape goes to the near side
-                let near = sph.near * unit;
-                (1.0, if near > 0.0 { (sph.mean * unit - k_far) / near } else { 1.0 })
-            };
-            convex.push(std::array::from_fn(|b| {
-                if k_near[b] > 0.0 {
-                    sph.bins[b] * unit * spill / k_near[b]
-                } else {
-                    1.0
-                }
-            }));
+            let (near, far) = convex_scales(&data.sphere[j], (gather.sphere)(rho), unit);
+            convex.push(near);
             convex_far.push(far);
+            let (near, far) = convex_scales(&data.cylinder[j], (gather.cylinder)(rho), unit);
+            cylinder.push(near);
+            cylinder_far.push(far);
             let f = semi.cdf(2.0 * rho);
             concave.push(if f > 0.0 { data.cavity[j].mean / data.flat.mean / f } else { 1.0 });
         }
-        Ok(Scales { ln_rho: data.rho.iter().map(|r| r.ln()).collect(), convex, convex_far, concave })
+        let ln_rho = data.rho.iter().map(|r| r.ln()).collect();
+        Ok(Scales { ln_rho, convex, convex_far, cylinder, cylinder_far, concave })
     }
 
-    /// The scales at mean curvature `h` (mm⁻¹; > 0 convex, < 0 concave, 0 flat: none), ρ = 1/|h|.
+    /// The scales at mean curvature `h` (mm⁻¹; > 0 convex, < 0 concave, 0 flat: none), ρ = 1/|h|,
+    /// as on a sphere (cavity): [`Scales::at_principal`] with κ₁ = κ₂ = h.
     pub fn at(&self, h: f64) -> LocalScale {
+        self.at_principal(h, h)
+    }
+
+    /// The scales at principal curvatures `k1`, `k2` (mm⁻¹, either order). Mean curvature
+    /// H = (κ₁ + κ₂)/2 ≤ 0: the cavity of radius 1/|H| (1 when flat). H > 0: with κ₁ ≥ κ₂ the
+    /// bins of radius ρ = 1/κ₁ and the mixture of the sphere's and the cylinder's scales of
+    /// radius ρ with weight w = (max(κ₂, 0)/κ₁)² on the sphere (1 a sphere, 0 a tube or a
+    /// saddle's convex direction). The square, not the ratio itself, was measured: a marble torus
+    /// (tube 2.5 mm, κ₂/κ₁ = 0.26 on its outer side) in uniform light is +4.5, +2.5, +0.9 % off
+    /// the random walk with the ratio, +2.9, +1.2, −0.2 % with its square, +2.5, +1.0, −0.4 % as
+    /// a pure cylinder (`docs/render.md`).
+    pub fn at_principal(&self, k1: f64, k2: f64) -> LocalScale {
+        let (k1, k2) = if k1 >= k2 { (k1, k2) } else { (k2, k1) };
+        let h = 0.5 * (k1 + k2);
         if h == 0.0 || !h.is_finite() {
             return LocalScale::ONE;
         }
-        let rho = 1.0 / h.abs();
-        if h > 0.0 {
-            let near = std::array::from_fn(|b| self.interp(|j| self.convex[j][b], rho));
-            LocalScale { rho, near, far: self.interp(|j| self.convex_far[j], rho) }
-        } else {
+        if h < 0.0 {
+            let rho = 1.0 / h.abs();
             let s = self.interp(|j| self.concave[j], rho);
-            LocalScale { rho, near: [s; NEAR_BINS], far: s }
+            return LocalScale { rho, near: [s; NEAR_BINS], far: s };
         }
+        let rho = 1.0 / k1;
+        let w = (k2.max(0.0) / k1).min(1.0).powi(2);
+        let mix = |a: f64, b: f64| w * a + (1.0 - w) * b;
+        let near = std::array::from_fn(|b| {
+            mix(self.interp(|j| self.convex[j][b], rho), self.interp(|j| self.cylinder[j][b], rho))
+        });
+        let far = mix(self.interp(|j| self.convex_far[j], rho), self.interp(|j| self.cylinder_far[j], rho));
+        LocalScale { rho, near, far }
     }
 
     /// Node values `s(j)` at radius `rho`: linear in ln ρ, held below the first node, → 1 as
@@ -291,7 +425,7 @@ impl Scales {
 }
 
 /// The CDF of `p` at `r`, 1 at r = ∞ (the bins' open end; flat points have every edge there).
-fn cdf_at(p: &Mix, r: f64) -> f64 {
+fn cdf_at(p: &dyn RadialProfile, r: f64) -> f64 {
     if r.is_finite() {
         p.cdf(r)
     } else {

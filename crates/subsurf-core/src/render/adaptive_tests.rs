@@ -124,13 +124,14 @@ fn curvature_probe_and_kernel_scale() {
     let k = Kernel::at(&s, &t, &top);
     assert!((k.h * 10.0 - 1.0).abs() < 0.1 && (k.d - 20.0).abs() < 0.1);
     for c in 0..3 {
-        let sc = t.curvature_scale(c, k.h);
+        let sc = t.curvature_scale_principal(c, k.k.0, k.k.1);
         let (r, tr) = t.scaled(c, t.local(c, k.d), (1.0, sc.far));
         assert_eq!(k.profile(1, c).total(), tr.total());
         let want = crate::bssrdf::curvature::Binned::new(r, &sc);
         assert_eq!(k.profile(0, c).total(), want.total());
     }
     assert!((t.curvature_scale(0, k.h).near[0] - 1.0).abs() > 1e-3, "a curved point is corrected");
+    assert!((k.k.0 * 10.0 - 1.0).abs() < 0.1 && (k.k.1 * 10.0 - 1.0).abs() < 0.1, "umbilic: {:?}", k.k);
     assert_eq!(t.curvature_scale(0, 0.0), crate::bssrdf::curvature::LocalScale::ONE);
     // flat: the bins' edges are all at ∞ and the kernel is the slab profile itself
     let (r, _) = t.scaled(0, t.local(0, 20.0), (1.0, 1.0));
@@ -140,4 +141,41 @@ fn curvature_probe_and_kernel_scale() {
         assert_eq!(flat.rd(x), r.rd(x));
         assert!((flat.cdf(x) - r.cdf(x)).abs() < 1e-12);
     }
+}
+
+/// The principal curvatures of a torus (major 7, tube 2.5 mm, 0.12–0.2 mm facets) from the three
+/// probe rays: on the outer equator 1/2.5 and 1/9.5 mm⁻¹, on the top of the tube 1/2.5 and 0,
+/// on the inner equator 1/2.5 and −1/4.5 (a saddle); within 10 % of the tube's 1/2.5, 0.02 mm⁻¹
+/// for the ring's direction.
+#[test]
+fn principal_curvatures_of_a_torus() {
+    use super::principal_curvatures;
+    let mesh = super::super::shapes::torus([0.0; 3], 7.0, 2.5, 384, 96).unwrap();
+    let obj = Object { name: "t".into(), mesh, material: 0 };
+    let grey = Material::lambertian("m", [0.5; 3]).unwrap();
+    let s = Scene::new(vec![obj], vec![grey], vec![], [0.0; 3], None).unwrap();
+    let probe = |o: [f64; 3], d: [f64; 3]| s.accel.intersect(o, d, f64::INFINITY, u32::MAX).unwrap();
+    let cases = [
+        (probe([50.0, 0.01, 0.02], [-1.0, 0.0, 0.0]), 1.0 / 9.5),
+        (probe([7.01, 0.02, 50.0], [0.0, 0.0, -1.0]), 0.0),
+        (probe([0.01, 0.02, 0.03], [1.0, 0.0, 0.0]), -1.0 / 4.5),
+    ];
+    for (hit, k2) in cases {
+        let (a, b) = principal_curvatures(&s, &hit, 0.6);
+        assert!(a >= b && (a * 2.5 - 1.0).abs() < 0.1 && (b - k2).abs() < 0.02, "κ = ({a}, {b}), want {k2}");
+    }
+}
+
+/// A cube's flat face: no curvature in its middle (every probe finds the face), a convex one
+/// within a probe step of an edge (the probes that fall off count [`super::EDGE_SAG`]).
+#[test]
+fn edges_count_as_convex() {
+    use super::principal_curvatures;
+    let grey = Material::lambertian("m", [0.5; 3]).unwrap();
+    let obj = Object { name: "c".into(), mesh: cuboid([-5.0; 3], [5.0; 3]).unwrap(), material: 0 };
+    let s = Scene::new(vec![obj], vec![grey], vec![], [0.0; 3], None).unwrap();
+    let at = |x: f64, y: f64| s.accel.intersect([x, y, 50.0], [0.0, 0.0, -1.0], f64::INFINITY, u32::MAX).unwrap();
+    assert_eq!(principal_curvatures(&s, &at(0.3, 0.2), 1.0), (0.0, 0.0));
+    let (k1, k2) = principal_curvatures(&s, &at(4.6, 0.2), 1.0);
+    assert!(k1 > 0.1 && k1 >= k2, "κ = ({k1}, {k2})");
 }
