@@ -293,7 +293,7 @@ def label(case):
 def fmt_row(r, pixel=True):
     if "refused" in r:
         return "refused"
-    b = ", ".join(f"{100 * x:+.1f}" for x in r["bias"])
+    b = ", ".join(f"{100 * x:+.1f}".replace("-", "−") for x in r["bias"])
     return f"{b} % ({100 * np.mean(r['rel']):.0f} %)" if pixel else f"{b} %"
 
 
@@ -332,7 +332,7 @@ def matrix_table(results, models):
     for m in models:
         ok = [label(c) for c, res in results.items() if within(res["rows"].get(m, {}))]
         n = sum(m in res["rows"] for res in results.values())
-        lines.append(f"| {m} | {len(ok)} of {n} | {', '.join(ok) or '—'} |")
+        lines.append(f"| {m} | {len(ok)} of {n} | {'; '.join(ok) or '—'} |")
     return "\n".join(lines)
 
 
@@ -363,7 +363,10 @@ def figure(out, results, models, path):
             if j == 0:
                 ax.set_ylabel(label(case).replace(", ", "\n"), fontsize=4)
     fig.subplots_adjust(0.06, 0.0, 1.0, 0.97, 0.02, 0.02)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
+    from PIL import Image  # a palette PNG: a third of the size
+
+    Image.open(path).convert("RGB").quantize(256).save(path, optimize=True)
     print(f"figure: {path}")
 
 
