@@ -1,7 +1,7 @@
-"""Validation of the geometry-aware BSSRDF (``model="adaptive"``) for docs/render.md: a matrix of
-shapes × materials rendered with ``hierarchical`` (models ``monte_carlo`` and ``adaptive``, and
-``probe`` + ``adaptive``) against ``random_walk`` (the reference, which agrees with Mitsuba 3),
-under a constant environment and an area light.
+"""Validation matrix of the BSSRDF models for docs/render.md: shapes × materials rendered with
+``hierarchical`` (models ``dipole``, ``better_dipole``, ``photon_beam_diffusion``, ``monte_carlo``,
+``adaptive``; ``probe`` on request) against ``random_walk`` (the reference, which agrees with
+Mitsuba 3), under a constant environment and an area light.
 
 Per case and model: the object-mean bias per channel against the reference, the per-pixel mean
 relative error next to the noise floor (a second random_walk image of the same spp against the
@@ -9,9 +9,15 @@ reference), and the efficiency 1/(RMSE² × seconds) of hierarchical + adaptive 
 at a low spp (both RMSEs against the reference). Object pixels: those whose every sample hits the
 object (an image of the object as a black Lambertian surface in a white environment is 0 there).
 
-Usage: python docs/scripts/adaptive_validation.py [--size 64] [--spp-ref 256] [--cases a,b,…]
-[--table-photons 20000]. Prints a markdown table (and ``--json`` writes the numbers). Tables are
-cached (``$SUBSURF_CACHE/adaptive``), so a second run only renders.
+Cases are ``shape:material:scale``; the material's σa, σs are multiplied by ``scale`` (the mesh
+is not), so a sphere of 10 mm is 1.2 marble diffusion lengths (red) at scale 1 and 100 at 85.
+
+Usage: python docs/scripts/adaptive_validation.py [--size 64] [--spp-ref 128] [--cases a,b,…]
+[--models method:model,…] [--out DIR] [--figure PNG] [--table-only]. The random_walk images
+(which do not depend on the BSSRDF code) are cached in ``DIR/refs``, so a rerun only renders the
+BSSRDF images; the numbers are merged into ``DIR/results.json`` (a rerun of some models replaces
+only their rows) and the images kept in ``DIR/images``; the matrix table is printed from there.
+Adaptive tables are cached too (``$SUBSURF_CACHE/adaptive``). ``--quick`` is a smoke run.
 """
 
 from __future__ import annotations
@@ -30,6 +36,13 @@ import subsurf.render as R
 SKIN_G, SKIN_N, EPI_D = 0.8, 1.4, 0.25
 EPI = ((0.25, 0.5, 1.0), (1.5, 1.7, 2.0))  # σa, σs' (mm⁻¹)
 DERMIS = ((0.032, 0.17, 0.48), (0.74, 0.88, 1.01))
+
+MODELS = ("dipole", "better_dipole", "photon_beam_diffusion", "monte_carlo", "adaptive")
+DEFAULT_CASES = (
+    "sphere:marble:0.25,sphere:marble:1,sphere:marble:2.5,sphere:marble:8.5,sphere:marble:85,"
+    "cylinder:marble:1,slab:marble:1,box:marble:1,torus:marble:1,bowl:marble:1,organic:skin1:1,"
+    "sphere:wholemilk:1,sphere:ketchup:1,sphere:skin_layered:1"
+)
 
 
 def library(name, scale, model, photons):
@@ -54,8 +67,28 @@ def skin_layered(scale, model, photons):
     return R.Translucent.from_stacks(skin_stacks(scale), model=model, mc_photons=photons, mc_seed=3)
 
 
-# Shapes: (objects for a material, light, camera). Geometry in mm; the material's scale sets the
-# size in diffusion lengths (marble's red diffusion length is 8.5 mm at scale 1).
+# --- shapes: (objects for a material, extent in mm) ----------------------------------------------
+
+
+def revolve(profile, segments=64):
+    """A closed surface of revolution about z from a profile [(r, z), …] (mm) that starts and ends
+    on the axis (r = 0): rings of ``segments`` vertices, one vertex per pole, outward-wound when the
+    profile runs from the bottom pole up the outside."""
+    rings = profile[1:-1]
+    phi = 2 * np.pi * np.arange(segments) / segments
+    pts = [(0.0, 0.0, profile[0][1])]
+    pts += [(r * np.cos(f), r * np.sin(f), z) for r, z in rings for f in phi]
+    pts.append((0.0, 0.0, profile[-1][1]))
+    last, tris = len(pts) - 1, []
+    ring = lambda i, j: 1 + i * segments + j % segments  # noqa: E731
+    for j in range(segments):
+        tris.append((0, ring(0, j + 1), ring(0, j)))
+        tris.append((last, ring(len(rings) - 1, j), ring(len(rings) - 1, j + 1)))
+        for i in range(len(rings) - 1):
+            tris += [(ring(i, j), ring(i, j + 1), ring(i + 1, j + 1)), (ring(i, j), ring(i + 1, j + 1), ring(i + 1, j))]
+    return np.array(pts), np.array(tris)
+
+
 def sphere(radius):
     def make(mat):
         return [R.Object.sphere(mat, radius=radius, subdivisions=5)], radius
@@ -81,23 +114,75 @@ def torus(mat):
     return [R.Object.torus(mat, major=7, minor=2.5, rotate=(70, 0, 0))], 10
 
 
-SHAPES = {"sphere": sphere(10), "lens": lens, "slab": slab, "box": box, "torus": torus}
+def cylinder(mat):
+    # a capped cylinder, radius 5 mm, 20 mm long, its axis tilted 60° from the view axis (one cap seen)
+    r, h = 5.0, 10.0
+    cap = [(r * k / 6, -h) for k in range(1, 7)]
+    side = [(r, z) for z in np.linspace(-h, h, 25)[1:-1]]
+    prof = [(0.0, -h), *cap, *side, *[(r, h) for r, _ in cap[::-1]], (0.0, h)]
+    p, t = revolve(prof)
+    return [R.Object(p, t, mat, rotate=(-60, 0, 25))], 10
 
 
-def scene(objects, extent, backlit):
+def bowl(mat):
+    # a hemispherical shell (outer radius 10, inner 8 mm, a flat rim), opening tilted towards the
+    # camera so the inside (concave) and the outside (convex) are both seen
+    ro, ri, n = 10.0, 8.0, 24
+    th = np.linspace(0, np.pi / 2, n + 1)  # from the bottom pole to the rim
+    outer = [(ro * np.sin(a), -ro * np.cos(a)) for a in th]
+    rim = [(ro - (ro - ri) * k / 4, 0.0) for k in range(1, 4)]
+    inner = [(ri * np.sin(a), -ri * np.cos(a)) for a in th[::-1]]
+    p, t = revolve(outer + rim + inner)
+    # the inner pole comes last: the profile turns back on the axis, so its triangles face inwards
+    # (into the cavity), i.e. out of the shell's material: the orientation is consistent
+    return [R.Object(p, t, mat, rotate=(50, 0, 0), translate=(0, 0, 3))], 10
+
+
+def organic(mat):
+    # a scanned-looking blob: an icosphere of radius 10 mm displaced radially by a smooth random
+    # field (sum of 12 plane waves of 1–2.5 cycles over the sphere, fixed seed): closed, manifold
+    # (star-shaped), radius 7.25–12.75 mm before a 1.1 × 0.9 × 1 stretch: bumps, ridges and hollows
+    base = R.Object.sphere(mat, radius=1, subdivisions=5)
+    u = base.positions / np.linalg.norm(base.positions, axis=1, keepdims=True)
+    rng = np.random.default_rng(20)
+    k = rng.normal(size=(12, 3))
+    k *= (rng.uniform(1, 2.5, 12) * np.pi / np.linalg.norm(k, axis=1))[:, None]
+    field = np.sin(u @ k.T + rng.uniform(0, 2 * np.pi, 12)) @ (rng.uniform(0.5, 1, 12) / 12)
+    r = 10 * (1 + 0.275 * field / np.abs(field).max())
+    return [R.Object(u * r[:, None] * (1.1, 0.9, 1.0), base.triangles, mat, rotate=(10, 0, 35))], 11
+
+
+# Hierarchical settings other than the defaults, per shape: the bowl's irradiance samples see its
+# own inside, so the second gathering (one bounce between translucent surfaces) walks a tree per
+# gathering ray: 16 rays instead of 64 keep it to minutes (noisier irradiance, no bias).
+HIERARCHICAL = {"bowl": {"env_samples": 16}}
+
+SHAPES = {
+    "sphere": sphere(10),
+    "lens": lens,
+    "slab": slab,
+    "box": box,
+    "torus": torus,
+    "cylinder": cylinder,
+    "bowl": bowl,
+    "organic": organic,
+}
+
+
+def scene(objects, extent, backlit, size):
     d = 6 * extent
     light = (
         R.RectLight((-15, 3 * extent, -15), (30, 0, 0), (0, 0, 30), 2.25e5)  # behind, facing the camera
         if backlit
         else R.RectLight((-20, -30, 40), (15, 0, 0), (0, -10.6, 10.6), 2.25e5)
     )
-    cam = R.Camera((0, -d, 0.15 * d), fov=24, width=SIZE, height=SIZE)
+    cam = R.Camera((0, -d, 0.15 * d), fov=24, width=size, height=size)
     return R.Scene(objects, [light], (0.2, 0.2, 0.22), cam)
 
 
-def object_mask(objects, extent):
+def object_mask(objects, extent, size):
     black = [R.Object(o.positions, o.triangles, R.Lambertian(0.0)) for o in objects]  # positions already transformed
-    s = R.Scene(black, [], (1, 1, 1), scene(objects, extent, False).camera)
+    s = R.Scene(black, [], (1, 1, 1), scene(objects, extent, False, size).camera)
     img = R.render(s, "hierarchical", spp=16, seed=0).array
     return np.all(img == 0, axis=-1)
 
@@ -108,54 +193,6 @@ def stats(arr, ref, mk):
     rmse = float(np.sqrt(np.mean(d**2)))
     bias = arr[mk].sum(axis=0) / ref[mk].sum(axis=0) - 1
     return rel, rmse, bias
-
-
-def run_case(shape, material, scale, a):
-    def mat(model):
-        if material == "skin_layered":
-            return skin_layered(scale, model, a.table_photons)
-        return library(material, scale, model, a.table_photons)
-
-    backlit = shape == "slab"
-    objs, extent = SHAPES[shape](mat("monte_carlo"))
-    mk = object_mask(objs, extent)
-    walk_objs = objs
-    if material == "skin_layered":  # random_walk: the epidermis as a shell around the dermis
-        if shape != "sphere":
-            return None
-        walk_objs = skin_walk(scale)
-
-    def walk(spp, seed):
-        """A random_walk image and its time, from ``--ref-cache`` if it holds it."""
-        path = f"{a.ref_cache}/{shape}_{material}_{scale}_{SIZE}_{spp}_{seed}.npz" if a.ref_cache else None
-        if path and os.path.exists(path):
-            z = np.load(path)
-            return z["img"], float(z["s"])
-        t0 = time.monotonic()
-        img = R.render(scene(walk_objs, extent, backlit), "random_walk", spp=spp, seed=seed).array
-        dt = time.monotonic() - t0
-        if path:
-            os.makedirs(a.ref_cache, exist_ok=True)
-            np.savez(path, img=img, s=dt)
-        return img, dt
-
-    ref, t_ref = walk(a.spp_ref, 1)
-    rows = {}
-    again, dt = walk(a.spp_ref, 7)
-    rows["random_walk (noise floor)"] = (*stats(again, ref, mk), dt)
-    low, dt = walk(a.spp_low, 9)
-    rows[f"random_walk {a.spp_low} spp"] = (*stats(low, ref, mk), dt)
-    for spec in a.models.split(","):
-        method, model = spec.split(":")
-        m = mat(model)
-        if model == "adaptive":
-            m.adaptive_table()  # build or load the table outside the timing (cached on disk)
-        o2, _ = SHAPES[shape](m)
-        t0 = time.monotonic()
-        spp = a.spp if method == "hierarchical" else a.spp_probe
-        img = R.render(scene(o2, extent, backlit), method, spp=spp, seed=2).array
-        rows[f"{method} {model}"] = (*stats(img, ref, mk), time.monotonic() - t0)
-    return {"pixels": int(mk.sum()), "t_ref": t_ref, "rows": rows}
 
 
 def skin_walk(scale):
@@ -170,70 +207,225 @@ def skin_walk(scale):
     ]
 
 
-SIZE = 64
+# --- one case ---------------------------------------------------------------------------------------
 
 
-def main():
-    global SIZE
+def row(stat, seconds):
+    rel, rmse, bias = stat
+    return {"rel": list(map(float, rel)), "rmse": rmse, "bias": list(map(float, bias)), "s": seconds}
+
+
+def run_case(case, a):
+    shape, material, scale = case.split(":")
+    scale = float(scale)
+
+    def mat(model):
+        if material == "skin_layered":
+            return skin_layered(scale, model, a.table_photons)
+        return library(material, scale, model, a.table_photons)
+
+    backlit = shape == "slab"
+    objs, extent = SHAPES[shape](mat("monte_carlo"))
+    mk = object_mask(objs, extent, a.size)
+    walk_objs = objs
+    if material == "skin_layered":  # random_walk: the epidermis as a shell around the dermis
+        if shape != "sphere":
+            return None
+        walk_objs = skin_walk(scale)
+    cache = os.path.join(a.out, "refs")
+
+    def walk(spp, seed):
+        """A random_walk image and its time, from the cache if it holds it."""
+        path = f"{cache}/{shape}_{material}_{scale}_{a.size}_{spp}_{seed}.npz"
+        if os.path.exists(path):
+            z = np.load(path)
+            return z["img"], float(z["s"])
+        t0 = time.monotonic()
+        img = R.render(scene(walk_objs, extent, backlit, a.size), "random_walk", spp=spp, seed=seed).array
+        dt = time.monotonic() - t0
+        os.makedirs(cache, exist_ok=True)
+        np.savez(path, img=img, s=dt)
+        return img, dt
+
+    ref, t_ref = walk(a.spp_ref, 1)
+    rows, images = {}, {"reference": ref}
+    again, dt = walk(a.spp_ref, 7)
+    rows["floor"] = row(stats(again, ref, mk), dt)
+    low, dt = walk(a.spp_low, 9)
+    rows["random_walk_low"] = row(stats(low, ref, mk), dt)
+    for spec in filter(None, a.models.split(",")):
+        method, model = spec.split(":") if ":" in spec else ("hierarchical", spec)
+        name = model if method == "hierarchical" else f"{method} {model}"
+        try:
+            m = mat(model)
+            if model == "adaptive":
+                m.adaptive_table()  # build or load the table outside the timing (cached on disk)
+            o2, _ = SHAPES[shape](m)
+            t0 = time.monotonic()
+            spp = a.spp if method == "hierarchical" else a.spp_probe
+            hp = HIERARCHICAL.get(shape) if method == "hierarchical" else None
+            img = R.render(scene(o2, extent, backlit, a.size), method, spp=spp, seed=2, hierarchical=hp).array
+        except ValueError as e:  # a model that refuses the material (named in the table)
+            rows[name] = {"refused": str(e).splitlines()[0][:120]}
+            continue
+        rows[name] = row(stats(img, ref, mk), time.monotonic() - t0)
+        images[name] = img
+    if "adaptive" in rows and "rmse" in rows["adaptive"]:
+        rw, hi = rows["random_walk_low"], rows["adaptive"]
+        rows["adaptive"]["efficiency"] = (rw["rmse"] ** 2 * rw["s"]) / (hi["rmse"] ** 2 * hi["s"])
+    return {"pixels": int(mk.sum()), "t_ref": t_ref, "spp_ref": a.spp_ref, "rows": rows}, images
+
+
+# --- results, tables, figure -------------------------------------------------------------------------
+
+
+def label(case):
+    """'sphere:marble:8.5' → 'sphere 10 L, marble' (the radius in red diffusion lengths)."""
+    shape, material, scale = case.split(":")
+    if shape != "sphere" or material == "skin_layered":
+        return f"{shape}, {material.replace('_', ' ')}" + ("" if float(scale) == 1 else f" ×{scale}")
+    m = subsurf.materials.get(material)  # σa, σs' in mm⁻¹
+    sa, sp = float(scale) * m.sigma_a[0], float(scale) * m.sigma_s_prime[0]
+    n = 10 * np.sqrt(3 * sa * (sa + sp))
+    return f"sphere {n:.2g} L, {material}" if n < 10 else f"sphere {n:.0f} L, {material}"
+
+
+def fmt_row(r, pixel=True):
+    if "refused" in r:
+        return "refused"
+    b = ", ".join(f"{100 * x:+.1f}".replace("-", "−") for x in r["bias"])
+    return f"{b} % ({100 * np.mean(r['rel']):.0f} %)" if pixel else f"{b} %"
+
+
+def case_table(case, res):
+    lines = [
+        f"\n{case}: {res['pixels']} object pixels",
+        "| method model | object mean vs reference R, G, B | mean rel. error R, G, B | RMSE | time (s) |",
+        "|---|---|---|---|---|",
+    ]
+    for name, r in res["rows"].items():
+        if "refused" in r:
+            lines.append(f"| {name} | refused: {r['refused']} | | | |")
+            continue
+        rel = ", ".join(f"{100 * x:.0f}" for x in r["rel"])
+        lines.append(f"| {name} | {fmt_row(r, False)} | {rel} % | {r['rmse']:.3e} | {r['s']:.1f} |")
+    if "efficiency" in res["rows"].get("adaptive", {}):
+        lines.append(f"efficiency hierarchical+adaptive / random_walk: {res['rows']['adaptive']['efficiency']:.1f}x")
+    return "\n".join(lines)
+
+
+def within(r, tol=0.03):
+    return "bias" in r and max(abs(x) for x in r["bias"]) <= tol
+
+
+def matrix_table(results, models):
+    """The docs' table: per case, each model's object-mean bias R, G, B and (mean per-pixel error)."""
+    head = ["case", "floor", *models]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for case, res in results.items():
+        cells = [label(case), fmt_row(res["rows"]["floor"])]
+        for m in models:
+            r = res["rows"].get(m)
+            cells.append("—" if r is None else ("**" + fmt_row(r) + "**" if within(r) else fmt_row(r)))
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "| model | within 3 % per channel | cases |", "|---|---|---|"]
+    for m in models:
+        ok = [label(c) for c, res in results.items() if within(res["rows"].get(m, {}))]
+        n = sum(m in res["rows"] for res in results.values())
+        lines.append(f"| {m} | {len(ok)} of {n} | {'; '.join(ok) or '—'} |")
+    return "\n".join(lines)
+
+
+def tonemap(img, exposure):
+    x = 1 - np.exp(-exposure * img)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(np.maximum(x, 0), 1 / 2.4) - 0.055).clip(0, 1)
+
+
+def figure(out, results, models, path):
+    """Rows: cases; columns: the random_walk reference and each model (same exposure per row)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cols = ["reference", *models]
+    fig, axes = plt.subplots(len(results), len(cols), figsize=(0.8 * len(cols), 0.8 * len(results)), squeeze=False)
+    for i, case in enumerate(results):
+        z = np.load(os.path.join(out, "images", case.replace(":", "_") + ".npz"))
+        exposure = 1.0 / max(np.percentile(z["reference"], 99), 1e-9)
+        for j, name in enumerate(cols):
+            ax = axes[i, j]
+            ax.set_xticks([]), ax.set_yticks([])
+            if name in z.files:
+                ax.imshow(tonemap(z[name], exposure), interpolation="nearest")
+            if i == 0:
+                ax.set_title(name.replace("photon_beam_diffusion", "PBD").replace("_", " "), fontsize=5)
+            if j == 0:
+                ax.set_ylabel(label(case).replace(", ", "\n"), fontsize=4)
+    fig.subplots_adjust(0.06, 0.0, 1.0, 0.97, 0.02, 0.02)
+    fig.savefig(path, dpi=100)
+    from PIL import Image  # a palette PNG: a third of the size
+
+    Image.open(path).convert("RGB").quantize(256).save(path, optimize=True)
+    print(f"figure: {path}")
+
+
+def save_images(out, case, images):
+    path = os.path.join(out, "images", case.replace(":", "_") + ".npz")
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    old = dict(np.load(path)) if os.path.exists(path) else {}
+    np.savez_compressed(path, **{**old, **images})
+
+
+def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--size", type=int, default=64)
-    ap.add_argument("--spp-ref", type=int, default=256)
+    ap.add_argument("--spp-ref", type=int, default=128)
     ap.add_argument("--spp-low", type=int, default=16)
     ap.add_argument("--spp", type=int, default=4)
     ap.add_argument("--spp-probe", type=int, default=64)
-    ap.add_argument("--table-photons", type=int, default=20000)
-    ap.add_argument(
-        "--cases",
-        default="sphere:marble:1,sphere:marble:0.25,sphere:marble:4,slab:marble:1,lens:skin1:1,sphere:skin_layered:1",
-        help="shape:material:scale, comma-separated (shapes: " + ", ".join(SHAPES) + ")",
-    )
-    ap.add_argument("--json", help="write the numbers here")
+    ap.add_argument("--table-photons", type=int, default=10000)
+    shapes = ", ".join(SHAPES)
+    ap.add_argument("--cases", default=DEFAULT_CASES, help=f"shape:material:scale, comma-separated (shapes: {shapes})")
     ap.add_argument(
         "--models",
-        default="hierarchical:monte_carlo,hierarchical:adaptive,probe:adaptive",
-        help="method:model pairs to compare, comma-separated",
+        default=",".join(MODELS),
+        help="models (hierarchical) or method:model pairs (e.g. probe:adaptive), comma-separated",
     )
-    ap.add_argument("--ref-cache", help="keep the random_walk images here (re-runs only render the BSSRDFs)")
-    a = ap.parse_args()
-    SIZE = a.size
-    out = {}
-    for case in a.cases.split(","):
-        shape, material, scale = case.split(":")
-        t0 = time.monotonic()
-        res = run_case(shape, material, float(scale), a)
-        if res is None:
-            print(f"{case}: skipped (the layered random_walk reference is built for spheres only)")
-            continue
-        out[case] = res
-        print(f"\n{case}: {res['pixels']} object pixels, {time.monotonic() - t0:.0f} s", flush=True)
-        print("| method model | object mean vs reference R, G, B | mean rel. error R, G, B | RMSE | time (s) |")
-        print("|---|---|---|---|---|")
-        for name, (rel, rmse, bias, dt) in res["rows"].items():
-            b = ", ".join(f"{100 * x:+.1f}" for x in bias)
-            r = ", ".join(f"{100 * x:.0f}" for x in rel)
-            print(f"| {name} | {b} % | {r} % | {rmse:.3e} | {dt:.1f} |", flush=True)
-        rw = res["rows"][f"random_walk {a.spp_low} spp"]
-        hi = res["rows"].get("hierarchical adaptive")
-        if hi is not None:  # --models without it: no efficiency
-            eff = (1 / (hi[1] ** 2 * hi[3])) / (1 / (rw[1] ** 2 * rw[3]))
-            print(f"efficiency hierarchical+adaptive / random_walk: {eff:.1f}x")
-            res["efficiency_ratio"] = eff
-    if a.json:
-        with open(a.json, "w") as f:
-            json.dump(
-                {
-                    k: {
-                        **v,
-                        "rows": {
-                            n: {"rel": list(map(float, r[0])), "rmse": r[1], "bias": list(map(float, r[2])), "s": r[3]}
-                            for n, r in v["rows"].items()
-                        },
-                    }
-                    for k, v in out.items()
-                },
-                f,
-                indent=1,
-            )
+    cache = os.environ.get("SUBSURF_CACHE", os.path.expanduser("~/.cache/subsurf"))
+    ap.add_argument("--out", default=os.path.join(cache, "validation_matrix"), help="references, images, results")
+    ap.add_argument("--figure", help="write the image matrix (PNG) of the cases in results.json")
+    ap.add_argument("--table-only", action="store_true", help="print the table of results.json only")
+    ap.add_argument("--quick", action="store_true", help="smoke run: 16², few spp, one case, into --out")
+    a = ap.parse_args(argv)
+    if a.quick:
+        a.size, a.spp_ref, a.spp_low, a.spp, a.table_photons = 16, 4, 2, 1, 2000
+        a.cases = "sphere:marble:1" if a.cases == DEFAULT_CASES else a.cases
+    path = os.path.join(a.out, "results.json")
+    results = {}
+    if os.path.exists(path):
+        with open(path) as f:
+            results = json.load(f)
+    if not a.table_only:
+        for case in a.cases.split(","):
+            t0 = time.monotonic()
+            res = run_case(case, a)
+            if res is None:
+                print(f"{case}: skipped (the layered random_walk reference is built for spheres only)")
+                continue
+            res, images = res
+            old = results.get(case, {}).get("rows", {}) if results.get(case, {}).get("spp_ref") == a.spp_ref else {}
+            results[case] = {**res, "rows": {**old, **res["rows"]}}
+            save_images(a.out, case, images)
+            print(case_table(case, results[case]), f"\n({time.monotonic() - t0:.0f} s)", flush=True)
+            os.makedirs(a.out, exist_ok=True)
+            with open(path, "w") as f:
+                json.dump(results, f, indent=1)
+    models = [m for m in MODELS if any(m in r["rows"] for r in results.values())]
+    print("\n" + matrix_table(results, models))
+    if a.figure:
+        figure(a.out, results, models, a.figure)
+    return 0
 
 
 if __name__ == "__main__":
