@@ -97,6 +97,8 @@ def summary(case, model, lo, hi):
     """(relative error of the model's ring average over [lo, hi] vs MC, MC relative stderr)."""
     mc, se = rebin(case["edges"], case["mc"], case["mc_se"], lo, hi)
     mod, _ = rebin(case["edges"], case["prof_" + model], np.zeros_like(case["mc"]), lo, hi)
+    if mc <= 0.0:  # no photon came out there (short runs): no estimate
+        return math.nan, math.inf
     return mod / mc - 1.0, se / mc
 
 
@@ -160,7 +162,8 @@ def plot(cases, path):
                 ax.set_xlabel("r  [transport mean free paths 1/σt' = mm]")
             if col == 0:
                 ax.set_ylabel("R_d(r): model / MC − 1  [%]")
-    axes[0, 0].legend(fontsize=8, loc="lower right")
+    if axes[0, 0].get_legend_handles_labels()[0]:  # (a short run may hide every point there)
+        axes[0, 0].legend(fontsize=8, loc="lower right")
     fig.suptitle(
         "Diffusion vs Monte Carlo, semi-infinite medium, normal pencil beam (error bars: MC 1σ; grey: 2–8 mfp)",
         fontsize=11,
