@@ -29,10 +29,7 @@ from .medium import Stack
 
 FORMAT = "subsurf-adaptive-table"
 FORMAT_VERSION = 3  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders
-_BINNED = ("sphere", "cylinder")
 _ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
-_SUFFIXES = ("", "_stderr", "_near", "_near_stderr")
-_CURVATURE = ("rho",) + tuple(f"{k}{x}" for k in ("sphere", "cavity", "cylinder") for x in _SUFFIXES)
 
 
 def cache_dir() -> str:
@@ -128,12 +125,15 @@ class AdaptiveTable:
                         s.attrs["photons"] = int(n[side]["photons"])
             for c, cd in enumerate(self._t.curvature()):
                 g = f.create_group(f"curvature/{c:02d}")
-                for k in _CURVATURE:
-                    g.create_dataset(k, data=np.asarray(cd[k], dtype=np.float64))
-                for k in _BINNED:
-                    g.create_dataset(f"{k}_bins", data=np.asarray(cd[f"{k}_bins"], dtype=np.float64))
-                g.attrs["flat"] = float(cd["flat"])
-                g.attrs["flat_stderr"] = float(cd["flat_stderr"])
+                # The core's curvature data as it gives it (lists: datasets; numbers: attributes);
+                # the scales (`scale_*`) are derived from it when the table is assembled.
+                for k, v in cd.items():
+                    if k.startswith("scale_"):
+                        continue
+                    if isinstance(v, float):
+                        g.attrs[k] = v
+                    else:
+                        g.create_dataset(k, data=np.asarray(v, dtype=np.float64))
 
         return atomic.write_bytes(path, container.to_bytes(FORMAT, FORMAT_VERSION, fill), force=True)
 
@@ -162,10 +162,8 @@ class AdaptiveTable:
             curvature = []
             for c in sorted(o.f["curvature"]):
                 g = o.f["curvature"][c]
-                cd = {k: [float(x) for x in g[k][()]] for k in _CURVATURE}
-                for k in _BINNED:
-                    cd[f"{k}_bins"] = [[float(x) for x in row] for row in g[f"{k}_bins"][()]]
-                cd.update(flat=float(g.attrs["flat"]), flat_stderr=float(g.attrs["flat_stderr"]))
+                cd = {k: np.asarray(g[k][()], dtype=np.float64).tolist() for k in g}
+                cd.update((k, float(v)) for k, v in g.attrs.items())
                 curvature.append(cd)
         try:
             st = [([(*l[:3], [tuple(x) for x in l[3]], l[4]) for l in s[0]], s[1], s[2]) for s in key["stacks"]]
