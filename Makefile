@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: all venv build lint test test-rust-compile test-rust-then-docs test-docs-check test-pytest test-fast test-rust test-rust-fast test-python test-python-fast demo figures bench clean docs docs-check dist dist-check
+.PHONY: all venv build lint test test-rust-compile test-rust-then-docs test-docs-check test-pytest test-pytest-render test-pytest-rest test-fast test-rust test-rust-fast test-python test-python-fast demo figures bench clean docs docs-check dist dist-check
 
 all: build
 
@@ -58,10 +58,11 @@ lint: venv
 
 # Two jobs at a time where they do not depend on each other: the venv's installs, clippy, the
 # release build of the core's tests and the extension's build overlap on 2 cores; then the core's
-# tests and the docs check beside pytest (mostly one thread), whose summary closes the log.
+# tests and the docs check beside pytest in two halves (each mostly one thread), so that the three
+# fill both cores: the renderer's tests (with the first-hour and docs-script runs) and the rest.
 test:
 	$(MAKE) --no-print-directory -j2 lint test-rust-compile build
-	$(MAKE) --no-print-directory -j2 test-rust-then-docs test-pytest
+	$(MAKE) --no-print-directory -j3 test-rust-then-docs test-pytest-render test-pytest-rest
 
 # The core's tests compiled beside the lints and the build, run beside pytest (mostly one thread).
 test-rust-compile:
@@ -76,6 +77,16 @@ test-docs-check:
 
 test-pytest:
 	$(PY) -m pytest -q tests
+
+# The halves of `make test`'s pytest run: every file is in exactly one (the rest takes what the
+# render half does not name, so a new test file is never left out).
+PYTEST_RENDER := $(sort $(wildcard tests/test_render*.py)) tests/test_adaptive.py tests/test_first_hour.py \
+	tests/test_docs_scripts.py
+test-pytest-render:
+	$(PY) -m pytest -q $(PYTEST_RENDER)
+
+test-pytest-rest:
+	$(PY) -m pytest -q tests $(PYTEST_RENDER:%=--ignore=%)
 
 test-fast: test-rust-fast test-python-fast
 

@@ -8,7 +8,7 @@ describe the power that entered). Total error: model/MC − 1. Profile error: th
 transport mean free paths 1/σt', using only bins whose Monte Carlo relative error is < 5 %.
 
 Usage: python docs/scripts/compare_profiles.py [--photons N] [--seed S] [--out DIR] [--quick]
-(``--quick``: two albedos instead of five, to check the pipeline.)
+(``--quick``: two albedos, one g and one η instead of 5 × 3 × 3, to check the pipeline.)
 """
 
 from __future__ import annotations
@@ -55,14 +55,14 @@ def main(argv=None):
     ap.add_argument("--photons", type=int, default=40000)
     ap.add_argument("--seed", type=int, default=8)
     ap.add_argument("--out", default=os.path.dirname(os.path.dirname(os.path.abspath(__file__))), help="directory")
-    ap.add_argument("--quick", action="store_true", help="albedos 0.6 and 0.99 only (checks the pipeline)")
+    ap.add_argument("--quick", action="store_true", help="albedos 0.6, 0.99 at g 0.5, η 1.33 (checks the pipeline)")
     args = ap.parse_args(argv)
-    albedos = (0.6, 0.99) if args.quick else ALBEDOS
+    albedos, gs, etas = ((0.6, 0.99), (0.5,), (1.33,)) if args.quick else (ALBEDOS, GS, ETAS)
     here = args.out
     t0 = time.time()
     rows = {}
-    for gi, g in enumerate(GS):
-        for ei, eta in enumerate(ETAS):
+    for gi, g in enumerate(gs):
+        for ei, eta in enumerate(etas):
             for ai, a in enumerate(albedos):
                 rows[(g, eta, a)] = compare(a, g, eta, args.photons, args.seed + 100 * gi + 10 * ei + ai)
     elapsed = time.time() - t0
@@ -74,9 +74,10 @@ def main(argv=None):
     for k, (fname, label) in enumerate(
         (("profiles_total.png", "total: model/MC − 1"), ("profiles_shape.png", "max |ring model/MC − 1|, 0.1–10 mfp"))
     ):
-        fig, axes = plt.subplots(3, 3, figsize=(12, 10), sharex=True)
-        for gi, g in enumerate(GS):
-            for ei, eta in enumerate(ETAS):
+        size = (4 * len(etas), 10 / 3 * len(gs))
+        fig, axes = plt.subplots(len(gs), len(etas), figsize=size, sharex=True, squeeze=False)
+        for gi, g in enumerate(gs):
+            for ei, eta in enumerate(etas):
                 ax = axes[gi, ei]
                 positive = False
                 for m in MODELS:
@@ -89,7 +90,7 @@ def main(argv=None):
                     ax.set_yscale("log")
                 ax.axhline(0, color="k", lw=0.5)
                 ax.set_title(f"g = {g}, η = {eta}", fontsize=9)
-                if gi == 2:
+                if gi == len(gs) - 1:
                     ax.set_xlabel("1 − albedo")
                 if ei == 0:
                     ax.set_ylabel(label, fontsize=8)

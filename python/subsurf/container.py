@@ -102,7 +102,10 @@ def to_bytes(fmt: str, version: int, fill: Callable) -> bytes:
         manifest = _manifest(fmt, image, userblock)
         if len(manifest) <= userblock:
             return manifest.ljust(userblock, b"\n") + image[userblock:]
-        userblock *= 4
+        # HDF5 wants a power of two; a quarter more room covers the longer offsets of a larger block,
+        # so a file with many datasets is built twice, not once per doubling.
+        while userblock < len(manifest) * 5 // 4:
+            userblock *= 2
 
 
 def _image(fmt: str, version: int, fill: Callable, userblock: int) -> bytes:
