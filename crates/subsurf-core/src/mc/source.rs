@@ -80,6 +80,12 @@ impl Launcher {
         Launcher { source, n_above, n_top, pencil_dir, pencil_rsp }
     }
 
+    /// The pencil beam's direction inside the top layer and its specular reflectance (the
+    /// same at every launch, drawing nothing); `None` for a diffuse source.
+    pub(crate) fn pencil(&self) -> Option<([f64; 3], f64)> {
+        matches!(self.source, Source::Pencil { .. }).then_some((self.pencil_dir, self.pencil_rsp))
+    }
+
     /// Direction inside the top layer and the specular reflectance of one launch.
     #[inline]
     pub(crate) fn launch(&self, rng: &mut PhotonRng) -> ([f64; 3], f64) {

@@ -245,6 +245,15 @@ struct LaneKernel<'a> {
     /// Some layer is clear (σt = 0): [`advance`] checks `mc::kernel`'s clear-layer rules.
     any_clear: bool,
     mixture: Vec<Phase>,
+    /// A pencil beam's launch as the lanes store it (direction in f32 as [`refill`] converts
+    /// it, and the specular reflectance), computed once; `None` for a diffuse source.
+    pencil: Option<([f32; 3], f64)>,
+}
+
+/// A launch direction as the lanes store it: f32, |uz| rounded up ([`to_f32_up`]).
+#[inline(always)]
+fn dir_f32(d: [f64; 3]) -> [f32; 3] {
+    [d[0] as f32, d[1] as f32, to_f32_up(d[2])]
 }
 
 impl<'a> LaneKernel<'a> {
@@ -254,7 +263,8 @@ impl<'a> LaneKernel<'a> {
         let mixture = if k.any_mixture { k.layers.iter().map(|l| l.phase).collect() } else { Vec::new() };
         let matched = lay.iter().all(|l| l.n == l.n_up && l.n == l.n_down);
         let any_clear = lay.iter().any(|l| l.sigma_t == 0.0);
-        LaneKernel { k, lay, last, matched, any_clear, mixture }
+        let pencil = k.launcher.pencil().map(|(d, rsp)| (dir_f32(d), rsp));
+        LaneKernel { k, lay, last, matched, any_clear, mixture, pencil }
     }
 }
 
@@ -347,10 +357,13 @@ impl SeedQueue {
     /// The Philox state of photon `photon` (refilling the queue from it when needed).
     #[inline(always)]
     fn state(&mut self, seed: u64, photon: u64) -> [u32; 4] {
-        if photon < self.first || photon >= self.first + self.len {
+        // (one unsigned comparison: a photon before `first` wraps to a large offset)
+        let mut j = photon.wrapping_sub(self.first);
+        if j >= self.len {
             self.fill(seed, photon);
+            j = 0;
         }
-        let j = (photon - self.first) as usize % L;
+        let j = j as usize % L;
         [self.states[0][j], self.states[1][j], self.states[2][j], self.states[3][j]]
     }
 
@@ -391,7 +404,13 @@ fn refill<T: Tally>(
         *next += 1;
         let mut rng = PhotonRng::from_state(q.state(seed, photon));
         tally.begin_photon(i, photon);
-        let (dir, rsp) = lk.k.launcher.launch(&mut rng);
+        let (dir, rsp) = match lk.pencil {
+            Some(p) => p,
+            None => {
+                let (d, rsp) = lk.k.launcher.launch(&mut rng);
+                (dir_f32(d), rsp)
+            }
+        };
         tally.specular(i, rsp);
         let w0 = 1.0 - rsp;
         if !(w0 > 0.0) {
@@ -403,7 +422,7 @@ fn refill<T: Tally>(
             st.s[k][i] = s[k];
         }
         (st.x[i], st.y[i], st.z[i]) = (0.0, 0.0, 0.0);
-        (st.ux[i], st.uy[i], st.uz[i]) = (dir[0] as f32, dir[1] as f32, to_f32_up(dir[2]));
+        (st.ux[i], st.uy[i], st.uz[i]) = (dir[0], dir[1], dir[2]);
         st.w[i] = w0;
         st.w_min[i] = ROULETTE_THRESHOLD * w0;
         st.s_left[i] = 0.0;
@@ -575,9 +594,11 @@ fn run_lanes<T: Tally>(
             advance::<false>(&mut st, &mut sc, T::PENDING, T::POSITIONS, T::TRACKS);
         }
         if sc.hit.iter().any(|&h| on(h)) {
+            // (no trapping count in a matched stack: nothing reflects, so a packet that does not
+            // interact meets at most one interface per layer on its straight way out, far below
+            // `MAX_HITS_WITHOUT_INTERACTION`; with clear layers `advance` counts the hits)
             match (lk.matched, lk.any_clear) {
-                (true, true) => interfaces::<true, false>(&mut st, &mut sc, last, T::TRACKS, few),
-                (true, false) => interfaces::<true, true>(&mut st, &mut sc, last, T::TRACKS, few),
+                (true, _) => interfaces::<true, false>(&mut st, &mut sc, last, T::TRACKS, few),
                 (false, true) => interfaces::<false, false>(&mut st, &mut sc, last, T::TRACKS, few),
                 (false, false) => interfaces::<false, true>(&mut st, &mut sc, last, T::TRACKS, few),
             }

@@ -281,13 +281,16 @@ impl Tally for Totals {
         // SAFETY: `x` is a reference to an initialised f64.
         let slot = |x: &f64| unsafe { std::ptr::read_volatile(x) };
         let read = |b: &Block| -> [f64; W] { std::array::from_fn(|k| slot(&b[k])) };
-        let physical = (NQ..NQ + nl).fold(0.0, |a, i| a + slot(&cur[i / W][i % W]));
-        for (b, c) in cur.iter_mut().enumerate() {
-            let mut x = read(c);
-            if b == 0 {
-                x[Total::Absorbed as usize] = physical + x[Total::Roulette as usize];
-            }
-            score(first, &x, &mut self.sum[b], &mut self.sum2[b], &mut self.min[b], &mut self.max[b]);
+        // (block 0 is read once: its layer slots are summed from the copy, in slot order as
+        // before, so the bits are those of a sum read slot by slot)
+        let mut x = read(&cur[0]);
+        let physical = x[NQ..(NQ + nl).min(W)].iter().fold(0.0, |a, &v| a + v);
+        let physical = (W..NQ + nl).fold(physical, |a, i| a + slot(&cur[i / W][i % W]));
+        x[Total::Absorbed as usize] = physical + x[Total::Roulette as usize];
+        score(first, &x, &mut self.sum[0], &mut self.sum2[0], &mut self.min[0], &mut self.max[0]);
+        cur[0].0 = [0.0; W];
+        for (b, c) in cur.iter_mut().enumerate().skip(1) {
+            score(first, &read(c), &mut self.sum[b], &mut self.sum2[b], &mut self.min[b], &mut self.max[b]);
             c.0 = [0.0; W];
         }
     }
