@@ -236,3 +236,47 @@ fn far_class_near_field_is_not_clustered_away() {
     println!("{} samples; all pairs {all:?}, clustered {clustered:?}", tree.samples.len());
     assert!((clustered[0] / all[0] - 1.0).abs() < 0.01);
 }
+
+#[test]
+#[ignore]
+fn diag_ketchup_clusters() {
+    use super::super::hierarchical::Hierarchical;
+    use super::Kernel;
+    use crate::render::accel::Hit;
+    let sc: f64 = std::env::var("SC").unwrap().parse().unwrap();
+    let sa = [0.061 * sc, 0.97 * sc, 1.45 * sc];
+    let ss = [0.18 * sc, 0.07 * sc, 0.03 * sc];
+    let st = |k: usize| Stack::new(vec![Layer::new(1.3, sa[k], ss[k], 0.0, f64::INFINITY).unwrap()], 1.0, 1.0).unwrap();
+    let spec = TranslucentSpec {
+        field: "materials.m".into(),
+        sigma_a: sa,
+        sigma_s: ss,
+        g: 0.0,
+        eta: 1.3,
+        model: "adaptive".into(),
+        stacks: [st(0), st(1), st(2)],
+        mc: McSettings { photons: 10_000, seed: 3, threads: Some(2), ..McSettings::default() },
+        reflectance: None,
+        single_scattering: None,
+        grid: None,
+        texture: None,
+        adaptive: None,
+    };
+    let t = spec.build(true, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();
+    let sphere = super::super::shapes::icosphere([0.0; 3], 10.0, 5).unwrap();
+    let obj = Object { name: "s".into(), mesh: sphere, material: 0 };
+    let s = Scene::new(vec![obj], vec![Material::Translucent(Box::new(t))], vec![], [1.0; 3], None).unwrap();
+    let params = HierarchicalParams { env_samples: 16, ..HierarchicalParams::default() };
+    let h = Hierarchical::new(&s, &params, 1).unwrap();
+    let tree = h.trees[0].as_ref().unwrap();
+    println!("samples {} ", tree.samples.len());
+    let Material::Translucent(m) = &s.materials[0] else { unreachable!() };
+    let tab = m.adaptive.clone().unwrap();
+    let top: Hit = s.accel.intersect([0.3, 0.2, 50.0], [0.0, 0.0, -1.0], f64::INFINITY, u32::MAX).unwrap();
+    let k = Kernel::at(&s, &tab, &top);
+    println!("kernel d {} k {:?}", k.d, k.k);
+    for eps in [0.0, 0.05] {
+        let e = tree.exitance_with(&k, top.p, eps);
+        println!("eps {eps}: exitance {:?}", e);
+    }
+}
