@@ -281,7 +281,7 @@ pub fn walk<C: Carrier>(
         // when it next meets a surface of an object it is inside from that object's outside,
         // or collides outside the walk's box (`Accel::in_walk_box`).
         let clear = scene.accel.segment_clear_in(&mut ball, p, d, s);
-        let ahead = if clear { None } else { scene.accel.intersect(p, d, s, skip) };
+        let ahead = if clear { None } else { scene.accel.intersect_walk(p, d, s, skip) };
         match ahead {
             None => {
                 p = madd(p, d, s);
