@@ -170,8 +170,12 @@ impl Accel {
     }
 
     /// Closest hit along the unit direction `d` from `o` with t < `tmax`, ignoring triangle
-    /// `skip` (the one the ray starts on, `u32::MAX` for none).
+    /// `skip` (the one the ray starts on, `u32::MAX` for none). A ray leaving a facet of a convex
+    /// body outwards ([`Self::convex`]) meets nothing: no traversal.
     pub fn intersect(&self, o: V3, d: V3, tmax: f64, skip: u32) -> Option<Hit> {
+        if self.convex.is_some() && skip != u32::MAX && dot(d, self.tris[skip as usize].n) > 0.0 {
+            return None;
+        }
         let tmin = self.extent * 1e-10;
         let ray = Ray::new(vec3(o), dir3(d), 0.0, tmax.min(f32::MAX as f64) as f32);
         let mut rh = RayHit::none();

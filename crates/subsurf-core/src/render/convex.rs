@@ -20,7 +20,7 @@
 //! (10⁻¹⁰ of the extent).
 
 use super::accel::{Accel, Tri};
-use super::math::{add, cross, dot, length, normalize, scale, sub, V3};
+use super::math::{add, cross, dot, length, madd, normalize, scale, sub, V3};
 
 /// A proved convex body's facet lookup: the facet radially from an interior point c in each
 /// cell of a cube map of directions ([`CELLS`]² per face), a first guess for [`Convex::facet_along`].
@@ -80,6 +80,22 @@ impl Convex {
         let Some(g) = self.facet_along(acc, self.c, scale(d, 1.0 / l), self.guess(p)) else { return false };
         let t = &acc.tris[g as usize];
         dot(t.n, sub(p, t.v0)) < -PLANE_EPS * acc.extent
+    }
+
+    /// [`Self::facet_along`] from a first guess refined twice: the cube-map cell of the line's
+    /// point at distance `t0`, then of its crossing with that facet's plane (the body's surface
+    /// is near the plane of a nearby facet).
+    pub fn facet_of_line(&self, acc: &Accel, v: V3, dir: V3, t0: f64) -> Option<u32> {
+        let mut g = self.guess(madd(v, dir, t0));
+        for _ in 0..2 {
+            let t = &acc.tris[g as usize];
+            let s = dot(sub(t.v0, v), t.n) / dot(dir, t.n);
+            if !(s > 0.0 && s.is_finite()) {
+                break;
+            }
+            g = self.guess(madd(v, dir, s));
+        }
+        self.facet_along(acc, v, dir, g)
     }
 
     /// The facet that the line from `v` (inside) along `dir` crosses, walking from facet `from`

@@ -111,10 +111,7 @@ pub fn point(scene: &Scene, media: &Media, v: V3, y: V3) -> Option<Connection> {
 fn point_in(scene: &Scene, media: &Media, v: V3, y: V3, cv: Option<&Convex>) -> Option<Connection> {
     let eta = media.index(scene);
     let dir = normalize(sub(y, v));
-    let walked = cv.and_then(|cv| {
-        let guess = cv.guess(madd(v, dir, scene.accel.clear_radius(v)));
-        cv.facet_along(&scene.accel, v, dir, guess)
-    });
+    let walked = cv.and_then(|cv| cv.facet_of_line(&scene.accel, v, dir, scene.accel.clear_radius(v)));
     let mut tri = match walked {
         Some(t) => t,
         None => chain(scene, media, v, dir)?.hit.tri,
