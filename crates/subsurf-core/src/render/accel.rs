@@ -208,11 +208,17 @@ impl Accel {
     /// cube-map cell of the end, and
     /// tested as the BVH traversal tests it (the same hit, to which of two facets an edge
     /// belongs); everywhere else, and where that test fails at an edge, by the BVH.
-    pub fn intersect_walk(&self, o: V3, d: V3, tmax: f64, skip: u32) -> Option<Hit> {
+    /// `held`: the walk's memo that `o` was shown inside (`holds`) — by the previous call, for
+    /// the end it returned no hit for (the walk's next start, the same point), kept by the walk
+    /// across free paths that `segment_clear` clears; set here for the end when it holds.
+    pub fn intersect_walk(&self, o: V3, d: V3, tmax: f64, skip: u32, held: &mut bool) -> Option<Hit> {
+        let known = std::mem::replace(held, false);
         if let Some(cv) = &self.convex {
-            let inside = if skip == u32::MAX { cv.holds(self, o) } else { dot(d, self.tris[skip as usize].n) < 0.0 };
+            let inside =
+                if skip == u32::MAX { known || cv.holds(self, o) } else { dot(d, self.tris[skip as usize].n) < 0.0 };
             let end = madd(o, d, tmax.min(self.extent));
             if inside && tmax <= self.extent && cv.holds(self, end) {
+                *held = true;
                 return None; // both ends inside a convex body: so is the segment
             }
             if let Some(f) = inside.then(|| cv.facet_along(self, o, d, cv.guess(end))).flatten().filter(|&f| f != skip)
