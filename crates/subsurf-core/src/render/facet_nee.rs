@@ -311,7 +311,7 @@ fn convex_exit(
     let tr = &scene.accel.tris[tri as usize];
     let (b1, b2) = barycentric(tr, p);
     if !(b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0) {
-        let next = cv.facet_along(&scene.accel, v, dir, tri)?;
+        let next = cv.facet_along(&scene.accel, v, dir, cv.guess(p))?;
         return (next != tri).then_some(Err(next));
     }
     let hit = Hit { t, tri, object: tr.object as usize, b1, b2, p, n: tr.n };
