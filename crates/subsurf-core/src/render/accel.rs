@@ -71,6 +71,10 @@ pub struct Accel {
     /// Per triangle, the triangles of the same object sharing each edge (v0v1, v1v2, v2v0;
     /// `u32::MAX` where there is none or more than one).
     pub neighbours: Vec<[u32; 3]>,
+    /// The triangles are one mesh that bounds a convex body ([`super::convex`], proved at
+    /// build): a segment from inside to a facet point crosses no other facet, and a ray
+    /// leaving a facet outwards meets nothing.
+    pub convex: Option<super::convex::Convex>,
 }
 
 impl Accel {
@@ -102,7 +106,7 @@ impl Accel {
                 tris.push(Tri { v0: a, e1, e2, n: normalize(nn), object: o as u32, local: i as u32 });
             }
         }
-        let neighbours = (0..tris.len())
+        let neighbours: Vec<[u32; 3]> = (0..tris.len())
             .map(|g| {
                 let t: &Tri = &tris[g];
                 let vi = meshes[t.object as usize].triangles[t.local as usize];
@@ -134,7 +138,11 @@ impl Accel {
             })
             .collect();
         let bvh = build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
-        Accel { tris, bvh, extent, lo, hi, distance: None, neighbours }
+        let mut acc = Accel { tris, bvh, extent, lo, hi, distance: None, neighbours, convex: None };
+        if meshes.len() == 1 {
+            acc.convex = super::convex::Convex::new(&acc);
+        }
+        acc
     }
 
     /// Möller–Trumbore in f64: (t, b1, b2) for a hit with t in (tmin, tmax), else None.
@@ -162,8 +170,12 @@ impl Accel {
     }
 
     /// Closest hit along the unit direction `d` from `o` with t < `tmax`, ignoring triangle
-    /// `skip` (the one the ray starts on, `u32::MAX` for none).
+    /// `skip` (the one the ray starts on, `u32::MAX` for none). A ray leaving a facet of a convex
+    /// body outwards ([`Self::convex`]) meets nothing: no traversal.
     pub fn intersect(&self, o: V3, d: V3, tmax: f64, skip: u32) -> Option<Hit> {
+        if self.convex.is_some() && skip != u32::MAX && dot(d, self.tris[skip as usize].n) > 0.0 {
+            return None;
+        }
         let tmin = self.extent * 1e-10;
         let ray = Ray::new(vec3(o), dir3(d), 0.0, tmax.min(f32::MAX as f64) as f32);
         let mut rh = RayHit::none();
@@ -187,6 +199,45 @@ impl Accel {
             let tr = &self.tris[i];
             Hit { t, tri: i as u32, object: tr.object as usize, b1, b2, p: madd(o, d, t), n: tr.n }
         })
+    }
+
+    /// [`Self::intersect`] for a walk's ray: in a scene that is one convex body
+    /// ([`super::convex::Convex`]) and from a point inside it (`skip` = `u32::MAX`: by
+    /// [`super::convex::Convex::holds`]; on facet `skip`: heading inwards) the one facet the line
+    /// crosses, if the segment's end is not inside too, is found by walking the mesh from the
+    /// cube-map cell of the end, and
+    /// tested as the BVH traversal tests it (the same hit, to which of two facets an edge
+    /// belongs); everywhere else, and where that test fails at an edge, by the BVH.
+    /// `held`: the walk's memo that `o` was shown inside (`holds`) — by the previous call, for
+    /// the end it returned no hit for (the walk's next start, the same point), kept by the walk
+    /// across free paths that `segment_clear` clears; set here for the end when it holds.
+    pub fn intersect_walk(&self, o: V3, d: V3, tmax: f64, skip: u32, held: &mut bool) -> Option<Hit> {
+        let known = std::mem::replace(held, false);
+        if let Some(cv) = &self.convex {
+            let inside =
+                if skip == u32::MAX { known || cv.holds(self, o) } else { dot(d, self.tris[skip as usize].n) < 0.0 };
+            let end = madd(o, d, tmax.min(self.extent));
+            if inside && tmax <= self.extent && cv.holds(self, end) {
+                *held = true;
+                return None; // both ends inside a convex body: so is the segment
+            }
+            if let Some(f) = inside.then(|| cv.facet_along(self, o, d, cv.guess(end))).flatten().filter(|&f| f != skip)
+            {
+                if let Some((t, b1, b2)) = self.test(f as usize, o, d, self.extent * 1e-10, f64::INFINITY) {
+                    let tr = &self.tris[f as usize];
+                    return (t < tmax).then(|| Hit {
+                        t,
+                        tri: f,
+                        object: tr.object as usize,
+                        b1,
+                        b2,
+                        p: madd(o, d, t),
+                        n: tr.n,
+                    });
+                }
+            }
+        }
+        self.intersect(o, d, tmax, skip)
     }
 
     /// Whether anything blocks the segment from `o` along `d` up to distance `tmax`.

@@ -28,6 +28,7 @@
 //! they are.
 
 use super::accel::Hit;
+use super::convex::Convex;
 use super::math::{dot, madd, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::walk::Media;
@@ -102,10 +103,21 @@ pub fn directional(scene: &Scene, media: &Media, v: V3, to_light: V3) -> Option<
 
 /// The connection from `v` (inside `media`) to the point `y` outside.
 pub fn point(scene: &Scene, media: &Media, v: V3, y: V3) -> Option<Connection> {
+    point_in(scene, media, v, y, convex_from(scene, v))
+}
+
+/// [`point`] with the convex lookup decided ([`convex_from`]): the first facet by walking the
+/// mesh from the cube-map cell of the line's point at the distance bound, else by [`chain`].
+fn point_in(scene: &Scene, media: &Media, v: V3, y: V3, cv: Option<&Convex>) -> Option<Connection> {
     let eta = media.index(scene);
-    let mut tri = chain(scene, media, v, normalize(sub(y, v)))?.hit.tri;
+    let dir = normalize(sub(y, v));
+    let walked = cv.and_then(|cv| cv.facet_of_line(&scene.accel, v, dir, scene.accel.clear_radius(v)));
+    let mut tri = match walked {
+        Some(t) => t,
+        None => chain(scene, media, v, dir)?.hit.tri,
+    };
     for _ in 0..4 {
-        match attempt(scene, media, eta, v, y, tri, false) {
+        match attempt(scene, media, eta, v, y, tri, false, cv) {
             Attempt::Found(c) => return Some(c),
             Attempt::Next(t) => tri = t,
             Attempt::Fail => return None,
@@ -123,13 +135,14 @@ pub const MAX_POINTS: usize = 4;
 /// paths would otherwise be left to exits (rare, bright hits on the light).
 pub fn points(scene: &Scene, media: &Media, v: V3, y: V3) -> [Option<Connection>; MAX_POINTS] {
     let mut out = [None, None, None, None];
-    let Some(c) = point(scene, media, v, y) else { return out };
+    let cv = convex_from(scene, v);
+    let Some(c) = point_in(scene, media, v, y, cv) else { return out };
     let eta = media.index(scene);
     let nbs = scene.accel.neighbours[c.hit.tri as usize];
     out[0] = Some(c);
     for (k, nb) in nbs.into_iter().enumerate() {
         if nb != u32::MAX {
-            if let Attempt::Found(c) = attempt(scene, media, eta, v, y, nb, true) {
+            if let Attempt::Found(c) = attempt(scene, media, eta, v, y, nb, true, cv) {
                 out[k + 1] = Some(c);
             }
         }
@@ -147,7 +160,19 @@ enum Attempt {
 /// The connection from `v` to `y` refracted at the plane of facet `tri` (Fermat point p), if
 /// the line from `v` to p crosses that facet first and nothing blocks p → `y`. With `inside`
 /// the ray is cast only when p lies inside the triangle (neighbour facets: most fail there).
-fn attempt(scene: &Scene, media: &Media, eta: f64, v: V3, y: V3, tri: u32, inside: bool) -> Attempt {
+/// With `cv` (the scene is one convex body and `v` lies inside it) no ray is cast where the
+/// Fermat point lies inside the facet ([`convex_exit`]).
+#[allow(clippy::too_many_arguments)]
+fn attempt(
+    scene: &Scene,
+    media: &Media,
+    eta: f64,
+    v: V3,
+    y: V3,
+    tri: u32,
+    inside: bool,
+    cv: Option<&Convex>,
+) -> Attempt {
     let tr = &scene.accel.tris[tri as usize];
     let (n, q) = (tr.n, tr.v0);
     let (hv, hy) = (dot(sub(q, v), n), dot(sub(y, q), n));
@@ -174,7 +199,15 @@ fn attempt(scene: &Scene, media: &Media, eta: f64, v: V3, y: V3, tri: u32, insid
     }
     let to_p = sub(p, v);
     let d2 = dot(to_p, to_p).sqrt();
-    let Some(c2) = chain(scene, media, v, scale(to_p, 1.0 / d2)) else { return Attempt::Fail };
+    let dir = scale(to_p, 1.0 / d2);
+    let c2 = match cv.and_then(|cv| convex_exit(scene, cv, media, v, dir, tri, d2, p)) {
+        Some(Ok(c)) => c,
+        Some(Err(next)) => return Attempt::Next(next),
+        None => match chain(scene, media, v, dir) {
+            Some(c) => c,
+            None => return Attempt::Fail,
+        },
+    };
     if c2.hit.tri != tri {
         return Attempt::Next(c2.hit.tri);
     }
@@ -253,7 +286,47 @@ fn fermat_t(eta: f64, hv: f64, hy: f64, big_d: f64) -> f64 {
     t
 }
 
+/// The scene's convex lookup ([`super::accel::Accel::convex`]) where `v` lies inside the body
+/// (a walker that leaked out numerically connects as before, by [`chain`]).
+fn convex_from(scene: &Scene, v: V3) -> Option<&Convex> {
+    scene.accel.convex.as_ref().filter(|cv| cv.holds(&scene.accel, v))
+}
+
+/// In a scene that is one convex body ([`super::accel::Accel::convex`]), what [`chain`] finds
+/// along the straight line from `v` (inside) along `dir` to the point `p` (at distance `t`) on
+/// the plane of facet `tri`, without its ray: the chain itself (`Ok`) where p lies inside the
+/// facet (the line crosses it first and no other), else the facet the line crosses (`Err`,
+/// [`super::convex::Convex::facet_along`]). `None` where this does not apply: [`chain`] decides.
+#[allow(clippy::too_many_arguments)]
+fn convex_exit(
+    scene: &Scene,
+    cv: &Convex,
+    media: &Media,
+    v: V3,
+    dir: V3,
+    tri: u32,
+    t: f64,
+    p: V3,
+) -> Option<Result<Chain, u32>> {
+    let tr = &scene.accel.tris[tri as usize];
+    let (b1, b2) = barycentric(tr, p);
+    if !(b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0) {
+        let next = cv.facet_along(&scene.accel, v, dir, cv.guess(p))?;
+        return (next != tri).then_some(Err(next));
+    }
+    let hit = Hit { t, tri, object: tr.object as usize, b1, b2, p, n: tr.n };
+    let m = media.medium(scene)?;
+    let (after, _, _) = media.across(scene, &hit, dir)?;
+    after.is_empty().then(|| Ok(Chain { hit, tau: super::grid::optical_depth(m, v, dir, t) }))
+}
+
+/// Whether anything blocks the ray from the facet point of `h` along `dir` (outwards:
+/// dir·n > 0) up to `dist`; never in a scene that is one convex body, which lies behind the
+/// plane of each of its facets.
 fn blocked(scene: &Scene, h: &Hit, dir: V3, dist: f64) -> bool {
+    if scene.accel.convex.is_some() {
+        return false;
+    }
     let o = scene.accel.offset(h.p, h.n, 1.0);
     scene.accel.occluded(o, dir, dist * (1.0 - 1e-9), h.tri)
 }

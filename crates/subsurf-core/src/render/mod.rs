@@ -17,6 +17,7 @@
 pub mod accel;
 pub mod adaptive;
 pub mod camera;
+pub mod convex;
 pub mod distance;
 pub mod driver;
 pub mod facet_nee;

@@ -267,6 +267,9 @@ pub fn walk<C: Carrier>(
     let mut flight = Flight::CLASSIC;
     // A ball free of surfaces around the recent collisions (`Accel::segment_clear_in`).
     let mut ball = Ball::NONE;
+    // Whether the walker's point was shown inside a convex scene's body (`Accel::intersect_walk`):
+    // kept along free paths cleared of surfaces, dropped at a boundary.
+    let mut held = false;
     for _ in 0..MAX_EVENTS {
         let Some(m) = media.medium(scene) else { return c.lost(p, false) };
         let Some(k) = c.channel(rng) else { return };
@@ -281,7 +284,7 @@ pub fn walk<C: Carrier>(
         // when it next meets a surface of an object it is inside from that object's outside,
         // or collides outside the walk's box (`Accel::in_walk_box`).
         let clear = scene.accel.segment_clear_in(&mut ball, p, d, s);
-        let ahead = if clear { None } else { scene.accel.intersect(p, d, s, skip) };
+        let ahead = if clear { None } else { scene.accel.intersect_walk(p, d, s, skip, &mut held) };
         match ahead {
             None => {
                 p = madd(p, d, s);
@@ -314,6 +317,7 @@ pub fn walk<C: Carrier>(
                 }
             }
             Some(h) => {
+                held = false;
                 if dot(d, h.n) < 0.0 && media.holds(h.object) {
                     return c.lost(p, false); // leaked: meets its own object from outside
                 }

@@ -1,0 +1,246 @@
+//! A proof, at scene load, that the scene's triangles bound one convex body: then a straight
+//! segment from a point inside to a point of a boundary facet crosses no other facet, and a ray
+//! leaving a facet outwards meets nothing, so the facet connections of the random walk
+//! ([`super::facet_nee`]) skip their verification and occlusion rays.
+//!
+//! The test (each part linear in the triangles):
+//! 1. closed: every edge is shared by exactly two triangles ([`super::accel::Accel::neighbours`]);
+//! 2. star-shaped about the vertex mean c: c lies strictly behind every triangle's plane
+//!    (outward normals), so radial projection from c maps each triangle onto a spherical triangle
+//!    of positive orientation, and the surface onto the sphere as a (branched) covering whose
+//!    degree is the sum of those solid angles (Van Oosterom & Strackee 1983) over 4π; degree 1
+//!    (a sum below 6π) makes the surface a radial graph about c: embedded, a topological sphere;
+//! 3. locally convex: every neighbour's vertices lie on or behind each triangle's plane (every
+//!    dihedral angle ≤ π).
+//!
+//! An embedded closed polyhedral surface whose dihedral angles are all ≤ π is locally convex at
+//! its vertices as well (the link of a vertex is a simple spherical polygon with convex turns)
+//! and so bounds a convex body (Tietze–Nakajima: a closed connected locally convex set is
+//! convex). Tolerances are 10⁻¹² of the scene extent, below the ray tests' own margins
+//! (10⁻¹⁰ of the extent).
+
+use super::accel::{Accel, Tri};
+use super::math::{add, cross, dot, length, madd, normalize, scale, sub, V3};
+
+/// A proved convex body's facet lookup: the facet radially from an interior point c in each
+/// cell of a cube map of directions ([`CELLS`]² per face), a first guess for [`Convex::facet_along`].
+#[derive(Clone, Debug)]
+pub struct Convex {
+    c: V3,
+    cells: Vec<u32>,
+}
+
+/// Cells per cube-map face side.
+const CELLS: usize = 32;
+
+/// Most facets [`Convex::facet_along`] visits.
+const WALK_STEPS: usize = 64;
+
+impl Convex {
+    /// The lookup for `acc` when its triangles are one convex body (`bounds_convex_body`),
+    /// else `None`: one ray from c per cell centre.
+    pub fn new(acc: &Accel) -> Option<Convex> {
+        if !bounds_convex_body(&acc.tris, &acc.neighbours, acc.extent) {
+            return None;
+        }
+        let c = vertex_mean(&acc.tris);
+        let cells = (0..6 * CELLS * CELLS)
+            .map(|i| {
+                let (face, j, k) = (i / (CELLS * CELLS), (i / CELLS) % CELLS, i % CELLS);
+                let (a, b) = ((2 * j + 1) as f64 / CELLS as f64 - 1.0, (2 * k + 1) as f64 / CELLS as f64 - 1.0);
+                let s = if face % 2 == 0 { 1.0 } else { -1.0 };
+                let mut d = [0.0; 3];
+                let ax = face / 2;
+                (d[ax], d[(ax + 1) % 3], d[(ax + 2) % 3]) = (s, a, b);
+                acc.intersect(c, normalize(d), f64::INFINITY, u32::MAX).map(|h| h.tri)
+            })
+            .collect::<Option<Vec<u32>>>()?;
+        Some(Convex { c, cells })
+    }
+
+    /// The facet in the cube-map cell of the direction from c to `p`.
+    pub fn guess(&self, p: V3) -> u32 {
+        let d = sub(p, self.c);
+        let ax = (0..3).max_by(|&a, &b| d[a].abs().total_cmp(&d[b].abs())).unwrap_or(0);
+        let m = d[ax].abs().max(1e-300);
+        let face = 2 * ax + usize::from(d[ax] < 0.0);
+        let cell = |x: f64| (((x / m + 1.0) * 0.5 * CELLS as f64) as usize).min(CELLS - 1);
+        self.cells[(face * CELLS + cell(d[(ax + 1) % 3])) * CELLS + cell(d[(ax + 2) % 3])]
+    }
+
+    /// Whether `p` lies inside the body by more than 10⁻¹² of the extent: behind the plane of
+    /// the facet that the ray from c through `p` leaves by (c is inside, and that ray crosses
+    /// the surface once). False where the walk fails.
+    pub fn holds(&self, acc: &Accel, p: V3) -> bool {
+        let d = sub(p, self.c);
+        let l = length(d);
+        if !(l > 0.0) {
+            return true;
+        }
+        let Some(g) = self.facet_along(acc, self.c, scale(d, 1.0 / l), self.guess(p)) else { return false };
+        let t = &acc.tris[g as usize];
+        dot(t.n, sub(p, t.v0)) < -PLANE_EPS * acc.extent
+    }
+
+    /// [`Self::facet_along`] from a first guess refined twice: the cube-map cell of the line's
+    /// point at distance `t0`, then of its crossing with that facet's plane (the body's surface
+    /// is near the plane of a nearby facet).
+    pub fn facet_of_line(&self, acc: &Accel, v: V3, dir: V3, t0: f64) -> Option<u32> {
+        let mut g = self.guess(madd(v, dir, t0));
+        for _ in 0..2 {
+            let t = &acc.tris[g as usize];
+            let s = dot(sub(t.v0, v), t.n) / dot(dir, t.n);
+            if !(s > 0.0 && s.is_finite()) {
+                break;
+            }
+            g = self.guess(madd(v, dir, s));
+        }
+        self.facet_along(acc, v, dir, g)
+    }
+
+    /// The facet that the line from `v` (inside) along `dir` crosses, walking from facet `from`
+    /// across an edge the line passes beyond: edge k of a facet (vertices k, k + 1, relative to
+    /// v: P_k, P_k₊₁) has the line beyond it where det(P_k, P_k₊₁, dir) < 0 (each determinant
+    /// is the barycentric coordinate opposite the edge times a positive volume); the walk takes
+    /// the least. Radial projection from v maps the convex surface one to one onto the sphere,
+    /// so the facet found is the one crossed. `None` after [`WALK_STEPS`] facets.
+    pub fn facet_along(&self, acc: &Accel, v: V3, dir: V3, from: u32) -> Option<u32> {
+        let mut f = from;
+        for _ in 0..WALK_STEPS {
+            let t = &acc.tris[f as usize];
+            let p = [sub(t.v0, v), sub(add(t.v0, t.e1), v), sub(add(t.v0, t.e2), v)];
+            let s: [f64; 3] = std::array::from_fn(|k| dot(cross(p[k], p[(k + 1) % 3]), dir));
+            let k = (0..3).min_by(|&a, &b| s[a].total_cmp(&s[b]))?;
+            if s[k] >= 0.0 {
+                return Some(f);
+            }
+            f = acc.neighbours[f as usize][k];
+        }
+        None
+    }
+}
+
+fn vertex_mean(tris: &[Tri]) -> V3 {
+    scale(tris.iter().fold([0.0; 3], |s, t| add(s, t.v0)), 1.0 / tris.len() as f64)
+}
+
+/// Relative tolerance (of the extent) of the plane tests.
+const PLANE_EPS: f64 = 1e-12;
+
+/// Whether `tris` (with their edge `neighbours`, `u32::MAX` where an edge is not shared by
+/// exactly two) bound one convex body (module docs). `extent`: the bounding-box diagonal, mm.
+pub fn bounds_convex_body(tris: &[Tri], neighbours: &[[u32; 3]], extent: f64) -> bool {
+    if tris.len() < 4 || neighbours.iter().any(|nb| nb.contains(&u32::MAX)) {
+        return false;
+    }
+    let verts = |t: &Tri| [t.v0, add(t.v0, t.e1), add(t.v0, t.e2)];
+    let c = vertex_mean(tris);
+    let tol = PLANE_EPS * extent;
+    let mut solid = 0.0;
+    for (t, nb) in tris.iter().zip(neighbours) {
+        if dot(t.n, sub(t.v0, c)) <= tol {
+            return false;
+        }
+        let behind = |w: V3| dot(t.n, sub(w, t.v0)) <= tol;
+        if !nb.iter().all(|&o| verts(&tris[o as usize]).into_iter().all(behind)) {
+            return false;
+        }
+        solid += solid_angle(verts(t).map(|w| sub(w, c)));
+    }
+    solid < 6.0 * std::f64::consts::PI
+}
+
+/// The solid angle of the triangle (a, b, c) seen from the origin (Van Oosterom & Strackee
+/// 1983: tan(Ω/2) = a·(b×c) / (|a||b||c| + (a·b)|c| + (a·c)|b| + (b·c)|a|)), signed by the
+/// orientation.
+fn solid_angle([a, b, c]: [V3; 3]) -> f64 {
+    let (la, lb, lc) = (length(a), length(b), length(c));
+    let num = dot(a, cross(b, c));
+    let den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
+    2.0 * num.atan2(den)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::accel::Accel;
+    use crate::render::mesh::Mesh;
+    use crate::render::shapes::{icosphere, torus};
+
+    fn convex(meshes: &[&Mesh]) -> bool {
+        Accel::new(meshes).convex.is_some()
+    }
+
+    /// Spheres and a box are convex; a torus, a dented sphere, an open mesh and two spheres are
+    /// not.
+    #[test]
+    fn convexity_proof_accepts_convex_bodies_only() {
+        let s = icosphere([1.0, 2.0, 3.0], 4.0, 3).unwrap();
+        assert!(convex(&[&s]) && convex(&[&icosphere([0.0; 3], 1.0, 0).unwrap()]));
+        let cube = crate::render::shapes::cuboid([0.0; 3], [2.0, 1.0, 3.0]).unwrap();
+        assert!(convex(&[&cube]), "flat faces split in two triangles (dihedral π)");
+        assert!(!convex(&[&torus([0.0; 3], 7.0, 3.0, 32, 16).unwrap()]));
+        let mut dent = s.clone();
+        let p = dent.positions[0];
+        dent.positions[0] = [1.0 + 0.97 * (p[0] - 1.0), 2.0 + 0.97 * (p[1] - 2.0), 3.0 + 0.97 * (p[2] - 3.0)];
+        assert!(!convex(&[&Mesh::new("dent", dent.positions, dent.triangles, None).unwrap()]));
+        let open: Vec<[u32; 3]> = s.triangles[1..].to_vec();
+        assert!(!convex(&[&Mesh::new("open", s.positions.clone(), open, None).unwrap()]));
+        assert!(!convex(&[&s, &icosphere([20.0, 0.0, 0.0], 1.0, 2).unwrap()]));
+    }
+
+    /// The ray-free paths give what the BVH gives: the walk's segments from inside and from a
+    /// facet (`Accel::intersect_walk` against `Accel::intersect`), and the facet connections
+    /// (`facet_nee::points` with and without the convex lookup) to points of a light above; on a
+    /// tessellated sphere and on a box (coplanar facet pairs).
+    #[test]
+    fn convex_paths_match_the_bvh() {
+        let cuboid = crate::render::shapes::cuboid([-4.0, -3.0, -5.0], [4.0, 3.0, 5.0]).unwrap();
+        for (k, mesh) in [icosphere([0.0; 3], 5.0, 3).unwrap(), cuboid].into_iter().enumerate() {
+            convex_paths_match_the_bvh_on(mesh, 7 + k as u64);
+        }
+    }
+
+    fn convex_paths_match_the_bvh_on(mesh: Mesh, seed: u64) {
+        use crate::render::facet_nee::points;
+        use crate::render::material::{Material, Translucent};
+        use crate::render::scene::{Object, Scene};
+        use crate::render::walk::Media;
+        let sc = || {
+            let m = Translucent::new("m", [0.1; 3], [1.0, 1.5, 2.0], 0.0, 1.4, None, false).unwrap();
+            let o = Object { name: "o".into(), mesh: mesh.clone(), material: 0 };
+            Scene::new(vec![o], vec![Material::Translucent(Box::new(m))], vec![], [0.0; 3], None).unwrap()
+        };
+        let (a, mut b) = (sc(), sc());
+        b.accel.convex = None;
+        assert!(a.accel.convex.is_some());
+        let (acc, media) = (&a.accel, Media::inside(0));
+        let mut rng = crate::rng::PhotonRng::new(seed, 6);
+        let (mut hits, mut found) = (0, 0);
+        for _ in 0..3_000 {
+            let d = crate::optics::sample_uniform_sphere(rng.uniform(), rng.uniform());
+            let o = scale([rng.symmetric(), rng.symmetric(), rng.symmetric()], 2.8);
+            let s = 6.0 * rng.uniform();
+            let (w, r) = (acc.intersect_walk(o, d, s, u32::MAX, &mut false), acc.intersect(o, d, s, u32::MAX));
+            assert_eq!(w.map(|h| (h.tri, h.t)), r.map(|h| (h.tri, h.t)), "{o:?} {d:?} {s}");
+            let Some(h) = acc.intersect(o, d, f64::INFINITY, u32::MAX) else { panic!("closed") };
+            let back = crate::optics::sample_uniform_sphere(rng.uniform(), rng.uniform());
+            let inward = if dot(back, h.n) < 0.0 { back } else { scale(back, -1.0) };
+            let (w, r) = (acc.intersect_walk(h.p, inward, s, h.tri, &mut false), acc.intersect(h.p, inward, s, h.tri));
+            assert_eq!(w.map(|h| (h.tri, h.t)), r.map(|h| (h.tri, h.t)), "from facet {}", h.tri);
+            hits += usize::from(r.is_some());
+            let y = [8.0 * rng.symmetric(), 8.0 * rng.symmetric(), 7.0];
+            let v = scale(o, 1.7);
+            let (pa, pb) = (points(&a, &media, v, y), points(&b, &media, v, y));
+            for (ca, cb) in pa.iter().zip(&pb) {
+                assert_eq!(ca.is_some(), cb.is_some(), "{v:?} {y:?}");
+                if let (Some(ca), Some(cb)) = (ca, cb) {
+                    found += 1;
+                    assert!(ca.hit.tri == cb.hit.tri && length(sub(ca.hit.p, cb.hit.p)) < 1e-9);
+                    assert!((ca.tau[2] / cb.tau[2] - 1.0).abs() < 1e-9 && (ca.factor / cb.factor - 1.0).abs() < 1e-9);
+                }
+            }
+        }
+        assert!(hits > 500 && found > 500, "{hits} hits, {found} connections");
+    }
+}
