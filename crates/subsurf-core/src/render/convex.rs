@@ -23,7 +23,7 @@ use super::accel::{Accel, Tri};
 use super::math::{add, cross, dot, length, madd, normalize, scale, sub, V3};
 
 /// A proved convex body's facet lookup: the facet radially from an interior point c in each
-/// cell of a cube map of directions ([`CELLS`]² per face), a first guess for [`Convex::facet_along`].
+/// cell of a cube map of directions (`CELLS`² per face), a first guess for [`Convex::facet_along`].
 #[derive(Clone, Debug)]
 pub struct Convex {
     c: V3,
@@ -103,7 +103,7 @@ impl Convex {
     /// v: P_k, P_k₊₁) has the line beyond it where det(P_k, P_k₊₁, dir) < 0 (each determinant
     /// is the barycentric coordinate opposite the edge times a positive volume); the walk takes
     /// the least. Radial projection from v maps the convex surface one to one onto the sphere,
-    /// so the facet found is the one crossed. `None` after [`WALK_STEPS`] facets.
+    /// so the facet found is the one crossed. `None` after `WALK_STEPS` facets.
     pub fn facet_along(&self, acc: &Accel, v: V3, dir: V3, from: u32) -> Option<u32> {
         let mut f = from;
         for _ in 0..WALK_STEPS {
