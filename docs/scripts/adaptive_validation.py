@@ -154,7 +154,8 @@ def organic(mat):
 
 # Hierarchical settings other than the defaults, per shape: the bowl's irradiance samples see its
 # own inside, so the second gathering (one bounce between translucent surfaces) walks a tree per
-# gathering ray: 16 rays instead of 64 keep it to minutes (noisier irradiance, no bias).
+# gathering ray that reaches it (a quarter of them, by Russian roulette): 16 rays instead of 64 cost
+# a third of the time at the same RMSE (64 gave no lower error; no bias either way).
 HIERARCHICAL = {"bowl": {"env_samples": 16}}
 
 SHAPES = {
