@@ -21,25 +21,29 @@ const SA: f64 = 0.05;
 const SS: f64 = 2.0;
 const ETA: f64 = 1.4;
 
+/// The test material (the same stack in every channel), its table traced once for all the
+/// tests of this file (each channel's nodes, curvature and oblique runs at 20 000 photons).
 fn material() -> Material {
+    static TABLE: std::sync::OnceLock<Arc<AdaptiveTable>> = std::sync::OnceLock::new();
     let stack = Stack::new(vec![Layer::new(ETA, SA, SS, 0.0, f64::INFINITY).unwrap()], 1.0, 1.0).unwrap();
-    let spec = TranslucentSpec {
+    let spec = |adaptive: Option<Arc<AdaptiveTable>>| TranslucentSpec {
         field: "materials.m".into(),
         sigma_a: [SA; 3],
         sigma_s: [SS; 3],
         g: 0.0,
         eta: ETA,
         model: "adaptive".into(),
-        stacks: [stack.clone(), stack.clone(), stack],
+        stacks: [stack.clone(), stack.clone(), stack.clone()],
         mc: McSettings { photons: 20_000, seed: 1, threads: Some(2), ..McSettings::default() },
         reflectance: None,
         single_scattering: None,
         grid: None,
         texture: None,
-        adaptive: None,
+        adaptive,
     };
-    let t = spec.build(true, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();
-    Material::Translucent(Box::new(t))
+    let build = |s: TranslucentSpec| s.build(true, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();
+    let table = TABLE.get_or_init(|| build(spec(None)).adaptive.clone().unwrap());
+    Material::Translucent(Box::new(build(spec(Some(table.clone())))))
 }
 
 /// A 3×3 camera looking down at a 30 × 30 mm slab from 50 mm (fov 0.5°): the middle pixel sees
