@@ -81,6 +81,11 @@ def test_profiles_and_bad_input(cache):
     assert len(cd["scale_cylinder"]) == len(cd["scale_cylinder_far"]) == len(cd["rho"])
     assert cd["scale_concave"][0] < 0.5  # a small cavity returns less light than a flat surface
     assert t.curvature_scale(0, 0.0) == ([1.0] * 8, 1.0)
+    # the oblique-incidence gain: 1 at normal incidence, from the flat pencil runs at 30–80°
+    assert cd["oblique_theta"] == [30.0, 50.0, 65.0, 80.0] and len(cd["oblique"]) == 4
+    assert t.oblique_gain(0, 1.0) == 1.0 and t.oblique_gain(0, 0.0) > 0
+    with pytest.raises(ParameterError, match="mu"):
+        t.oblique_gain(0, 1.5)
     # the curved transport: a non-absorbing, index-matched sphere returns every photon
     clear = Stack([Layer(1.0, 0.0, 2.0, 0.0)])._to_core()
     assert _core.bssrdf_curved_escape(clear, "sphere", 1.0, 200, 1) == (1.0, 0.0)

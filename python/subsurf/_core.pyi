@@ -231,9 +231,11 @@ class AdaptiveTable:
         """Per channel: {d, top, bottom} (top/bottom: the radial data dicts of Profile.mc_data)."""
     def curvature(self) -> list[dict]:
         """Per channel: {rho, sphere, sphere_stderr, sphere_near, sphere_near_stderr, sphere_bins,
-        the same for cylinder (cylinder_bins) and cavity (no bins), flat, flat_stderr, scale_convex,
-        scale_convex_far, scale_cylinder, scale_cylinder_far, scale_concave}."""
+        the same for cylinder (cylinder_bins) and cavity (no bins), flat, flat_stderr, oblique_theta,
+        oblique, oblique_stderr, scale_convex, scale_convex_far, scale_cylinder, scale_cylinder_far,
+        scale_concave}."""
     def curvature_scale(self, channel: int, h: float) -> tuple[list[float], float]: ...
+    def oblique_gain(self, channel: int, mu: float) -> float: ...
     def totals(self, channel: int, d: float) -> tuple[float, float]: ...
     def profile(self, channel: int, d: float, which: str) -> Profile: ...
 

@@ -5,7 +5,9 @@ transmission T(r; d) profiles of the material cut into slabs of thickness d (nod
 ℓ/8 up to several diffusion lengths, plus the semi-infinite profile; the core's
 ``subsurf_core::bssrdf::adaptive`` documents the grid, the seeds and the interpolation), and the
 curvature data: the exact escape of diffuse light from spheres, spherical cavities and cylinders of radius
-ρ = ℓ·2^j relative to the flat half-space (``subsurf_core::bssrdf::curvature``). The renderer picks
+ρ = ℓ·2^j relative to the flat half-space (``subsurf_core::bssrdf::curvature``), and the flat
+half-space's reflectance under pencil beams at 30, 50, 65 and 80° (the oblique-incidence gain,
+``subsurf_core::bssrdf::oblique``). The renderer picks
 the profiles per shading point by the local thickness and scales them by the local principal curvatures
 (``render::adaptive``).
 
@@ -28,7 +30,8 @@ from . import _core
 from .medium import Stack
 
 FORMAT = "subsurf-adaptive-table"
-FORMAT_VERSION = 3  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders
+FORMAT_VERSION = 4  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
+# 4: and the flat oblique pencil runs of the oblique-incidence gain (``oblique``, ``oblique_stderr``)
 _ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
 
 
@@ -86,9 +89,17 @@ class AdaptiveTable:
         """Per channel: a dict of the curvature nodes ``rho`` (mm), the sphere and cavity escapes
         (``sphere``, ``cavity``, the part through the entry's hemisphere ``*_near``, and their
         ``*_stderr``; ``sphere_bins``: the near part per chord bin), the flat one (``flat``,
-        ``flat_stderr``), and the kernel scales derived from them (``scale_convex``: the near
-        side's per bin, ``scale_convex_far``, ``scale_concave``)."""
+        ``flat_stderr``), the flat pencil runs at ``oblique_theta`` degrees (``oblique``,
+        ``oblique_stderr``: diffuse reflectance per incident power), and the kernel scales derived
+        from them (``scale_convex``: the near side's per bin, ``scale_convex_far``,
+        ``scale_concave``)."""
         return self._t.curvature()
+
+    def oblique_gain(self, channel, mu) -> float:
+        """The oblique-incidence gain g(μ) = R(θi)/R(0) of ``channel`` at μ = cos θi: the engine's
+        semi-infinite total per unit entering power relative to normal incidence, by which the
+        renderer weights light arriving at θi (``subsurf_core::bssrdf::oblique``)."""
+        return self._t.oblique_gain(int(channel), float(mu))
 
     def curvature_scale(self, channel, h) -> tuple:
         """The scales (near side R per chord bin, far side T) of ``channel``'s profiles at mean

@@ -13,6 +13,7 @@ use std::sync::Arc;
 use subsurf_core::bssrdf::adaptive::{thickness_nodes, AdaptiveSettings, AdaptiveTable, SlabData};
 use subsurf_core::bssrdf::curvature::{curvature_nodes, CurvatureData};
 use subsurf_core::bssrdf::curved::{escape, Curved, Escape};
+use subsurf_core::bssrdf::oblique::OBLIQUE_THETA_DEG;
 use subsurf_core::medium::Stack;
 use subsurf_core::Error;
 
@@ -87,7 +88,8 @@ impl PyAdaptiveTable {
     }
 
     /// Per channel: {rho, sphere, sphere_stderr, sphere_near, sphere_near_stderr, the same for
-    /// cavity and cylinder, sphere_bins, cylinder_bins, flat, flat_stderr, scale_convex,
+    /// cavity and cylinder, sphere_bins, cylinder_bins, flat, flat_stderr, oblique_theta (deg),
+    /// oblique, oblique_stderr (the flat pencil runs of the oblique gain), scale_convex,
     /// scale_convex_far, scale_cylinder, scale_cylinder_far, scale_concave} (lists over the
     /// curvature nodes; `scale_*` derived, not read back).
     fn curvature<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
@@ -105,6 +107,9 @@ impl PyAdaptiveTable {
             o.set_item("cylinder_bins", cd.cylinder.iter().map(|e| e.bins.clone()).collect::<Vec<_>>())?;
             o.set_item("flat", cd.flat.mean)?;
             o.set_item("flat_stderr", cd.flat.stderr)?;
+            o.set_item("oblique_theta", OBLIQUE_THETA_DEG.to_vec())?;
+            o.set_item("oblique", cd.oblique.iter().map(|e| e.mean).collect::<Vec<_>>())?;
+            o.set_item("oblique_stderr", cd.oblique.iter().map(|e| e.stderr).collect::<Vec<_>>())?;
             o.set_item("scale_convex", self.inner.scales(c).convex.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
             o.set_item("scale_convex_far", self.inner.scales(c).convex_far.clone())?;
             o.set_item("scale_cylinder", self.inner.scales(c).cylinder.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
@@ -113,6 +118,15 @@ impl PyAdaptiveTable {
             out.push(o);
         }
         Ok(out)
+    }
+
+    /// The oblique-incidence gain g(μ) = R(θi)/R(0) of `channel` at μ = cos θi in [0, 1].
+    fn oblique_gain(&self, channel: usize, mu: f64) -> PyResult<f64> {
+        self.check(channel, 1.0)?;
+        if !(0.0..=1.0).contains(&mu) {
+            return Err(to_py(Error::param("mu", mu, "a cosine in [0, 1]")));
+        }
+        Ok(self.inner.oblique_gain(channel, mu))
     }
 
     /// The curvature scales (near side per chord bin, far side) of `channel` at mean curvature
@@ -202,7 +216,14 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
         Ok(v)
     };
     let (sphere, cylinder) = (binned("sphere")?, binned("cylinder")?);
-    Ok(CurvatureData { rho: list("rho")?, sphere, cavity: pairs("cavity")?, cylinder, flat })
+    let (m, e) = (list("oblique")?, list("oblique_stderr")?);
+    if e.len() != m.len() {
+        return Err(to_py(Error::Invalid("adaptive table curvature: oblique_stderr has another length".into())));
+    }
+    let oblique =
+        m.iter().zip(&e).map(|(&mean, &stderr)| Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![] });
+    let oblique = oblique.collect();
+    Ok(CurvatureData { rho: list("rho")?, sphere, cavity: pairs("cavity")?, cylinder, flat, oblique })
 }
 
 /// The curvature nodes (mm) of a stack's adaptive table.

@@ -22,6 +22,9 @@
 //!   between the last finite node d_n and ∞ with weight d_n/d on the finite one (continuous; at
 //!   d ≥ d_n the profile is within the Monte Carlo noise of the semi-infinite one).
 //!
+//! With them, per channel, the curvature data ([`super::curvature`]) and the oblique-incidence
+//! gain ([`super::oblique`]) the renderer applies to the transmitted irradiance.
+//!
 //! The tables are deterministic (fixed seeds per node, the engine's exact merging), so a cache
 //! keyed by the stacks, the settings and the engine's version holds exactly what a rebuild makes
 //! (`subsurf.bssrdf.AdaptiveTable`, HDF5).
@@ -30,6 +33,7 @@ use super::curvature::{
     build_curvature, curvature_photons, cylinder_gather, sphere_gather, CurvatureData, Gathers, LocalScale, Scales,
 };
 use super::monte_carlo::{default_edges, McSettings, MonteCarloProfile, RadialData, RadialTally};
+use super::oblique::{Gain, OBLIQUE_THETA_DEG};
 use super::RadialProfile;
 use crate::error::{Error, Result};
 use crate::mc::tally::{Channel, ChannelState};
@@ -220,6 +224,8 @@ struct ChannelTable {
     t: Vec<Option<Node>>,
     /// 1 / (1 − R_sp): per unit entering power.
     entering: f64,
+    /// The oblique-incidence gain g(μ) ([`super::oblique`]).
+    gain: Gain,
 }
 
 /// The per-channel tables (see the module docs).
@@ -293,7 +299,16 @@ impl AdaptiveTable {
             }
             let top = &stack.layers[0];
             let entering = 1.0 / (1.0 - crate::optics::fr_dielectric(1.0, stack.n_above, top.n));
-            channels.push(ChannelTable { d: nodes.iter().map(|n| n.d).collect(), r, t, entering });
+            let oblique = &curvature[c].oblique;
+            if oblique.len() != OBLIQUE_THETA_DEG.len() {
+                return Err(Error::Invalid(format!(
+                    "adaptive table: channel {c} has {} oblique runs, the table needs {} (at {OBLIQUE_THETA_DEG:?} degrees)",
+                    oblique.len(),
+                    OBLIQUE_THETA_DEG.len()
+                )));
+            }
+            let gain = Gain::new(stack, nodes[nodes.len() - 1].top.total, oblique);
+            channels.push(ChannelTable { d: nodes.iter().map(|n| n.d).collect(), r, t, entering, gain });
         }
         let median_radius = channels
             .iter()
@@ -386,6 +401,15 @@ impl AdaptiveTable {
     /// The settings it was built with.
     pub fn settings(&self) -> &AdaptiveSettings {
         &self.settings
+    }
+    /// The oblique-incidence gain g_c(μ) = R(θi)/R(0) of channel `c` at μ = cos θi
+    /// ([`super::oblique`]): the weight of light arriving at θi in the transmitted irradiance.
+    pub fn oblique_gain(&self, c: usize, mu: f64) -> f64 {
+        self.channels[c].gain.at(mu)
+    }
+    /// Channel `c`'s gain and its nodes.
+    pub fn gain(&self, c: usize) -> &Gain {
+        &self.channels[c].gain
     }
     /// Number of channels.
     pub fn channels(&self) -> usize {

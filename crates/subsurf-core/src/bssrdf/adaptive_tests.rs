@@ -102,6 +102,20 @@ fn local_interpolation_is_continuous_and_totals_match_the_nodes() {
     // thinner slabs reflect less and transmit more
     let tot: Vec<(f64, f64)> = ds.iter().map(|&d| t.totals(0, d)).collect();
     assert!(tot.windows(2).all(|w| w[1].1 < w[0].1), "{tot:?}");
+    // the oblique gain: 1 at normal incidence, the runs' totals per entering power over R(0) at
+    // the nodes, linear in μ between them (continuous), held below the last node
+    let r0 = enter * t.data()[0][ds.len()].top.total;
+    assert_eq!(t.oblique_gain(0, 1.0), 1.0);
+    let (mu, g) = t.gain(0).nodes();
+    for (i, e) in t.curvature()[0].oblique.iter().enumerate() {
+        let m = super::super::oblique::OBLIQUE_THETA_DEG[i].to_radians().cos();
+        let want = e.mean / (1.0 - crate::optics::fr_dielectric(m, 1.0, 1.4)) / r0;
+        assert!((mu[i + 1] - m).abs() < 1e-15 && (g[i + 1] - want).abs() < 1e-12 * want);
+        assert!((t.oblique_gain(0, m) - want).abs() < 1e-12 * want);
+        let mid = 0.5 * (mu[i] + mu[i + 1]);
+        assert!((t.oblique_gain(0, mid) - 0.5 * (g[i] + g[i + 1])).abs() < 1e-12);
+    }
+    assert_eq!(t.oblique_gain(0, 0.0), g[g.len() - 1]);
 }
 
 /// The curvature scales reproduce, by construction, the exact sphere escapes: the kernel at a

@@ -7,9 +7,11 @@
 //! - [`curvature_nodes`]: ρ_j = ℓ·2^j (ℓ the largest 1/σt' of the stack), j = −1, 0, …, up to
 //!   the first node ≥ max(8ℓ, 8L) (L the deepest layer's diffusion length), at most 2⁸ℓ.
 //! - [`build_curvature`]: the engine's flat diffuse reflectance R_flat under
-//!   [`Source::Diffuse`] (seed + 64c + [`SEED_FLAT`], the table's photons), and the sphere,
-//!   cylinder and cavity escapes P(ρ_j) (seed offsets [`SEED_SPHERE`] + j, [`SEED_CYLINDER`] + j
-//!   and [`SEED_CAVITY`] + j), with [`curved_photons`] each: a quarter of the table's photons,
+//!   [`Source::Diffuse`] (seed + 64c + [`SEED_FLAT`], the table's photons), the flat pencil
+//!   runs of the oblique-incidence gain ([`super::oblique`], seed offsets
+//!   [`super::oblique::SEED_OBLIQUE`] + i, 4 × the table's photons), and the sphere, cylinder and
+//!   cavity escapes P(ρ_j) (seed offsets [`SEED_SPHERE`] + j, [`SEED_CYLINDER`] + j and
+//!   [`SEED_CAVITY`] + j), with [`curved_photons`] each: a quarter of the table's photons,
 //!   at most [`MAX_CURVED_PHOTONS`], as an escape fraction near 1 varies little from photon to
 //!   photon (0.1–0.3 % standard error at 2 500 photons, below the flat run's). The sphere's and
 //!   the cylinder's escapes are also tallied by where they leave: per chord bin of the entry's
@@ -94,6 +96,9 @@ pub struct CurvatureData {
     pub cylinder: Vec<Escape>,
     /// The engine's flat half-space diffuse reflectance under diffuse light.
     pub flat: Escape,
+    /// The engine's flat half-space diffuse reflectance (per unit incident power) under pencil
+    /// beams at [`super::oblique::OBLIQUE_THETA_DEG`] (the oblique-incidence gain).
+    pub oblique: Vec<Escape>,
 }
 
 /// The curvature nodes (mm) of a stack (see the module docs).
@@ -143,6 +148,9 @@ pub fn build_curvature(
     let Some(flat) = flat_escape(stack, s.photons, base + SEED_FLAT, s.threads, cancel, progress)? else {
         return Ok(None);
     };
+    let Some(oblique) = super::oblique::build_oblique(stack, channel, s, cancel, progress)? else {
+        return Ok(None);
+    };
     let rho = curvature_nodes(stack)?;
     let (mut sphere, mut cavity, mut cylinder) = (vec![], vec![], vec![]);
     for (j, &r) in rho.iter().enumerate() {
@@ -160,13 +168,15 @@ pub fn build_curvature(
         cavity.push(b);
         cylinder.push(c);
     }
-    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat }))
+    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique }))
 }
 
-/// Photons a channel's curvature data traces.
+/// Photons a channel's curvature data traces (with its oblique runs).
 pub fn curvature_photons(stack: &Stack, photons: u64) -> u64 {
     let n = curvature_nodes(stack).map_or(0, |v| 3 * v.len()) as u64;
-    photons.saturating_add(curved_photons(photons).saturating_mul(n))
+    let oblique = super::oblique::OBLIQUE_PHOTONS * super::oblique::OBLIQUE_THETA_DEG.len() as u64;
+    let flat = photons.saturating_mul(1 + oblique);
+    flat.saturating_add(curved_photons(photons).saturating_mul(n))
 }
 
 /// Edges (mm) of the near-side chord bins of a sphere of radius `rho` ([`NEAR_BINS`]; the last

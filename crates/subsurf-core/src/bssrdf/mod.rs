@@ -10,7 +10,8 @@
 //! - [`normalized_diffusion`]: Christensen & Burley 2015;
 //! - [`monte_carlo`]: the engine's R(r) on a log grid, energy-exact, for any [`Stack`];
 //! - [`adaptive`]: the engine's R(r; d) and T(r; d) of finite slabs on a grid of thicknesses (the
-//!   renderer's geometry-aware BSSRDF; as a plain profile, the semi-infinite Monte Carlo one).
+//!   renderer's geometry-aware BSSRDF; as a plain profile, the semi-infinite Monte Carlo one),
+//!   with [`curvature`] and [`oblique`] (its curvature scales and oblique-incidence gain).
 //!
 //! Support: [`cdf`] (the monotone radial CDF every model samples from), [`chandrasekhar`] (exact
 //! semi-infinite reflectance, the reference of the Monte Carlo tests), [`table`] (Monte Carlo
@@ -27,6 +28,7 @@ pub mod inverse;
 pub mod monte_carlo;
 pub mod multipole;
 pub mod normalized_diffusion;
+pub mod oblique;
 pub mod photon_beam_diffusion;
 pub mod table;
 

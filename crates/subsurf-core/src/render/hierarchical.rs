@@ -7,7 +7,7 @@
 //!    radius of the object's profiles (the radius holding half of R_d's energy), so the
 //!    density follows the mean free path as in the paper (§3.1).
 //! 2. The transmitted irradiance E_t = ∫ F_t L_i cos dω at each sample
-//!    ([`super::irradiance`]): every light by shadow rays (`light_samples` each) and the rest
+//!    ([`super::irradiance`]; for `adaptive` each direction also weighted by the oblique gain): every light by shadow rays (`light_samples` each) and the rest
 //!    (the visible environment, light reflected by other surfaces) by `env_samples` cosine
 //!    gathering rays. Translucent surfaces those rays reach are black in a first gathering; if
 //!    any ray reached one, the samples are gathered again with the first trees as their
@@ -24,7 +24,7 @@
 
 use super::accel::Hit;
 use super::driver::Control;
-use super::irradiance::{transmitted_irradiance, Unlit};
+use super::irradiance::{transmitted_irradiance, Entry, Unlit};
 use super::material::Translucent;
 use super::math::{add, dot, length, madd, mul, scale, sub, Rgb, V3};
 use super::scene::Scene;
@@ -376,7 +376,7 @@ fn gather(
                 }
                 let mut rng = PhotonRng::new(key, base + j as u64);
                 let (nl, nr) = (params.light_samples, params.env_samples);
-                let e = transmitted_irradiance(scene, h, m.eta, nl, nr, 0, &mut rng, tr);
+                let e = transmitted_irradiance(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr);
                 ctl.done.fetch_add(1, Ordering::Relaxed);
                 Some(Sample { p: h.p, area: *area, e })
             })

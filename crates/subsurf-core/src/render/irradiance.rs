@@ -16,23 +16,56 @@
 //! mean 0.711 with the floor of albedo 0.5, 0.580 with albedo 1, 0.947 without a floor).
 
 use super::accel::Hit;
+use super::material::Translucent;
 use super::math::{add, madd, scale, Frame, Rgb};
 use super::scene::Scene;
 use super::shade::{direct_irradiance, ft, trace_seen, Seen, Translucency, MAX_DEPTH};
+use crate::bssrdf::adaptive::AdaptiveTable;
 use crate::optics::sample_cosine_hemisphere;
 use crate::rng::PhotonRng;
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// E_t at `hit` (front side) into a medium of index `eta`: the mean of `light_samples` shadow-ray
+/// How the light crossing into a translucent medium is weighted per incident direction: the
+/// Fresnel transmittance F_t(η, μ) for every model, times, for `model = "adaptive"`, the
+/// oblique-incidence gain g_k(μ) = R_k(θi)/R_k(0) per channel ([`crate::bssrdf::oblique`]: the
+/// kernel is the normal-incidence profile, and light arriving at θi reflects R(θi) per entering
+/// power). So E_t,k = ∫ F_t(η, μ) g_k(μ) L_i,k μ dω.
+#[derive(Clone, Copy)]
+pub struct Entry<'a> {
+    /// Relative index of the medium.
+    pub eta: f64,
+    /// The adaptive model's table (its gain), `None` for every other model (g ≡ 1).
+    pub gain: Option<&'a AdaptiveTable>,
+}
+
+impl Entry<'_> {
+    /// The weighting of material `m`.
+    pub fn of(m: &Translucent) -> Entry<'_> {
+        Entry { eta: m.eta, gain: m.adaptive.as_deref() }
+    }
+
+    /// F_t(η, μ)·g_k(μ) per channel, for μ = cos θi ∈ (0, 1].
+    #[inline]
+    pub fn weight(&self, mu: f64) -> Rgb {
+        let f = ft(self.eta, mu);
+        match self.gain {
+            None => [f; 3],
+            Some(t) => std::array::from_fn(|k| f * t.oblique_gain(k.min(t.channels() - 1), mu)),
+        }
+    }
+}
+
+/// E_t at `hit` (front side) into the medium of `into`: the mean of `light_samples` shadow-ray
 /// samples of every light (none when 0) plus `rays` cosine-weighted gathering rays traced at
-/// `depth` + 1 with `tr` for the translucent surfaces they reach. At `depth` ≥ [`MAX_DEPTH`]
-/// the rays see the environment only (occluded), ending the recursion through `tr`.
+/// `depth` + 1 with `tr` for the translucent surfaces they reach, each direction weighted by
+/// [`Entry::weight`]. At `depth` ≥ [`MAX_DEPTH`] the rays see the environment only (occluded),
+/// ending the recursion through `tr`.
 #[allow(clippy::too_many_arguments)]
 pub fn transmitted_irradiance(
     scene: &Scene,
     hit: &Hit,
-    eta: f64,
+    into: Entry<'_>,
     light_samples: u32,
     rays: u32,
     depth: u32,
@@ -41,7 +74,7 @@ pub fn transmitted_irradiance(
 ) -> Rgb {
     let mut e = [0.0; 3];
     for _ in 0..light_samples {
-        e = add(e, direct_irradiance(scene, hit, Some(eta), true, 0, rng));
+        e = add(e, direct_irradiance(scene, hit, Some(into), true, 0, rng));
     }
     if light_samples > 1 {
         e = scale(e, 1.0 / light_samples as f64);
@@ -50,7 +83,7 @@ pub fn transmitted_irradiance(
         return e;
     }
     if depth >= MAX_DEPTH {
-        return add(e, direct_irradiance(scene, hit, Some(eta), false, rays, rng));
+        return add(e, direct_irradiance(scene, hit, Some(into), false, rays, rng));
     }
     let p = scene.accel.offset(hit.p, hit.n, 1.0);
     let f = Frame::new(hit.n);
@@ -58,7 +91,8 @@ pub fn transmitted_irradiance(
     for _ in 0..rays {
         let w = sample_cosine_hemisphere(rng.uniform(), rng.uniform());
         let li = trace_seen(scene, (p, f.to_world(w), hit.tri), depth + 1, rng, tr, Seen::NoLights);
-        acc = madd(acc, li, ft(eta, w[2]));
+        let wt = into.weight(w[2]);
+        acc = std::array::from_fn(|k| acc[k] + wt[k] * li[k]);
     }
     madd(e, acc, PI / rays as f64)
 }
@@ -90,6 +124,7 @@ mod tests {
     use std::sync::Arc;
 
     const ETA: f64 = 1.4;
+    const INTO: Entry<'static> = Entry { eta: ETA, gain: None };
 
     /// A 0.2 mm translucent cube at height `h` over a 400 mm Lambertian floor of albedo `rho`.
     fn cube_over_floor(h: f64, rho: f64, lights: Vec<Light>, env: Rgb) -> Scene {
@@ -144,7 +179,7 @@ mod tests {
         let hit = face(&s, h, [0.0, 0.0, -1.0]);
         let (got, se) = mean_se(20_000, |i| {
             let mut rng = PhotonRng::new(5, i);
-            transmitted_irradiance(&s, &hit, ETA, 1, 1, 0, &mut rng, &Unlit::default())[0]
+            transmitted_irradiance(&s, &hit, INTO, 1, 1, 0, &mut rng, &Unlit::default())[0]
         });
         let lo = rho * env * ft_cos(h / (200.0f64 * 200.0 + h * h).sqrt());
         let hi = rho * env * ft_cos(0.0);
@@ -165,11 +200,11 @@ mod tests {
         let hit = face(&s, h, [0.0, 0.0, 1.0]);
         let (got, se) = mean_se(20_000, |i| {
             let mut rng = PhotonRng::new(6, i);
-            transmitted_irradiance(&s, &hit, ETA, 1, 4, 0, &mut rng, &Unlit::default())[0]
+            transmitted_irradiance(&s, &hit, INTO, 1, 4, 0, &mut rng, &Unlit::default())[0]
         });
         let (nee, se_nee) = mean_se(20_000, |i| {
             let mut rng = PhotonRng::new(7, i);
-            direct_irradiance(&s, &hit, Some(ETA), true, 0, &mut rng)[0]
+            direct_irradiance(&s, &hit, Some(INTO), true, 0, &mut rng)[0]
         });
         // The light's cosine-weighted solid angle fraction seen from 29.8 mm: (4·4)/(π·29.8²) = 0.57 %.
         let sky_hi = env * ft_cos(0.0);
@@ -195,10 +230,10 @@ mod tests {
         let hit = face(&s, 10.0, [1.0, 0.0, 0.0]);
         let seen = Unlit::default();
         let mut rng = PhotonRng::new(8, 0);
-        transmitted_irradiance(&s, &hit, ETA, 1, 16, 0, &mut rng, &seen);
+        transmitted_irradiance(&s, &hit, INTO, 1, 16, 0, &mut rng, &seen);
         assert!(seen.reached.load(Ordering::Relaxed));
         let deep = Unlit::default();
-        transmitted_irradiance(&s, &hit, ETA, 1, 16, MAX_DEPTH, &mut rng, &deep);
+        transmitted_irradiance(&s, &hit, INTO, 1, 16, MAX_DEPTH, &mut rng, &deep);
         assert!(!deep.reached.load(Ordering::Relaxed));
     }
 }

@@ -24,7 +24,7 @@
 //! [`super::irradiance`]).
 
 use super::accel::Hit;
-use super::irradiance::transmitted_irradiance;
+use super::irradiance::{transmitted_irradiance, Entry};
 use super::math::{add, dot, length, madd, max3, mul, scale, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
@@ -151,7 +151,7 @@ impl Translucency for Probe {
             Some(t) => super::adaptive::Kernel::at(scene, t, hit).value(hi.p),
             None => std::array::from_fn(|k| m.profiles()[k].rd(dist)),
         };
-        let e = transmitted_irradiance(scene, &hi, m.eta, 1, 1, depth, rng, self);
+        let e = transmitted_irradiance(scene, &hi, Entry::of(m), 1, 1, depth, rng, self);
         let w = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm * pdf);
         add(scale(mul(mul(rd, e), tint(scene, hit)), w), s1)
     }

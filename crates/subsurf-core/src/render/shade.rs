@@ -11,8 +11,9 @@
 //! see it. Each method supplies the translucent term through [`Translucency`].
 
 use super::accel::Hit;
+use super::irradiance::Entry;
 use super::material::{Material, Translucent};
-use super::math::{add, dot, madd, mul, neg, scale, Frame, Rgb, V3};
+use super::math::{add, dot, mul, neg, scale, Frame, Rgb, V3};
 use super::scene::Scene;
 pub use crate::diffusion::bssrdf::ft;
 use crate::hk::single_scattering_brdf;
@@ -100,12 +101,12 @@ fn shade(scene: &Scene, hit: Option<Hit>, d: V3, depth: u32, rng: &mut PhotonRng
 
 /// Irradiance at the surface point of `hit` (on its front side) from the lights (one sample
 /// each, shadow rays; if `lights`) and the environment (`env_samples` cosine-weighted rays).
-/// With `eta` Some(η) each direction is weighted by F_t(η, cos θ): the irradiance transmitted
-/// into a medium of index η.
+/// With `into` Some(entry) each direction is weighted by [`Entry::weight`] (F_t(η, cos θ), and
+/// the adaptive model's oblique gain): the irradiance transmitted into the medium.
 pub fn direct_irradiance(
     scene: &Scene,
     hit: &Hit,
-    eta: Option<f64>,
+    into: Option<Entry<'_>>,
     lights: bool,
     env_samples: u32,
     rng: &mut PhotonRng,
@@ -119,22 +120,23 @@ pub fn direct_irradiance(
         if c <= 0.0 || ls.value == [0.0; 3] {
             continue;
         }
-        let w = c * eta.map_or(1.0, |eta| ft(eta, c));
+        let w = into.map_or([1.0; 3], |i| i.weight(c));
         if !scene.accel.occluded(p, ls.wi, ls.dist, hit.tri) {
-            e = madd(e, ls.value, w);
+            e = std::array::from_fn(|k| e[k] + c * w[k] * ls.value[k]);
         }
     }
     if scene.environment != [0.0; 3] && env_samples > 0 {
         let f = Frame::new(n);
-        let mut acc = 0.0;
+        let mut acc = [0.0; 3];
         for _ in 0..env_samples {
             let w = sample_cosine_hemisphere(rng.uniform(), rng.uniform());
             let wi = f.to_world(w);
             if !scene.accel.occluded(p, wi, f64::INFINITY, hit.tri) && scene.light_hit(p, wi, f64::INFINITY).is_none() {
-                acc += eta.map_or(1.0, |eta| ft(eta, w[2]));
+                acc = add(acc, into.map_or([1.0; 3], |i| i.weight(w[2])));
             }
         }
-        e = madd(e, scene.environment, PI * acc / env_samples as f64);
+        let n = env_samples as f64;
+        e = std::array::from_fn(|k| e[k] + PI * acc[k] / n * scene.environment[k]);
     }
     e
 }
