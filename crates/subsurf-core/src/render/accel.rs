@@ -75,6 +75,9 @@ pub struct Accel {
     /// build): a segment from inside to a facet point crosses no other facet, and a ray
     /// leaving a facet outwards meets nothing.
     pub convex: Option<super::convex::Convex>,
+    /// Per-cell triangle lists on the distance grid's cells ([`super::cells`]; set with
+    /// [`Self::distance`]): the walk's short rays without the BVH.
+    pub cells: Option<super::cells::CellLists>,
 }
 
 impl Accel {
@@ -138,7 +141,7 @@ impl Accel {
             })
             .collect();
         let bvh = build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
-        let mut acc = Accel { tris, bvh, extent, lo, hi, distance: None, neighbours, convex: None };
+        let mut acc = Accel { tris, bvh, extent, lo, hi, distance: None, neighbours, convex: None, cells: None };
         if meshes.len() == 1 {
             acc.convex = super::convex::Convex::new(&acc);
         }
@@ -146,8 +149,8 @@ impl Accel {
     }
 
     /// Möller–Trumbore in f64: (t, b1, b2) for a hit with t in (tmin, tmax), else None.
-    #[inline]
-    fn test(&self, i: usize, o: V3, d: V3, tmin: f64, tmax: f64) -> Option<(f64, f64, f64)> {
+    #[inline(always)]
+    pub(super) fn test(&self, i: usize, o: V3, d: V3, tmin: f64, tmax: f64) -> Option<(f64, f64, f64)> {
         let tr = &self.tris[i];
         let p = cross(d, tr.e2);
         let det = dot(tr.e1, p);
@@ -195,10 +198,14 @@ impl Accel {
                 None => f32::INFINITY,
             }
         });
-        best.map(|(t, i, b1, b2)| {
-            let tr = &self.tris[i];
-            Hit { t, tri: i as u32, object: tr.object as usize, b1, b2, p: madd(o, d, t), n: tr.n }
-        })
+        best.map(|(t, i, b1, b2)| self.hit(o, d, t, i as u32, b1, b2))
+    }
+
+    /// The [`Hit`] at distance `t` along `d` from `o` on global triangle `i`.
+    #[inline]
+    fn hit(&self, o: V3, d: V3, t: f64, i: u32, b1: f64, b2: f64) -> Hit {
+        let tr = &self.tris[i as usize];
+        Hit { t, tri: i, object: tr.object as usize, b1, b2, p: madd(o, d, t), n: tr.n }
     }
 
     /// [`Self::intersect`] for a walk's ray: in a scene that is one convex body
@@ -211,7 +218,10 @@ impl Accel {
     /// `held`: the walk's memo that `o` was shown inside (`holds`) — by the previous call, for
     /// the end it returned no hit for (the walk's next start, the same point), kept by the walk
     /// across free paths that `segment_clear` clears; set here for the end when it holds.
-    pub fn intersect_walk(&self, o: V3, d: V3, tmax: f64, skip: u32, held: &mut bool) -> Option<Hit> {
+    /// Elsewhere the per-cell triangle lists ([`super::cells`]) answer where they can, starting
+    /// at `free` (mm; no triangle lies on the ray before it: [`Self::segment_free_in`]), with
+    /// the BVH's hit; the BVH answers the rest.
+    pub fn intersect_walk(&self, o: V3, d: V3, tmax: f64, skip: u32, held: &mut bool, free: f64) -> Option<Hit> {
         let known = std::mem::replace(held, false);
         if let Some(cv) = &self.convex {
             let inside =
@@ -224,18 +234,12 @@ impl Accel {
             if let Some(f) = inside.then(|| cv.facet_along(self, o, d, cv.guess(end))).flatten().filter(|&f| f != skip)
             {
                 if let Some((t, b1, b2)) = self.test(f as usize, o, d, self.extent * 1e-10, f64::INFINITY) {
-                    let tr = &self.tris[f as usize];
-                    return (t < tmax).then(|| Hit {
-                        t,
-                        tri: f,
-                        object: tr.object as usize,
-                        b1,
-                        b2,
-                        p: madd(o, d, t),
-                        n: tr.n,
-                    });
+                    return (t < tmax).then(|| self.hit(o, d, t, f, b1, b2));
                 }
             }
+        }
+        if let Some(found) = self.cells.as_ref().and_then(|c| c.closest(self, o, d, tmax, skip, free)) {
+            return found.map(|(t, i, b1, b2)| self.hit(o, d, t, i, b1, b2));
         }
         self.intersect(o, d, tmax, skip)
     }
@@ -299,30 +303,43 @@ impl Accel {
     /// many collisions.
     #[inline]
     pub fn segment_clear_in(&self, ball: &mut Ball, p: V3, d: V3, s: f64) -> bool {
-        let Some(g) = &self.distance else { return false };
+        self.segment_free_in(ball, p, d, s) >= s
+    }
+
+    /// [`Self::segment_clear_in`] as a distance: `s` when the segment is clear, else a distance
+    /// f < `s` such that no triangle lies on the segment from `p` along `d` to f (the balls
+    /// traced forward; 0 when nothing is known) — where a ray cast for the segment may start
+    /// looking ([`Self::intersect_walk`]).
+    #[inline]
+    pub fn segment_free_in(&self, ball: &mut Ball, p: V3, d: V3, s: f64) -> f64 {
+        let Some(g) = &self.distance else { return 0.0 };
         if s.is_finite() && ball.holds(p) && ball.holds(madd(p, d, s)) {
-            return true;
+            return s;
         }
         let mut t = g.bound(p);
         *ball = Ball { c: p, r2: t * t };
         if t >= s {
-            return true;
+            return s;
         }
         if !(t > 0.0 && s.is_finite()) {
-            return false;
+            return t.max(0.0);
         }
         let r_end = g.bound(madd(p, d, s));
         for _ in 0..Self::TRACE_STEPS {
             if t + r_end >= s {
-                return true;
+                return s;
             }
             let r = g.bound(madd(p, d, t));
             if !(r > 0.0) {
-                return false;
+                return t;
             }
             t += r;
         }
-        t + r_end >= s
+        if t + r_end >= s {
+            s
+        } else {
+            t
+        }
     }
 
     /// Whether `p` lies in the box of the distance grid (the translucent objects' bounding box,

@@ -221,12 +221,13 @@ mod tests {
             let d = crate::optics::sample_uniform_sphere(rng.uniform(), rng.uniform());
             let o = scale([rng.symmetric(), rng.symmetric(), rng.symmetric()], 2.8);
             let s = 6.0 * rng.uniform();
-            let (w, r) = (acc.intersect_walk(o, d, s, u32::MAX, &mut false), acc.intersect(o, d, s, u32::MAX));
+            let (w, r) = (acc.intersect_walk(o, d, s, u32::MAX, &mut false, 0.0), acc.intersect(o, d, s, u32::MAX));
             assert_eq!(w.map(|h| (h.tri, h.t)), r.map(|h| (h.tri, h.t)), "{o:?} {d:?} {s}");
             let Some(h) = acc.intersect(o, d, f64::INFINITY, u32::MAX) else { panic!("closed") };
             let back = crate::optics::sample_uniform_sphere(rng.uniform(), rng.uniform());
             let inward = if dot(back, h.n) < 0.0 { back } else { scale(back, -1.0) };
-            let (w, r) = (acc.intersect_walk(h.p, inward, s, h.tri, &mut false), acc.intersect(h.p, inward, s, h.tri));
+            let (w, r) =
+                (acc.intersect_walk(h.p, inward, s, h.tri, &mut false, 0.0), acc.intersect(h.p, inward, s, h.tri));
             assert_eq!(w.map(|h| (h.tri, h.t)), r.map(|h| (h.tri, h.t)), "from facet {}", h.tri);
             hits += usize::from(r.is_some());
             let y = [8.0 * rng.symmetric(), 8.0 * rng.symmetric(), 7.0];

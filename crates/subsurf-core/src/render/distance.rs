@@ -96,6 +96,12 @@ impl DistanceGrid {
         g
     }
 
+    /// Per-cell triangle lists of `tris` on this grid's cells ([`super::cells`]; None for an
+    /// empty grid).
+    pub fn cell_lists(&self, tris: &[Tri]) -> Option<super::cells::CellLists> {
+        super::cells::CellLists::new(tris, self.lo, self.h, self.n)
+    }
+
     #[inline]
     fn axis_index(&self, x: f64, a: usize) -> usize {
         (((x - self.lo[a]) / self.h).max(0.0) as usize).min(self.n[a] - 1)

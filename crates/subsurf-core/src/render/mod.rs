@@ -17,6 +17,7 @@
 pub mod accel;
 pub mod adaptive;
 pub mod camera;
+pub mod cells;
 pub mod convex;
 pub mod distance;
 pub mod driver;

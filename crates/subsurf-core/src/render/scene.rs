@@ -78,7 +78,9 @@ impl Scene {
                 .filter_map(|m| m.translucent())
                 .map(|m| m.sigma_t_floor())
                 .fold(f64::INFINITY, f64::min);
-            scene.accel.distance = Some(DistanceGrid::new(&scene.accel.tris, lo, hi, st));
+            let grid = DistanceGrid::new(&scene.accel.tris, lo, hi, st);
+            scene.accel.cells = grid.cell_lists(&scene.accel.tris);
+            scene.accel.distance = Some(grid);
         }
         if let Some(cam) = &scene.camera {
             if let Some(name) = scene.enclosing_object(cam.position) {

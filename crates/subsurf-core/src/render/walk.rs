@@ -283,8 +283,8 @@ pub fn walk<C: Carrier>(
         // of a closed mesh (about 10⁻⁴ of the weight at a cuboid's edges) is booked as lost
         // when it next meets a surface of an object it is inside from that object's outside,
         // or collides outside the walk's box (`Accel::in_walk_box`).
-        let clear = scene.accel.segment_clear_in(&mut ball, p, d, s);
-        let ahead = if clear { None } else { scene.accel.intersect_walk(p, d, s, skip, &mut held) };
+        let free = scene.accel.segment_free_in(&mut ball, p, d, s);
+        let ahead = if free >= s { None } else { scene.accel.intersect_walk(p, d, s, skip, &mut held, free) };
         match ahead {
             None => {
                 p = madd(p, d, s);

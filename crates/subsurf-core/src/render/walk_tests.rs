@@ -279,6 +279,7 @@ fn marble(grid: bool) -> Arc<Scene> {
     let mut s = Scene::new(objects, vec![m], vec![light], [0.05; 3], Some(cam)).unwrap();
     if !grid {
         s.accel.distance = None;
+        s.accel.cells = None;
     }
     Arc::new(s)
 }
