@@ -162,15 +162,16 @@ impl Tree {
             let d = sub(x, nd.centroid);
             let d2 = dot(d, d);
             let inside = (0..3).all(|k| x[k] >= nd.lo[k] && x[k] <= nd.hi[k]);
-            let (c, r) = pp.class(x, nd.centroid);
-            // A far-class node that may hold samples within ρ₀ of r⊥ = 0 is opened (every member
-            // is within the box's diagonal of the centroid, and r⊥ is 1-Lipschitz).
-            let far_near = c != 0 && r < rho0 + length(sub(nd.hi, nd.lo));
-            if !inside && !far_near && nd.area < epsilon * d2 {
-                acc = add(acc, mul(rd(c, r), nd.power));
-            } else {
-                stack.extend(nd.first..nd.first + nd.count);
+            if !inside && nd.area < epsilon * d2 {
+                let (c, r) = pp.class(x, nd.centroid);
+                // A far-class node that may hold samples within ρ₀ of r⊥ = 0 is opened (every
+                // member is within the box's diagonal of the centroid, and r⊥ is 1-Lipschitz).
+                if c == 0 || r >= rho0 + length(sub(nd.hi, nd.lo)) {
+                    acc = add(acc, mul(rd(c, r), nd.power));
+                    continue;
+                }
             }
+            stack.extend(nd.first..nd.first + nd.count);
         }
         for c in 0..2 {
             if near_a[c] > 0.0 {

@@ -17,7 +17,7 @@
 
 use super::accel::Hit;
 use super::material::Translucent;
-use super::math::{add, madd, scale, Frame, Rgb};
+use super::math::{add, madd, mul, scale, Frame, Rgb};
 use super::scene::Scene;
 use super::shade::{direct_irradiance, ft, trace_seen, Seen, Translucency, MAX_DEPTH};
 use crate::bssrdf::adaptive::AdaptiveTable;
@@ -91,8 +91,7 @@ pub fn transmitted_irradiance(
     for _ in 0..rays {
         let w = sample_cosine_hemisphere(rng.uniform(), rng.uniform());
         let li = trace_seen(scene, (p, f.to_world(w), hit.tri), depth + 1, rng, tr, Seen::NoLights);
-        let wt = into.weight(w[2]);
-        acc = std::array::from_fn(|k| acc[k] + wt[k] * li[k]);
+        acc = add(acc, mul(li, into.weight(w[2])));
     }
     madd(e, acc, PI / rays as f64)
 }

@@ -122,7 +122,7 @@ pub fn direct_irradiance(
         }
         let w = into.map_or([1.0; 3], |i| i.weight(c));
         if !scene.accel.occluded(p, ls.wi, ls.dist, hit.tri) {
-            e = std::array::from_fn(|k| e[k] + c * w[k] * ls.value[k]);
+            e = add(e, mul(ls.value, scale(w, c)));
         }
     }
     if scene.environment != [0.0; 3] && env_samples > 0 {
@@ -135,8 +135,7 @@ pub fn direct_irradiance(
                 acc = add(acc, into.map_or([1.0; 3], |i| i.weight(w[2])));
             }
         }
-        let n = env_samples as f64;
-        e = std::array::from_fn(|k| e[k] + PI * acc[k] / n * scene.environment[k]);
+        e = add(e, mul(scene.environment, acc.map(|a| PI * a / env_samples as f64)));
     }
     e
 }
