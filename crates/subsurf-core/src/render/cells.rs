@@ -40,7 +40,7 @@ impl CellLists {
         }
         let pad = 1e-6 * h * n.iter().copied().max().unwrap_or(1) as f64;
         let mut g = CellLists { lo, h, n, start: vec![0; n[0] * n[1] * n[2] + 1], ids: vec![] };
-        // Two passes over the same cells: count, then fill.
+        // The (cell, triangle) pairs, then a counting sort of them by cell into compressed rows.
         let mut pairs: Vec<(u32, u32)> = Vec::new();
         for (i, t) in tris.iter().enumerate() {
             g.cells_of(t, pad, |k| pairs.push((k as u32, i as u32)));
