@@ -130,38 +130,42 @@ impl Renderer {
 
     /// Add samples `s0 .. s1` of every pixel to `accum` (row-major, 3 floats per pixel: sums
     /// of radiance). Returns false (leaving `accum` untouched) if `cancel` was set meanwhile.
+    /// The work items are runs of [`PIXEL_RUN`] pixels, each a task of its own (`with_max_len(1)`:
+    /// rayon otherwise runs a quarter of the rows as one unsplittable leaf on 2 threads, and a
+    /// pixel's cost varies with what it sees, so one thread was left with a long tail on small
+    /// images); each pixel sums its samples in order: the same bits for any thread count.
     pub fn pass(&self, s0: u32, s1: u32, accum: &mut [f64], cancel: &AtomicBool) -> bool {
         let (w, h) = (self.camera().width, self.camera().height);
         assert_eq!(accum.len(), w * h * 3, "accumulator size");
-        let rows: Vec<Option<Vec<f64>>> = (0..h)
-            .into_par_iter()
-            .map(|y| {
-                if cancel.load(Ordering::Relaxed) {
-                    return None;
-                }
-                let mut row = vec![0.0; w * 3];
-                for x in 0..w {
-                    for s in s0..s1 {
-                        let l = self.sample(x, y, s);
-                        for k in 0..3 {
-                            row[3 * x + k] += l[k];
-                        }
+        let mut sums = vec![0.0; w * h * 3];
+        let stopped = AtomicBool::new(false);
+        sums.par_chunks_mut(3 * PIXEL_RUN).enumerate().with_max_len(1).for_each(|(run, out)| {
+            if cancel.load(Ordering::Relaxed) {
+                stopped.store(true, Ordering::Relaxed);
+                return;
+            }
+            for (j, px) in out.chunks_exact_mut(3).enumerate() {
+                let i = run * PIXEL_RUN + j;
+                for s in s0..s1 {
+                    let l = self.sample(i % w, i / w, s);
+                    for k in 0..3 {
+                        px[k] += l[k];
                     }
                 }
-                Some(row)
-            })
-            .collect();
-        if rows.iter().any(|r| r.is_none()) {
+            }
+        });
+        if stopped.load(Ordering::Relaxed) {
             return false;
         }
-        for (y, r) in rows.into_iter().enumerate() {
-            for (a, v) in accum[y * w * 3..(y + 1) * w * 3].iter_mut().zip(r.expect("checked")) {
-                *a += v;
-            }
+        for (a, v) in accum.iter_mut().zip(sums) {
+            *a += v;
         }
         true
     }
 }
+
+/// Pixels per work item of a pass.
+pub const PIXEL_RUN: usize = 8;
 
 /// The allowed samples per pixel of a render, as errors state it.
 pub const SPP_ALLOWED: &str = "an integer in [1, 4294967295]";

@@ -371,6 +371,7 @@ fn gather(
         let samples: Option<Vec<Sample>> = spots
             .par_iter()
             .enumerate()
+            .with_max_len(16) // small tasks: a sample's cost varies with the shape (second gathering)
             .map(|(j, (h, area))| {
                 if ctl.cancel.load(Ordering::Relaxed) {
                     return None;

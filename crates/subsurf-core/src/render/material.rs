@@ -288,7 +288,7 @@ impl TranslucentSpec {
         let built: Vec<Result<Option<Arc<dyn RadialProfile>>>> = if self.model == "monte_carlo" {
             (0..keys.len()).map(one).collect() // each profile runs the engine on every thread
         } else {
-            (0..keys.len()).into_par_iter().map(one).collect()
+            (0..keys.len()).into_par_iter().with_max_len(1).map(one).collect()
         };
         let mut out = UnitProfiles::new();
         for (k, p) in keys.iter().zip(built) {
