@@ -13,8 +13,11 @@
 //!   condition). The minimiser lies on the line of the plane of incidence; the derivative of
 //!   the path length along it is monotone, so bisection finds it.
 //!
-//! The facet is not known in advance: the straight line v → light gives a first guess, and
-//! the facet the refracted connection actually crosses replaces it (at most four steps).
+//! The facet is not known in advance. For an area light's sampled point the straight line
+//! v → light gives a first guess, and the facet the refracted connection actually crosses
+//! replaces it (at most four steps), and the edge neighbours of the facet found are tried too;
+//! what this misses, exits count. A point or directional light, which no exit reaches, connects
+//! through every facet whose beam reaches v ([`super::beams`], [`through_facet`]).
 //! Exact for index-matched chains; a line that meets an inner interface whose indices differ
 //! (it would refract there too) or an opaque object makes no connection (see
 //! [`super::random_walk`] for what that leaves out).
@@ -28,7 +31,9 @@
 //! they are.
 
 use super::accel::Hit;
+use super::beams::Beams;
 use super::convex::Convex;
+use super::light::Light;
 use super::math::{dot, madd, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::walk::Media;
@@ -76,29 +81,80 @@ pub fn chain(scene: &Scene, media: &Media, v: V3, dir: V3) -> Option<Chain> {
     None
 }
 
-/// The connection from `v` (inside `media`) to a directional light.
-pub fn directional(scene: &Scene, media: &Media, v: V3, to_light: V3) -> Option<Connection> {
-    let eta = media.index(scene);
-    let mut h = chain(scene, media, v, to_light)?.hit;
-    for _ in 0..4 {
-        let cos_i = dot(to_light, h.n);
-        if cos_i <= 0.0 {
-            return None;
+/// Every connection from `v` (inside `media`) to a point or directional light: through each
+/// facet of `beams` (the light's [`Beams`]) listed at `v` whose refracted beam reaches `v`
+/// ([`through_facet`]), passed to `f`.
+pub fn delta_connections(
+    scene: &Scene,
+    beams: &Beams,
+    media: &Media,
+    v: V3,
+    light: &Light,
+    mut f: impl FnMut(Connection),
+) {
+    let (eta, cv) = (media.index(scene), convex_from(scene, v));
+    for &t in beams.candidates(v) {
+        if let Some(c) = through_facet(scene, media, eta, cv, v, light, t, beams.inward(t)) {
+            f(c);
         }
-        let d_in = refract(neg(to_light), h.n, 1.0, eta)?;
-        let c2 = chain(scene, media, v, neg(d_in))?;
-        if c2.hit.tri == h.tri {
-            let h2 = c2.hit;
-            let cos_t = -dot(d_in, h2.n);
-            if cos_t <= 0.0 || blocked(scene, &h2, to_light, f64::INFINITY) {
+    }
+}
+
+/// The connection from `v` to a delta light through facet `tri` alone, if that facet's
+/// refracted beam reaches `v`: for a directional light the line from `v` against the facet's
+/// refracted direction `d_in` (given, or refracted here), for a point light the Fermat point
+/// ([`attempt`]), must lie in the facet, and the line from `v` must leave every object through
+/// it first with nothing blocking the light.
+#[allow(clippy::too_many_arguments)]
+pub fn through_facet(
+    scene: &Scene,
+    media: &Media,
+    eta: f64,
+    cv: Option<&Convex>,
+    v: V3,
+    light: &Light,
+    tri: u32,
+    d_in: Option<V3>,
+) -> Option<Connection> {
+    match *light {
+        Light::Point { position, .. } => match attempt(scene, media, eta, v, position, tri, true, cv) {
+            Attempt::Found(c) => Some(c),
+            _ => None,
+        },
+        Light::Directional { to_light, .. } => {
+            let tr = &scene.accel.tris[tri as usize];
+            let hv = dot(sub(tr.v0, v), tr.n);
+            if !(hv > 0.0) {
+                return None;
+            }
+            let cos_i = dot(to_light, tr.n);
+            if !(cos_i > 0.0) {
+                return None;
+            }
+            let d_in = match d_in {
+                Some(d) => d,
+                None => refract(neg(to_light), tr.n, 1.0, eta)?,
+            };
+            let cos_t = -dot(d_in, tr.n);
+            let s = hv / cos_t;
+            let p = madd(v, d_in, -s);
+            if !in_triangle(tr, p) {
+                return None;
+            }
+            let dir = neg(d_in);
+            let c2 = match cv.and_then(|cv| convex_exit(scene, cv, media, v, dir, tri, s, p)) {
+                Some(Ok(c)) => c,
+                Some(Err(_)) => return None,
+                None => chain(scene, media, v, dir)?,
+            };
+            if c2.hit.tri != tri || blocked(scene, &c2.hit, to_light, f64::INFINITY) {
                 return None;
             }
             let factor = (1.0 - fr_dielectric(cos_i, 1.0, eta)) * cos_i / cos_t;
-            return Some(Connection { hit: h2, d_in, tau: c2.tau, factor });
+            Some(Connection { hit: c2.hit, d_in, tau: c2.tau, factor })
         }
-        h = c2.hit;
+        Light::Sphere { .. } | Light::Rect { .. } => None,
     }
-    None
 }
 
 /// The connection from `v` (inside `media`) to the point `y` outside.

@@ -16,6 +16,7 @@
 
 pub mod accel;
 pub mod adaptive;
+pub mod beams;
 pub mod camera;
 pub mod cells;
 pub mod convex;

@@ -28,8 +28,11 @@
 //! outside ([`super::shade::trace`]: environment, area lights, Lambertian surfaces with
 //! next-event estimation to every light); and next-event estimation from every collision, at
 //! any depth of the media stack, to every light through the boundaries ([`super::facet_nee`]):
-//! straight through index-matched inner interfaces and refracted exactly at one flat facet of
-//! the outermost boundary (directional beams, point lights and points sampled on area lights).
+//! straight through index-matched inner interfaces and refracted exactly at a flat facet of
+//! the outermost boundary: for a point or directional light through every facet whose
+//! refracted beam reaches the collision ([`super::beams`]: on a curved surface the beams of
+//! neighbouring facets overlap), for a point sampled on an area light through the facet the
+//! search finds and its edge neighbours.
 //! A straight exit after such a collision (no scattering or reflection in between, index-matched
 //! crossings allowed) that reaches an area light along the very connection the facet search
 //! finds counts nothing (see `exit_counted_by_nee`); other exits (through another facet, or
@@ -41,6 +44,7 @@
 //! directional lights, which no exit can reach, miss the light that reaches such collisions.
 
 use super::accel::{Hit, Tri};
+use super::beams::Beams;
 use super::distance::DistanceGrid;
 use super::facet_nee::{self, Connection};
 use super::grid::Local;
@@ -87,6 +91,8 @@ pub struct RandomWalk {
     facing: Option<DistanceGrid>,
     /// The least σt over the translucent materials and channels, mm⁻¹.
     sigma_t_min: f64,
+    /// Per light: the beams of a point or directional light ([`Beams`]; None for area lights).
+    beams: Vec<Option<Beams>>,
 }
 
 /// The renderer's carrier: RGB throughput β with spectral MIS, the radiance gathered so far,
@@ -312,6 +318,7 @@ impl RandomWalk {
             rr_threshold: if env_only { RR_THRESHOLD } else { 1.0 },
             facing,
             sigma_t_min,
+            beams: scene.lights.iter().map(|l| if nee { Beams::new(scene, l) } else { None }).collect(),
         }
     }
 
@@ -414,17 +421,11 @@ impl RandomWalk {
             std::array::from_fn(|k| w * power[k] * (-c.tau[k]).exp())
         };
         let mut l = [0.0; 3];
-        for light in &scene.lights {
+        for (i, light) in scene.lights.iter().enumerate() {
             match *light {
-                Light::Directional { to_light, irradiance } => {
-                    if let Some(c) = facet_nee::directional(scene, media, p, to_light) {
-                        l = add(l, through(&c, irradiance));
-                    }
-                }
-                Light::Point { position, intensity } => {
-                    for c in facet_nee::points(scene, media, p, position).iter().flatten() {
-                        l = add(l, through(c, intensity));
-                    }
+                Light::Directional { irradiance: power, .. } | Light::Point { intensity: power, .. } => {
+                    let Some(beams) = &self.beams[i] else { continue };
+                    facet_nee::delta_connections(scene, beams, media, p, light, |c| l = add(l, through(&c, power)));
                 }
                 Light::Sphere { .. } | Light::Rect { .. } => {
                     let Some((y, ny, le, pdf)) = light.sample_point(rng.uniform(), rng.uniform()) else { continue };
