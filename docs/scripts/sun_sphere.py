@@ -106,7 +106,7 @@ def pencil_table(name, scale, photons=40000):
         d = C.bssrdf_curved_escape_parts(st, "sphere", RADIUS, photons, 11)
         print(f"\n{name} x{scale} channel {ch}, sphere r = {RADIUS} mm (diffuse: near/total {d[2] / d[0]:.3f})")
         for th in (0, 30, 50, 65, 80):
-            mean, _, near, _, _, shift = C.bssrdf_curved_escape_parts(st, "sphere", RADIUS, photons, 11, theta_deg=th)
+            mean, _, near, _, bins, shift, harm = C.bssrdf_curved_escape_parts(st, "sphere", RADIUS, photons, 11, theta_deg=th)
             e = 1 - fresnel(np.cos(np.radians(th)), m.eta)
             rel = (mean / e) / (d[0] / entering_diffuse)
             print(

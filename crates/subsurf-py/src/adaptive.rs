@@ -200,11 +200,11 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
             return Err(to_py(Error::Invalid(format!("adaptive table curvature: {k}'s lists differ in length"))));
         }
         Ok((0..m.len())
-            .map(|i| Escape { mean: m[i], stderr: e[i], near: a[i], near_stderr: b[i], bins: vec![], shift: 0.0 })
+            .map(|i| Escape { mean: m[i], stderr: e[i], near: a[i], near_stderr: b[i], bins: vec![], shift: 0.0, harmonic: vec![] })
             .collect())
     };
     let (mean, stderr) = (item(d, "flat")?.extract()?, item(d, "flat_stderr")?.extract()?);
-    let flat = Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![], shift: 0.0 };
+    let flat = Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![], shift: 0.0, harmonic: vec![] };
     let binned = |k: &str| -> PyResult<Vec<Escape>> {
         let mut v = pairs(k)?;
         let bins: Vec<Vec<f64>> = item(d, &format!("{k}_bins"))?.extract()?;
@@ -228,6 +228,7 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
         near_stderr: stderr,
         bins: vec![],
         shift: 0.0,
+        harmonic: vec![],
     });
     let oblique = oblique.collect();
     Ok(CurvatureData { rho: list("rho")?, sphere, cavity: pairs("cavity")?, cylinder, flat, oblique })
@@ -289,7 +290,7 @@ fn curved_parts(
 }
 
 /// The escape of a curved run in parts: (mean, stderr, near, near_stderr, chord bins of the
-/// near half, shift), under uniform diffuse light (`theta_deg` None) or a collimated beam at polar
+/// near half, shift, first azimuthal harmonic per near bin and the far half), under uniform diffuse light (`theta_deg` None) or a collimated beam at polar
 /// angle `theta_deg` to the entry point's normal, and the mean exit offset along the beam's
 /// tangential direction (mm).
 #[pyfunction]
@@ -304,9 +305,9 @@ fn bssrdf_curved_escape_parts(
     seed: u64,
     theta_deg: Option<f64>,
     threads: Option<usize>,
-) -> PyResult<(f64, f64, f64, f64, Vec<f64>, f64)> {
+) -> PyResult<(f64, f64, f64, f64, Vec<f64>, f64, Vec<f64>)> {
     let e = curved_parts(py, stack, kind, rho, theta_deg, photons, seed, threads)?;
-    Ok((e.mean, e.stderr, e.near, e.near_stderr, e.bins, e.shift))
+    Ok((e.mean, e.stderr, e.near, e.near_stderr, e.bins, e.shift, e.harmonic))
 }
 
 /// The exitance of a sphere under a sun of unit irradiance by equal-area bins of cos α (α from

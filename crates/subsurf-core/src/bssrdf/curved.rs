@@ -78,6 +78,11 @@ pub struct Escape {
     /// collimated beam's light moves forward before it leaves (0 by symmetry under diffuse light;
     /// 0 where not tallied).
     pub shift: f64,
+    /// The first azimuthal harmonic of the escapes about the entry's normal: Σ w cos φ per
+    /// photon, φ the exit point's azimuth from the tangent y, per chord bin of the near half
+    /// ([`NEAR_BINS`]) and then the far half (its bins' share leaving forward minus backward;
+    /// empty where not tallied).
+    pub harmonic: Vec<f64>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -167,13 +172,6 @@ impl Geometry {
         }
         let c2 = (p[0] - rho).powi(2) + p[1] * p[1] + p[2] * p[2];
         Some(((c2 / (2.0 * rho * rho) * NEAR_BINS as f64) as usize).min(NEAR_BINS - 1))
-    }
-
-    /// One photon's escaped weight, its exit point's y, and, if it left through the entry's half
-    /// (x > 0), its chord bin.
-    fn trace(&self, seed: u64, photon: u64) -> (f64, f64, Option<usize>) {
-        let (w, p, _, bin) = self.trace_path(seed, photon);
-        (w, p[1], bin)
     }
 
     /// One photon's escaped weight, exit point, launch direction in the engine's frame (z into
@@ -277,7 +275,8 @@ pub fn escape(
     progress: &AtomicU64,
 ) -> Result<Option<Escape>> {
     let e = escape_from(stack, kind, rho, Source::Diffuse, photons, seed, threads, cancel, progress)?;
-    Ok(e.map(|e| Escape { shift: 0.0, ..e })) // 0 by symmetry: the tables keep no noise of it
+    // 0 by symmetry under diffuse light: the tables keep no noise of them
+    Ok(e.map(|e| Escape { shift: 0.0, harmonic: vec![], ..e }))
 }
 
 /// [`escape`] with the engine's launch `source` at the entry point (ρ, 0, 0) instead of the
@@ -304,7 +303,7 @@ pub fn escape_from(
     }
     let g = Geometry::new(stack, kind, rho, source)?;
     let chunks = photons.div_ceil(CHUNK);
-    const NS: usize = 5 + NEAR_BINS;
+    const NS: usize = 6 + 2 * NEAR_BINS;
     let work = |c: u64| -> Option<[f64; NS]> {
         if cancel.load(Ordering::Relaxed) {
             return None;
@@ -312,14 +311,19 @@ pub fn escape_from(
         let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(photons));
         let mut s = [0.0; NS];
         for k in lo..hi {
-            let (x, y, near) = g.trace(seed, k);
+            let (x, p, _, near) = g.trace_path(seed, k);
             s[0] += x;
             s[1] += x * x;
-            s[4] += x * y;
+            s[4] += x * p[1];
+            let rt = (p[1] * p[1] + p[2] * p[2]).sqrt();
+            let cos_phi = if rt > 0.0 { p[1] / rt } else { 0.0 };
             if let Some(b) = near {
                 s[2] += x;
                 s[3] += x * x;
                 s[5 + b] += x;
+                s[5 + NEAR_BINS + b] += x * cos_phi;
+            } else {
+                s[5 + 2 * NEAR_BINS] += x * cos_phi;
             }
         }
         progress.fetch_add(hi - lo, Ordering::Relaxed);
@@ -340,9 +344,10 @@ pub fn escape_from(
     }
     let (mean, stderr) = mean_stderr(s[0], s[1], photons);
     let (near, near_stderr) = mean_stderr(s[2], s[3], photons);
-    let bins = s[5..].iter().map(|x| x / photons as f64).collect();
+    let bins = s[5..5 + NEAR_BINS].iter().map(|x| x / photons as f64).collect();
+    let harmonic = s[5 + NEAR_BINS..].iter().map(|x| x / photons as f64).collect();
     let shift = if s[0] > 0.0 { s[4] / s[0] } else { 0.0 };
-    Ok(Some(Escape { mean, stderr, near, near_stderr, bins, shift }))
+    Ok(Some(Escape { mean, stderr, near, near_stderr, bins, shift, harmonic }))
 }
 
 /// The exitance of a sphere of radius `rho` (mm) made of `stack` under a sun (collimated light
