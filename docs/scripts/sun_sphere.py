@@ -7,7 +7,8 @@ model's exitance is read from its ``hierarchical`` image by dividing each pixel 
 deterministic exit term F_t(μ_o)/(π c) and binned the same way (pixels with μ_o > 0.2; a sun from
 the camera shows the lit bins, from behind the dark ones). Then, per incidence angle, the sphere's
 own tallies under a pencil launch (``_core.bssrdf_curved_escape_parts``): total and near-half
-escape per entering power against the diffuse run's, and the forward exit offset.
+escape per entering power against the diffuse run's, the forward exit offset and the exits' first
+azimuthal harmonic ⟨cos φ⟩ per chord bin and for the far half.
 
 Usage: python docs/scripts/sun_sphere.py [--cases ketchup:1,marble:0.25] [--size 48] [--spp 4]
 """
@@ -106,12 +107,17 @@ def pencil_table(name, scale, photons=40000):
         d = C.bssrdf_curved_escape_parts(st, "sphere", RADIUS, photons, 11)
         print(f"\n{name} x{scale} channel {ch}, sphere r = {RADIUS} mm (diffuse: near/total {d[2] / d[0]:.3f})")
         for th in (0, 30, 50, 65, 80):
-            mean, _, near, _, bins, shift, harm = C.bssrdf_curved_escape_parts(st, "sphere", RADIUS, photons, 11, theta_deg=th)
+            out = C.bssrdf_curved_escape_parts(st, "sphere", RADIUS, photons, 11, theta_deg=th)
+            mean, near, bins, shift, harm = out[0], out[2], out[4], out[5], out[6]
             e = 1 - fresnel(np.cos(np.radians(th)), m.eta)
             rel = (mean / e) / (d[0] / entering_diffuse)
+            cos_phi = [h / b if b > 0 else 0.0 for h, b in zip(harm[:-1], bins)]
+            far = harm[-1] / (mean - near) if mean - near > 1e-12 else 0.0
             print(
                 f"  θi {th:2d}°: total per entering / diffuse {rel:.3f}, near/total {near / mean:.3f}, "
-                f"forward offset {shift:.2f} mm"
+                f"forward offset {shift:.2f} mm; <cos φ> per chord bin "
+                + " ".join(f"{x:+.2f}" for x in cos_phi)
+                + f", far half {far:+.2f}"
             )
 
 

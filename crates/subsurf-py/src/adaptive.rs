@@ -200,7 +200,15 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
             return Err(to_py(Error::Invalid(format!("adaptive table curvature: {k}'s lists differ in length"))));
         }
         Ok((0..m.len())
-            .map(|i| Escape { mean: m[i], stderr: e[i], near: a[i], near_stderr: b[i], bins: vec![], shift: 0.0, harmonic: vec![] })
+            .map(|i| Escape {
+                mean: m[i],
+                stderr: e[i],
+                near: a[i],
+                near_stderr: b[i],
+                bins: vec![],
+                shift: 0.0,
+                harmonic: vec![],
+            })
             .collect())
     };
     let (mean, stderr) = (item(d, "flat")?.extract()?, item(d, "flat_stderr")?.extract()?);
@@ -289,6 +297,9 @@ fn curved_parts(
     Ok(out.py()?.expect("not cancelled"))
 }
 
+/// (mean, stderr, near, near_stderr, bins, shift, harmonic) of a curved run.
+type EscapeParts = (f64, f64, f64, f64, Vec<f64>, f64, Vec<f64>);
+
 /// The escape of a curved run in parts: (mean, stderr, near, near_stderr, chord bins of the
 /// near half, shift, first azimuthal harmonic per near bin and the far half), under uniform diffuse light (`theta_deg` None) or a collimated beam at polar
 /// angle `theta_deg` to the entry point's normal, and the mean exit offset along the beam's
@@ -305,7 +316,7 @@ fn bssrdf_curved_escape_parts(
     seed: u64,
     theta_deg: Option<f64>,
     threads: Option<usize>,
-) -> PyResult<(f64, f64, f64, f64, Vec<f64>, f64, Vec<f64>)> {
+) -> PyResult<EscapeParts> {
     let e = curved_parts(py, stack, kind, rho, theta_deg, photons, seed, threads)?;
     Ok((e.mean, e.stderr, e.near, e.near_stderr, e.bins, e.shift, e.harmonic))
 }
