@@ -93,6 +93,14 @@ def test_profiles_and_bad_input(cache):
         _core.bssrdf_curved_escape(clear, "cube", 1.0, 200, 1)
     with pytest.raises(ParameterError, match="rho"):
         _core.bssrdf_curved_escape(clear, "sphere", 0.0, 200, 1)
+    # the pencil launch and the sun-on-sphere exitance: the sun's bins hold the diffuse run's photons
+    st = Stack([Layer(1.3, 0.06, 0.18, 0.0)])._to_core()
+    mean, _, near, _, bins, shift, harm = _core.bssrdf_curved_escape_parts(st, "sphere", 10.0, 500, 2, theta_deg=50.0)
+    assert 0 < near < mean < 1 and len(bins) == 8 and shift > 0 and len(harm) == 9 and sum(harm) > 0
+    sun = _core.bssrdf_sun_exitance(st, 10.0, 10, 500, 2)
+    assert sum(sun) * 4 / 10 == pytest.approx(_core.bssrdf_curved_escape(st, "sphere", 10.0, 500, 2)[0], rel=1e-12)
+    with pytest.raises(ParameterError, match="theta"):
+        _core.bssrdf_curved_escape_parts(st, "sphere", 10.0, 500, 2, theta_deg=95.0)
     # as a plain profile, "adaptive" is the semi-infinite Monte Carlo profile
     assert Profile.from_model("adaptive", 0.2, 2.0, 0.0, 1.4).total() > 0
 

@@ -244,6 +244,18 @@ def bssrdf_adaptive_curvature_nodes(stack: _StackTuple) -> list[float]: ...
 def bssrdf_curved_escape(
     stack: _StackTuple, kind: str, rho: float, photons: int, seed: int, threads: int | None = None
 ) -> tuple[float, float]: ...
+def bssrdf_curved_escape_parts(
+    stack: _StackTuple,
+    kind: str,
+    rho: float,
+    photons: int,
+    seed: int,
+    theta_deg: float | None = None,
+    threads: int | None = None,
+) -> tuple[float, float, float, float, list[float], float, list[float]]: ...
+def bssrdf_sun_exitance(
+    stack: _StackTuple, rho: float, bins: int, photons: int, seed: int, threads: int | None = None
+) -> list[float]: ...
 
 class SlabTable:
     @staticmethod

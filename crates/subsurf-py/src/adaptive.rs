@@ -12,8 +12,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::Arc;
 use subsurf_core::bssrdf::adaptive::{thickness_nodes, AdaptiveSettings, AdaptiveTable, SlabData};
 use subsurf_core::bssrdf::curvature::{curvature_nodes, CurvatureData};
-use subsurf_core::bssrdf::curved::{escape, Curved, Escape};
+use subsurf_core::bssrdf::curved::{escape_from, sun_exitance, Curved, Escape};
 use subsurf_core::bssrdf::oblique::OBLIQUE_THETA_DEG;
+use subsurf_core::mc::Source;
 use subsurf_core::medium::Stack;
 use subsurf_core::Error;
 
@@ -199,11 +200,19 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
             return Err(to_py(Error::Invalid(format!("adaptive table curvature: {k}'s lists differ in length"))));
         }
         Ok((0..m.len())
-            .map(|i| Escape { mean: m[i], stderr: e[i], near: a[i], near_stderr: b[i], bins: vec![] })
+            .map(|i| Escape {
+                mean: m[i],
+                stderr: e[i],
+                near: a[i],
+                near_stderr: b[i],
+                bins: vec![],
+                shift: 0.0,
+                harmonic: vec![],
+            })
             .collect())
     };
     let (mean, stderr) = (item(d, "flat")?.extract()?, item(d, "flat_stderr")?.extract()?);
-    let flat = Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![] };
+    let flat = Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![], shift: 0.0, harmonic: vec![] };
     let binned = |k: &str| -> PyResult<Vec<Escape>> {
         let mut v = pairs(k)?;
         let bins: Vec<Vec<f64>> = item(d, &format!("{k}_bins"))?.extract()?;
@@ -220,8 +229,15 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
     if e.len() != m.len() {
         return Err(to_py(Error::Invalid("adaptive table curvature: oblique_stderr has another length".into())));
     }
-    let oblique =
-        m.iter().zip(&e).map(|(&mean, &stderr)| Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![] });
+    let oblique = m.iter().zip(&e).map(|(&mean, &stderr)| Escape {
+        mean,
+        stderr,
+        near: mean,
+        near_stderr: stderr,
+        bins: vec![],
+        shift: 0.0,
+        harmonic: vec![],
+    });
     let oblique = oblique.collect();
     Ok(CurvatureData { rho: list("rho")?, sphere, cavity: pairs("cavity")?, cylinder, flat, oblique })
 }
@@ -230,6 +246,15 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
 #[pyfunction]
 fn bssrdf_adaptive_curvature_nodes(stack: StackTuple) -> PyResult<Vec<f64>> {
     curvature_nodes(&stack_from_py(&stack.0, stack.1, stack.2).py()?).py()
+}
+
+fn curved_kind(kind: &str) -> PyResult<Curved> {
+    match kind {
+        "sphere" => Ok(Curved::Sphere),
+        "cavity" => Ok(Curved::Cavity),
+        "cylinder" => Ok(Curved::Cylinder),
+        w => Err(to_py(Error::Invalid(format!("kind = {w:?}: must be \"sphere\", \"cavity\" or \"cylinder\"")))),
+    }
 }
 
 /// Escape fraction (mean, stderr) of uniform diffuse light from a sphere, a spherical cavity or
@@ -245,18 +270,74 @@ fn bssrdf_curved_escape(
     seed: u64,
     threads: Option<usize>,
 ) -> PyResult<(f64, f64)> {
-    let k = match kind {
-        "sphere" => Curved::Sphere,
-        "cavity" => Curved::Cavity,
-        "cylinder" => Curved::Cylinder,
-        w => {
-            return Err(to_py(Error::Invalid(format!("kind = {w:?}: must be \"sphere\", \"cavity\" or \"cylinder\""))))
-        }
-    };
-    let st = stack_from_py(&stack.0, stack.1, stack.2).py()?;
-    let out = py.detach(|| escape(&st, k, rho, photons, seed, threads, &AtomicBool::new(false), &AtomicU64::new(0)));
-    let e = out.py()?.expect("not cancelled");
+    let e = curved_parts(py, stack, kind, rho, None, photons, seed, threads)?;
     Ok((e.mean, e.stderr))
+}
+
+#[allow(clippy::too_many_arguments)] // the run's inputs, spelled out
+fn curved_parts(
+    py: Python<'_>,
+    stack: StackTuple,
+    kind: &str,
+    rho: f64,
+    theta_deg: Option<f64>,
+    photons: u64,
+    seed: u64,
+    threads: Option<usize>,
+) -> PyResult<Escape> {
+    let k = curved_kind(kind)?;
+    let st = stack_from_py(&stack.0, stack.1, stack.2).py()?;
+    let source = match theta_deg {
+        None => Source::Diffuse,
+        Some(t) => Source::Pencil { theta: t.to_radians(), phi: 0.0 },
+    };
+    source.validate().py()?;
+    let (c, p) = (AtomicBool::new(false), AtomicU64::new(0));
+    let out = py.detach(|| escape_from(&st, k, rho, source, photons, seed, threads, &c, &p));
+    Ok(out.py()?.expect("not cancelled"))
+}
+
+/// (mean, stderr, near, near_stderr, bins, shift, harmonic) of a curved run.
+type EscapeParts = (f64, f64, f64, f64, Vec<f64>, f64, Vec<f64>);
+
+/// The escape of a curved run in parts: (mean, stderr, near, near_stderr, chord bins of the
+/// near half, shift, first azimuthal harmonic per near bin and the far half), under uniform diffuse light (`theta_deg` None) or a collimated beam at polar
+/// angle `theta_deg` to the entry point's normal, and the mean exit offset along the beam's
+/// tangential direction (mm).
+#[pyfunction]
+#[pyo3(signature = (stack, kind, rho, photons, seed, theta_deg=None, threads=None))]
+#[allow(clippy::too_many_arguments)] // the run's inputs, spelled out
+fn bssrdf_curved_escape_parts(
+    py: Python<'_>,
+    stack: StackTuple,
+    kind: &str,
+    rho: f64,
+    photons: u64,
+    seed: u64,
+    theta_deg: Option<f64>,
+    threads: Option<usize>,
+) -> PyResult<EscapeParts> {
+    let e = curved_parts(py, stack, kind, rho, theta_deg, photons, seed, threads)?;
+    Ok((e.mean, e.stderr, e.near, e.near_stderr, e.bins, e.shift, e.harmonic))
+}
+
+/// The exitance of a sphere under a sun of unit irradiance by equal-area bins of cos α (α from
+/// the sub-solar point; exact transport, `curved::sun_exitance`).
+#[pyfunction]
+#[pyo3(signature = (stack, rho, bins, photons, seed, threads=None))]
+fn bssrdf_sun_exitance(
+    py: Python<'_>,
+    stack: StackTuple,
+    rho: f64,
+    bins: usize,
+    photons: u64,
+    seed: u64,
+    threads: Option<usize>,
+) -> PyResult<Vec<f64>> {
+    let st = stack_from_py(&stack.0, stack.1, stack.2).py()?;
+    let (c, p) = (AtomicBool::new(false), AtomicU64::new(0));
+    let out = py.detach(|| sun_exitance(&st, rho, bins, photons, seed, threads, &c, &p));
+    Ok(out.py()?.expect("not cancelled"))
 }
 
 /// The thickness nodes (mm) of a stack's adaptive table (∞ not listed).
@@ -270,5 +351,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bssrdf_adaptive_nodes, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_adaptive_curvature_nodes, m)?)?;
     m.add_function(wrap_pyfunction!(bssrdf_curved_escape, m)?)?;
+    m.add_function(wrap_pyfunction!(bssrdf_curved_escape_parts, m)?)?;
+    m.add_function(wrap_pyfunction!(bssrdf_sun_exitance, m)?)?;
     Ok(())
 }

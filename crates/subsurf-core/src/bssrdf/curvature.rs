@@ -133,7 +133,7 @@ pub fn flat_escape(
         return Ok(None);
     }
     let (mean, stderr) = out.tally.get(Total::Diffuse);
-    Ok(Some(Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![] }))
+    Ok(Some(Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![], shift: 0.0, harmonic: vec![] }))
 }
 
 /// Trace channel `channel`'s curvature data (see the module docs); `None` when cancelled.

@@ -73,6 +73,16 @@ pub struct Escape {
     pub near_stderr: f64,
     /// `near` by chord bin ([`NEAR_BINS`]; they sum to `near` up to rounding).
     pub bins: Vec<f64>,
+    /// The escaped weight's mean exit offset (mm) along the tangent y at the entry point (the
+    /// plane of a [`Source::Pencil`] beam's refracted direction, which points to +y): how far a
+    /// collimated beam's light moves forward before it leaves (0 by symmetry under diffuse light;
+    /// 0 where not tallied).
+    pub shift: f64,
+    /// The first azimuthal harmonic of the escapes about the entry's normal: Σ w cos φ per
+    /// photon, φ the exit point's azimuth from the tangent y, per chord bin of the near half
+    /// ([`NEAR_BINS`]) and then the far half (its bins' share leaving forward minus backward;
+    /// empty where not tallied).
+    pub harmonic: Vec<f64>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -94,7 +104,7 @@ struct Geometry {
 }
 
 impl Geometry {
-    fn new(stack: &Stack, kind: Curved, rho: f64) -> Result<Geometry> {
+    fn new(stack: &Stack, kind: Curved, rho: f64, source: Source) -> Result<Geometry> {
         let b = stack.boundaries();
         let nl = stack.layers.len();
         let mut shells = vec![];
@@ -120,7 +130,7 @@ impl Geometry {
                     .into(),
             ));
         }
-        let launcher = Launcher::new(Source::Diffuse, stack.n_above, stack.layers[0].n);
+        let launcher = Launcher::new(source, stack.n_above, stack.layers[0].n);
         Ok(Geometry { kind, shells, n_above: stack.n_above, launcher })
     }
 
@@ -164,13 +174,14 @@ impl Geometry {
         Some(((c2 / (2.0 * rho * rho) * NEAR_BINS as f64) as usize).min(NEAR_BINS - 1))
     }
 
-    /// One photon's escaped weight and, if it left through the entry's half (x > 0), its chord bin.
-    fn trace(&self, seed: u64, photon: u64) -> (f64, Option<usize>) {
+    /// One photon's escaped weight, exit point, launch direction in the engine's frame (z into
+    /// the medium) and near chord bin.
+    fn trace_path(&self, seed: u64, photon: u64) -> (f64, [f64; 3], [f64; 3], Option<usize>) {
         let mut rng = PhotonRng::new(seed, photon);
         let (d, rsp) = self.launcher.launch(&mut rng);
         let w0 = 1.0 - rsp;
         if !(w0 > 0.0) {
-            return (0.0, None);
+            return (0.0, [0.0; 3], d, None);
         }
         let rho = self.shells[0].r_top;
         // engine frame (z into the medium) → the entry point (ρ, 0, 0), inward ∓x
@@ -206,7 +217,7 @@ impl Geometry {
                 };
                 match cross(&mut u, nr, sh.n, n_next, &mut rng) {
                     false => {}
-                    true if up && k == 0 => return (w, self.near_bin(p, rho)),
+                    true if up && k == 0 => return (w, p, d, self.near_bin(p, rho)),
                     true => k = if up { k - 1 } else { k + 1 },
                 }
                 continue;
@@ -222,11 +233,11 @@ impl Geometry {
                 if rng.uniform() * ROULETTE_M <= 1.0 {
                     w *= ROULETTE_M;
                 } else {
-                    return (0.0, None);
+                    return (0.0, [0.0; 3], d, None);
                 }
             }
         }
-        (0.0, None)
+        (0.0, [0.0; 3], d, None)
     }
 }
 
@@ -263,15 +274,36 @@ pub fn escape(
     cancel: &AtomicBool,
     progress: &AtomicU64,
 ) -> Result<Option<Escape>> {
+    let e = escape_from(stack, kind, rho, Source::Diffuse, photons, seed, threads, cancel, progress)?;
+    // 0 by symmetry under diffuse light: the tables keep no noise of them
+    Ok(e.map(|e| Escape { shift: 0.0, harmonic: vec![], ..e }))
+}
+
+/// [`escape`] with the engine's launch `source` at the entry point (ρ, 0, 0) instead of the
+/// diffuse one: [`Source::Pencil`] `{ theta, phi: 0 }` is a collimated beam at polar angle θi to
+/// the entry's normal (in the plane z = 0), the light a sphere receives from a sun at the points
+/// θi away from the sub-solar point. The tallies are per unit incident power, as [`escape`]'s.
+#[allow(clippy::too_many_arguments)] // the engine's run inputs, spelled out
+pub fn escape_from(
+    stack: &Stack,
+    kind: Curved,
+    rho: f64,
+    source: Source,
+    photons: u64,
+    seed: u64,
+    threads: Option<usize>,
+    cancel: &AtomicBool,
+    progress: &AtomicU64,
+) -> Result<Option<Escape>> {
     if !(rho > 0.0 && rho.is_finite()) {
         return Err(Error::param("rho", rho, "a radius > 0 (mm)"));
     }
     if photons < 2 {
         return Err(Error::param("photons", photons as f64, "an integer >= 2"));
     }
-    let g = Geometry::new(stack, kind, rho)?;
+    let g = Geometry::new(stack, kind, rho, source)?;
     let chunks = photons.div_ceil(CHUNK);
-    const NS: usize = 4 + NEAR_BINS;
+    const NS: usize = 6 + 2 * NEAR_BINS;
     let work = |c: u64| -> Option<[f64; NS]> {
         if cancel.load(Ordering::Relaxed) {
             return None;
@@ -279,13 +311,19 @@ pub fn escape(
         let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(photons));
         let mut s = [0.0; NS];
         for k in lo..hi {
-            let (x, near) = g.trace(seed, k);
+            let (x, p, _, near) = g.trace_path(seed, k);
             s[0] += x;
             s[1] += x * x;
+            s[4] += x * p[1];
+            let rt = (p[1] * p[1] + p[2] * p[2]).sqrt();
+            let cos_phi = if rt > 0.0 { p[1] / rt } else { 0.0 };
             if let Some(b) = near {
                 s[2] += x;
                 s[3] += x * x;
-                s[4 + b] += x;
+                s[5 + b] += x;
+                s[5 + NEAR_BINS + b] += x * cos_phi;
+            } else {
+                s[5 + 2 * NEAR_BINS] += x * cos_phi;
             }
         }
         progress.fetch_add(hi - lo, Ordering::Relaxed);
@@ -306,8 +344,72 @@ pub fn escape(
     }
     let (mean, stderr) = mean_stderr(s[0], s[1], photons);
     let (near, near_stderr) = mean_stderr(s[2], s[3], photons);
-    let bins = s[4..].iter().map(|x| x / photons as f64).collect();
-    Ok(Some(Escape { mean, stderr, near, near_stderr, bins }))
+    let bins = s[5..5 + NEAR_BINS].iter().map(|x| x / photons as f64).collect();
+    let harmonic = s[5 + NEAR_BINS..].iter().map(|x| x / photons as f64).collect();
+    let shift = if s[0] > 0.0 { s[4] / s[0] } else { 0.0 };
+    Ok(Some(Escape { mean, stderr, near, near_stderr, bins, shift, harmonic }))
+}
+
+/// The exitance of a sphere of radius `rho` (mm) made of `stack` under a sun (collimated light
+/// of unit irradiance), by the angle α between the exit point's normal and the direction to the
+/// sun: `bins` equal-area bins of cos α from −1 (the anti-solar point) to 1 (the sub-solar
+/// point), per unit irradiance (specular excluded). A sun lights the points of a sphere at every
+/// θi with the weight cos θi sin θi, which is the diffuse launch's: so each photon of the
+/// diffuse launch at (ρ, 0, 0) is a sun photon, the sun's direction is its launch direction
+/// before refraction, and only the tally differs from [`escape`] (same photons, same seed).
+#[allow(clippy::too_many_arguments)] // the engine's run inputs, spelled out
+pub fn sun_exitance(
+    stack: &Stack,
+    rho: f64,
+    bins: usize,
+    photons: u64,
+    seed: u64,
+    threads: Option<usize>,
+    cancel: &AtomicBool,
+    progress: &AtomicU64,
+) -> Result<Option<Vec<f64>>> {
+    if !(rho > 0.0 && rho.is_finite()) || bins == 0 || photons < 2 {
+        return Err(Error::Invalid("sun exitance: rho > 0 (mm), bins >= 1 and photons >= 2".into()));
+    }
+    let g = Geometry::new(stack, Curved::Sphere, rho, Source::Diffuse)?;
+    let eta = stack.n_above / stack.layers[0].n;
+    let work = |c: u64| -> Option<Vec<f64>> {
+        if cancel.load(Ordering::Relaxed) {
+            return None;
+        }
+        let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(photons));
+        let mut h = vec![0.0; bins];
+        for k in lo..hi {
+            let (w, p, d, _) = g.trace_path(seed, k);
+            if w > 0.0 {
+                // the sun's direction before refraction: tangential part d/η, towards the sun −(x, y, z)
+                let (x, y) = (d[0] / eta, d[1] / eta);
+                let z = (1.0 - x * x - y * y).max(0.0).sqrt();
+                let to_sun = [z, -x, -y]; // engine (a, b, c) → world (−c, a, b), negated
+                let cos_a = (p[0] * to_sun[0] + p[1] * to_sun[1] + p[2] * to_sun[2]) / rho;
+                let j = (((cos_a + 1.0) * 0.5 * bins as f64) as usize).min(bins - 1);
+                h[j] += w;
+            }
+        }
+        progress.fetch_add(hi - lo, Ordering::Relaxed);
+        Some(h)
+    };
+    let chunks = photons.div_ceil(CHUNK);
+    let parts: Vec<Option<Vec<f64>>> = match threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build()
+            .map_err(|e| Error::Invalid(format!("curved transport: no thread pool ({e})")))?
+            .install(|| (0..chunks).into_par_iter().map(work).collect()),
+        None => (0..chunks).into_par_iter().map(work).collect(),
+    };
+    let mut h = vec![0.0; bins];
+    for p in parts {
+        let Some(a) = p else { return Ok(None) };
+        h.iter_mut().zip(a).for_each(|(x, y)| *x += y);
+    }
+    // power πρ²·E into 4πρ²/bins of area per bin
+    Ok(Some(h.iter().map(|x| x / photons as f64 * 0.25 * bins as f64).collect()))
 }
 
 #[cfg(test)]

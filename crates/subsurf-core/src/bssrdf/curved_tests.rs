@@ -97,3 +97,46 @@ fn refuses_bad_input() {
     let e = escape(&stack(1.4, 0.0, 1.0, 0.0), Curved::Cavity, 1.0, 10, 0, None, &c, &p).unwrap_err();
     assert!(e.to_string().contains("cavity"), "{e}");
 }
+
+/// The sun-on-sphere tally: its bins hold the same photons as [`escape`]'s diffuse run (the sun
+/// lights a sphere's points with the diffuse launch's θi weights), so they sum to its escape
+/// (10⁻¹²); at matched index without interaction every ray leaves at the point mirrored through
+/// the chord's midplane, so the exitance at α is the irradiance cos(π − α) of the lit point: the
+/// lit bins are exactly 0 and a dark bin holds E·|cos α| averaged over it (4σ, binomial counts).
+#[test]
+fn sun_exitance_conserves_the_escape_and_mirrors_a_clear_sphere() {
+    let (c, p) = (AtomicBool::new(false), AtomicU64::new(0));
+    let s = stack(1.3, 0.06, 0.18, 0.0);
+    let bins = 10;
+    let h = sun_exitance(&s, 10.0, bins, 4000, 3, Some(2), &c, &p).unwrap().unwrap();
+    let total = h.iter().sum::<f64>() * 4.0 / bins as f64;
+    let e = run(&s, Curved::Sphere, 10.0, 4000, 3, Some(1));
+    assert!((total - e.mean).abs() < 1e-12, "{total} vs {}", e.mean);
+    let clear = stack(1.0, 0.0, 1e-9, 0.0);
+    let n = 20_000;
+    let h = sun_exitance(&clear, 10.0, bins, n, 1, None, &c, &p).unwrap().unwrap();
+    for (j, m) in h.iter().enumerate() {
+        let cos_mid = -1.0 + (j as f64 + 0.5) * 2.0 / bins as f64;
+        let want = cos_mid.min(0.0).abs(); // |cos α| is linear in cos α: its bin mean is the midpoint's
+        let q = want * 4.0 / bins as f64; // the bin's photon fraction
+        let se = (q * (1.0 - q) / n as f64).sqrt() * bins as f64 / 4.0;
+        assert!((m - want).abs() <= 4.0 * se + 1e-12, "bin {j}: {m} vs {want} ± {se}");
+    }
+}
+
+/// A collimated beam's light leaves forward of its entry point (the shift along the refracted
+/// direction's tangent, +y), more at grazing incidence, and none at normal incidence by symmetry
+/// (4σ of the photons' offsets); the diffuse escape keeps no shift.
+#[test]
+fn a_collimated_beam_leaves_forward_of_its_entry() {
+    let (c, p) = (AtomicBool::new(false), AtomicU64::new(0));
+    let s = stack(1.3, 0.06, 0.18, 0.0);
+    let shift = |deg: f64| {
+        let src = Source::Pencil { theta: deg.to_radians(), phi: 0.0 };
+        escape_from(&s, Curved::Sphere, 10.0, src, 4000, 5, Some(2), &c, &p).unwrap().unwrap().shift
+    };
+    let (s0, s30, s65) = (shift(0.0), shift(30.0), shift(65.0));
+    assert!(s0.abs() < 0.3, "{s0}"); // offsets within ±ρ: σ ≤ 10/√4000·√(mean y²)/… ≈ 0.07 mm
+    assert!(s30 > 0.5 && s65 > s30, "{s30} {s65}");
+    assert_eq!(run(&s, Curved::Sphere, 10.0, 1000, 5, None).shift, 0.0);
+}

@@ -71,7 +71,7 @@ pub fn build_oblique(
             return Ok(None);
         }
         let (mean, stderr) = o.tally.get(Total::Diffuse);
-        out.push(Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![] });
+        out.push(Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![], shift: 0.0, harmonic: vec![] });
     }
     Ok(Some(out))
 }
