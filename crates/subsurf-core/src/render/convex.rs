@@ -41,8 +41,8 @@ const WALK_STEPS: usize = 64;
 impl Convex {
     /// The lookup for `acc` when its triangles are one convex body (`bounds_convex_body`),
     /// else `None`. Each cell holds the facet the ray from c through the cell's centre leaves
-    /// by: [`Self::facet_along`] from the previous cell's facet (a BVH ray for the first cell of
-    /// a row, and wherever the walk fails), so the same facet as a ray per cell.
+    /// by, found by [`Self::facet_along`] from the previous cell's facet (a BVH ray for the
+    /// first cell of a row, and wherever the walk fails): cheaper than a ray per cell.
     pub fn new(acc: &Accel) -> Option<Convex> {
         if !bounds_convex_body(&acc.tris, &acc.neighbours, acc.extent) {
             return None;

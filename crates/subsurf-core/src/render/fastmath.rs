@@ -81,7 +81,7 @@ pub fn exp(x: f64) -> f64 {
 /// infinities, NaN) by `f64::ln`.
 #[inline(always)]
 pub fn ln(x: f64) -> f64 {
-    if !(x >= f64::MIN_POSITIVE && x < f64::INFINITY) {
+    if !(f64::MIN_POSITIVE..f64::INFINITY).contains(&x) {
         return x.ln();
     }
     let bits = x.to_bits();

@@ -187,7 +187,7 @@ fn count_open_edges(tris: &[[u32; 3]]) -> usize {
     let mut open = 0;
     for run in directed.chunk_by(|a, b| a == b) {
         let e = run[0];
-        if run.len() != 1 || count(e << 32 | e >> 32) != 1 {
+        if run.len() != 1 || count(e.rotate_right(32)) != 1 {
             open += 1;
         }
     }
