@@ -85,7 +85,8 @@ impl Accel {
     /// out of the BVH (they cannot be hit).
     pub fn new(meshes: &[&Mesh]) -> Accel {
         let mut tris = Vec::new();
-        let mut edges: std::collections::HashMap<(usize, u32, u32), Vec<u32>> = Default::default();
+        // (object, lower vertex, higher vertex) of every edge, with its triangle and side.
+        let mut edges: Vec<([u32; 3], u32, u8)> = Vec::new();
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
         for (o, m) in meshes.iter().enumerate() {
             for i in 0..m.triangles.len() {
@@ -98,7 +99,7 @@ impl Accel {
                 let vi = m.triangles[i];
                 for k in 0..3 {
                     let (x, y) = (vi[k], vi[(k + 1) % 3]);
-                    edges.entry((o, x.min(y), x.max(y))).or_default().push(tris.len() as u32);
+                    edges.push(([o as u32, x.min(y), x.max(y)], tris.len() as u32, k as u8));
                 }
                 for p in [a, b, c] {
                     for k in 0..3 {
@@ -109,25 +110,15 @@ impl Accel {
                 tris.push(Tri { v0: a, e1, e2, n: normalize(nn), object: o as u32, local: i as u32 });
             }
         }
-        let neighbours: Vec<[u32; 3]> = (0..tris.len())
-            .map(|g| {
-                let t: &Tri = &tris[g];
-                let vi = meshes[t.object as usize].triangles[t.local as usize];
-                std::array::from_fn(|k| {
-                    let (x, y) = (vi[k], vi[(k + 1) % 3]);
-                    match edges[&(t.object as usize, x.min(y), x.max(y))].as_slice() {
-                        [p, q] => {
-                            if *p == g as u32 {
-                                *q
-                            } else {
-                                *p
-                            }
-                        }
-                        _ => u32::MAX,
-                    }
-                })
-            })
-            .collect();
+        // Edges shared by exactly two triangles, by sorting (as a hash map of edges would).
+        edges.sort_unstable();
+        let mut neighbours = vec![[u32::MAX; 3]; tris.len()];
+        for run in edges.chunk_by(|a, b| a.0 == b.0) {
+            if let [(_, p, kp), (_, q, kq)] = *run {
+                neighbours[p as usize][kp as usize] = q;
+                neighbours[q as usize][kq as usize] = p;
+            }
+        }
         let extent = length(sub(hi, lo)).max(1e-12);
         let pad = (extent * 1e-6) as f32;
         let boxes: Vec<Padded> = tris
@@ -310,7 +301,7 @@ impl Accel {
     /// f < `s` such that no triangle lies on the segment from `p` along `d` to f (the balls
     /// traced forward; 0 when nothing is known) — where a ray cast for the segment may start
     /// looking ([`Self::intersect_walk`]).
-    #[inline]
+    #[inline(always)]
     pub fn segment_free_in(&self, ball: &mut Ball, p: V3, d: V3, s: f64) -> f64 {
         let Some(g) = &self.distance else { return 0.0 };
         if s.is_finite() && ball.holds(p) && ball.holds(madd(p, d, s)) {

@@ -13,6 +13,7 @@
 
 use super::accel::Tri;
 use super::math::{madd, V3};
+use rayon::prelude::*;
 
 /// The grid of distance bounds (mm) to the nearest triangle.
 pub struct DistanceGrid {
@@ -20,6 +21,11 @@ pub struct DistanceGrid {
     h: f64,
     n: [usize; 3],
     bound: Vec<f32>,
+    /// 1/h, and the cells per axis as f64 (the lookup multiplies instead of dividing).
+    inv_h: f64,
+    nf: V3,
+    /// The box's far corner, lo + n h.
+    hi: V3,
 }
 
 impl DistanceGrid {
@@ -46,13 +52,14 @@ impl DistanceGrid {
         };
         let h = side / cells as f64;
         if !(h > 0.0 && h.is_finite()) || tris.is_empty() {
-            return DistanceGrid { lo, h: 0.0, n: [0; 3], bound: vec![] };
+            return DistanceGrid { lo, h: 0.0, n: [0; 3], bound: vec![], inv_h: 0.0, nf: [0.0; 3], hi: lo };
         }
         let pad = 1e-6 * side;
         let n: [usize; 3] = std::array::from_fn(|a| (((hi[a] - lo[a]) / h).ceil() as usize).clamp(1, cells));
         let lo = std::array::from_fn(|a| lo[a] - pad);
         let h = (0..3).map(|a| (hi[a] + pad - lo[a]) / n[a] as f64).fold(0.0f64, f64::max);
-        let mut g = DistanceGrid { lo, h, n, bound: vec![] };
+        let (nf, hi) = (n.map(|c| c as f64), std::array::from_fn(|a| lo[a] + n[a] as f64 * h));
+        let mut g = DistanceGrid { lo, h, n, bound: vec![], inv_h: 1.0 / h, nf, hi };
         let mut d2 = vec![f64::INFINITY; n[0] * n[1] * n[2]];
         for t in tris {
             let vs = [t.v0, madd(t.v0, t.e1, 1.0), madd(t.v0, t.e2, 1.0)];
@@ -67,32 +74,41 @@ impl DistanceGrid {
                 }
             }
         }
-        // Squared distances by three separable 1-D passes (x, then y, then z), with buffers
-        // reused across lines.
-        let mut env = Envelope::new(n.iter().copied().max().unwrap_or(1));
+        // Squared distances by three separable 1-D passes (x, then y, then z): the lines of a
+        // pass in parallel (rayon; each worker reuses its buffers), gathered into a line-major
+        // buffer, then scattered back.
+        let cap = n.iter().copied().max().unwrap_or(1);
         let stride = [n[1] * n[2], n[2], 1];
+        let mut lines = vec![0.0; d2.len()];
         for axis in 0..3 {
             let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
-            for i in 0..n[a] {
-                for j in 0..n[b] {
-                    let base = i * stride[a] + j * stride[b];
-                    let (len, st) = (n[axis], stride[axis]);
+            let (len, st) = (n[axis], stride[axis]);
+            let base = |l: usize| (l / n[b]) * stride[a] + (l % n[b]) * stride[b];
+            let src = &d2;
+            lines.par_chunks_mut(len).enumerate().for_each_init(
+                || Envelope::new(cap),
+                |env, (l, out)| {
+                    let b0 = base(l);
                     for t in 0..len {
-                        env.f[t] = d2[base + t * st];
+                        env.f[t] = src[b0 + t * st];
                     }
                     if axis == 0 {
                         env.scan(len); // binary marks: the 1-D distance by two sweeps
                     } else {
                         env.run(len);
                     }
-                    for t in 0..len {
-                        d2[base + t * st] = env.out[t];
-                    }
+                    out.copy_from_slice(&env.out[..len]);
+                },
+            );
+            for (l, line) in lines.chunks(len).enumerate() {
+                let b0 = base(l);
+                for (t, &v) in line.iter().enumerate() {
+                    d2[b0 + t * st] = v;
                 }
             }
         }
         let margin = 3f64.sqrt() + 1e-6;
-        g.bound = d2.iter().map(|&v| ((v.sqrt() - margin) * h).max(0.0) as f32).collect();
+        g.bound = d2.par_iter().map(|&v| ((v.sqrt() - margin) * h).max(0.0) as f32).collect();
         g
     }
 
@@ -115,20 +131,23 @@ impl DistanceGrid {
     /// Whether `p` lies in the grid's box (always, for an empty grid).
     #[inline]
     pub fn contains(&self, p: V3) -> bool {
-        self.bound.is_empty() || (0..3).all(|a| p[a] >= self.lo[a] && p[a] <= self.lo[a] + self.n[a] as f64 * self.h)
+        self.bound.is_empty() || (0..3).all(|a| p[a] >= self.lo[a] && p[a] <= self.hi[a])
     }
 
     /// A distance (mm) not above the distance from `p` to the nearest triangle (0 outside the
     /// grid).
     #[inline]
     pub fn bound(&self, p: V3) -> f64 {
+        // The cell by a product with 1/h (a point within an ulp of a cell face may land in the
+        // neighbouring cell: the 10⁻⁶ margin of the bound covers it); the f64 → i32 cast of a
+        // value checked to lie in [0, n) is exact truncation.
         let mut c = [0usize; 3];
         for a in 0..3 {
-            let f = (p[a] - self.lo[a]) / self.h;
-            if !(f >= 0.0 && f < self.n[a] as f64) {
+            let f = (p[a] - self.lo[a]) * self.inv_h;
+            if !(f >= 0.0 && f < self.nf[a]) {
                 return 0.0;
             }
-            c[a] = f as usize;
+            c[a] = f as i32 as usize;
         }
         // f32 storage rounds down by at most one ulp: taken off with the factor.
         self.bound[self.flat(c)] as f64 * (1.0 - 1e-6)

@@ -101,7 +101,7 @@ impl Dwivedi {
 /// against cos θ, φ = 2πξ and `sincos` (docs/render.md, "Per-collision work").
 ///
 /// [`Phase::sample`]: crate::optics::Phase::sample
-#[inline]
+#[inline(always)]
 pub fn classic(m: &Translucent, d: V3, rng: &mut PhotonRng) -> V3 {
     if m.phase.is_isotropic() {
         let (x, y) = rng.disc_point();
@@ -119,6 +119,7 @@ pub fn classic(m: &Translucent, d: V3, rng: &mut PhotonRng) -> V3 {
 /// flight is sampled. Without a guide (`None`): the phase function ([`classic`]: the classic
 /// walk's numbers). With one (the entry frame around N and the medium's parameters): a ξ for
 /// the technique, then two ξ for cos θ (phase or Dwivedi) and the azimuth (about d or about N).
+#[inline(always)]
 pub fn scatter(m: &Translucent, d: V3, guide: Option<(&Frame, &Dwivedi)>, rng: &mut PhotonRng) -> (V3, Flight) {
     let Some((frame, dw)) = guide else { return (classic(m, d, rng), Flight::CLASSIC) };
     let guided = rng.uniform() < dw.gf;

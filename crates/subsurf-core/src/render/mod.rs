@@ -23,6 +23,7 @@ pub mod convex;
 pub mod distance;
 pub mod driver;
 pub mod facet_nee;
+pub mod fastmath;
 pub mod grid;
 pub mod guide;
 pub mod hierarchical;

@@ -47,6 +47,7 @@ use super::accel::{Hit, Tri};
 use super::beams::Beams;
 use super::distance::DistanceGrid;
 use super::facet_nee::{self, Connection};
+use super::fastmath::exp;
 use super::grid::Local;
 use super::guide::Flight;
 use super::light::Light;
@@ -114,6 +115,7 @@ struct Radiance<'a> {
 }
 
 impl Carrier for Radiance<'_> {
+    #[inline(always)]
     fn channel(&mut self, rng: &mut PhotonRng) -> Option<usize> {
         // Channel chosen with probability ∝ β_k (throughput-weighted spectral MIS).
         let bsum = self.beta[0] + self.beta[1] + self.beta[2];
@@ -132,6 +134,7 @@ impl Carrier for Radiance<'_> {
         Some(self.k)
     }
 
+    #[inline(always)]
     fn collide(
         &mut self,
         scene: &Scene,
@@ -147,19 +150,20 @@ impl Carrier for Radiance<'_> {
         // sampled channel c: T_k/T_c = e^{(σt,c − σt,k) s} ≤ e^{−ln ξ} (no overflow), T_c/T_c
         // = 1 without an exponential (two instead of three per collision).
         let (c, shift) = if f.gf > 0.0 { (3, 0.0) } else { (self.k, m.sigma_t[self.k]) };
-        let tr: Rgb = std::array::from_fn(|k| if k == c { 1.0 } else { ((shift - m.sigma_t[k]) * s).exp() });
+        let tr: Rgb = std::array::from_fn(|k| if k == c { 1.0 } else { exp((shift - m.sigma_t[k]) * s) });
         let mut pbar = dot(self.w, mul(m.sigma_t, tr));
         if f.gf > 0.0 {
             // The one-sample MIS mixture of the classic and the guided flight (per unit phase
             // pdf: the phase function cancels), balance heuristic (super::guide).
             let st: Rgb = std::array::from_fn(|k| m.sigma_t[k] * f.stretch);
-            let trg: Rgb = std::array::from_fn(|k| (-st[k] * s).exp());
+            let trg: Rgb = std::array::from_fn(|k| exp(-st[k] * s));
             pbar = (1.0 - f.gf) * pbar + f.gf * f.factor * dot(self.w, mul(st, trg));
         }
         if !(pbar > 0.0) {
             return false;
         }
-        self.beta = std::array::from_fn(|k| self.beta[k] * m.sigma_s[k] * tr[k] / pbar);
+        let inv = 1.0 / pbar;
+        self.beta = std::array::from_fn(|k| self.beta[k] * m.sigma_s[k] * tr[k] * inv);
         self.connect(scene, m, media, p, d, rng);
         true
     }
@@ -177,7 +181,7 @@ impl Carrier for Radiance<'_> {
     ) -> Option<bool> {
         // The majorant process's event density, as `collide` weights a homogeneous medium of σ̄.
         let sb = m.sigma_bar;
-        let tr: Rgb = std::array::from_fn(|k| (-sb[k] * s).exp());
+        let tr: Rgb = std::array::from_fn(|k| exp(-sb[k] * s));
         let pbar = dot(self.w, mul(sb, tr));
         if !(pbar > 0.0) {
             return None;
@@ -215,6 +219,7 @@ impl Carrier for Radiance<'_> {
         self.flight = *f;
     }
 
+    #[inline(always)]
     fn scattered(&mut self, scene: &Scene, m: &Translucent, media: &Media, p: V3, d: V3, rng: &mut PhotonRng) {
         if self.rw.env_nee && self.rw.nee && self.depth < MAX_DEPTH {
             let e = self.rw.env_next_flight(scene, m, media, p, d, rng);
@@ -222,6 +227,7 @@ impl Carrier for Radiance<'_> {
         }
     }
 
+    #[inline(always)]
     fn roulette(&mut self, _p: V3, rng: &mut PhotonRng) -> bool {
         let theta = self.rw.rr_threshold;
         let q = max3(self.beta) / theta;
@@ -235,11 +241,11 @@ impl Carrier for Radiance<'_> {
     }
 
     fn reach(&mut self, m: &Translucent, t: f64) -> bool {
-        let tr: Rgb = std::array::from_fn(|k| (-m.sigma_bar[k] * t).exp()); // σt, or the majorant
+        let tr: Rgb = std::array::from_fn(|k| exp(-m.sigma_bar[k] * t)); // σt, or the majorant
         let mut pbar = dot(self.w, tr);
         let f = self.flight;
         if f.gf > 0.0 {
-            let trg: Rgb = std::array::from_fn(|k| (-m.sigma_bar[k] * f.stretch * t).exp());
+            let trg: Rgb = std::array::from_fn(|k| exp(-m.sigma_bar[k] * f.stretch * t));
             pbar = (1.0 - f.gf) * pbar + f.gf * f.factor * dot(self.w, trg);
         }
         if !(pbar > 0.0) {
@@ -362,13 +368,13 @@ impl RandomWalk {
             return None;
         }
         let tau = m.sigma_t_floor() * scene.accel.clear_radius(p);
-        let q = (self.nee_scale * (-tau).exp()).min(1.0);
+        let q = (self.nee_scale * exp(-tau)).min(1.0);
         let Some(g) = &self.facing else { return (u < q).then_some(q) };
         let tau_f = self.sigma_t_min * g.bound(p);
         if u >= q || tau_f <= tau {
             return (u < q).then_some(q);
         }
-        let q = (self.nee_scale * (-tau_f).exp()).min(1.0);
+        let q = (self.nee_scale * exp(-tau_f)).min(1.0);
         (u < q).then_some(q)
     }
 
@@ -418,7 +424,7 @@ impl RandomWalk {
         // One connection's in-scattered radiance per unit β.
         let through = |c: &Connection, power: Rgb| -> Rgb {
             let w = c.factor * m.phase.eval(dot(c.d_in, neg(d))) / (m.eta * m.eta);
-            std::array::from_fn(|k| w * power[k] * (-c.tau[k]).exp())
+            std::array::from_fn(|k| w * power[k] * exp(-c.tau[k]))
         };
         let mut l = [0.0; 3];
         for (i, light) in scene.lights.iter().enumerate() {

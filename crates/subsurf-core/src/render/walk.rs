@@ -275,7 +275,8 @@ pub fn walk<C: Carrier>(
         let Some(k) = c.channel(rng) else { return };
         // σt, or a grid's majorant (delta tracking); stretched on a guided flight.
         let st = m.sigma_bar[k] * flight.sample_factor();
-        let s = if st > 0.0 { -(-rng.uniform()).ln_1p() / st } else { f64::INFINITY };
+        // −ln(1 − ξ) (1 − ξ is exact for the stream's 33-bit uniforms), by the inlined ln.
+        let s = if st > 0.0 { -super::fastmath::ln(1.0 - rng.uniform()) / st } else { f64::INFINITY };
         // The boundary ahead, unless the collision comes first. A free path that the distance
         // grid's bound shows clear of every surface (sphere tracing, `Accel::segment_clear`)
         // needs no ray, and the ray that is cast ends at the collision (a short ray skips most
