@@ -103,7 +103,7 @@ pub fn delta_connections(
 /// The connection from `v` to a delta light through facet `tri` alone, if that facet's
 /// refracted beam reaches `v`: for a directional light the line from `v` against the facet's
 /// refracted direction `d_in` (given, or refracted here), for a point light the Fermat point
-/// ([`attempt`]), must lie in the facet, and the line from `v` must leave every object through
+/// (`attempt`), must lie in the facet, and the line from `v` must leave every object through
 /// it first with nothing blocking the light.
 #[allow(clippy::too_many_arguments)]
 pub fn through_facet(
