@@ -329,14 +329,7 @@ pub fn escape_from(
         progress.fetch_add(hi - lo, Ordering::Relaxed);
         Some(s)
     };
-    let parts: Vec<Option<[f64; NS]>> = match threads {
-        Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
-            .build()
-            .map_err(|e| Error::Invalid(format!("curved transport: no thread pool ({e})")))?
-            .install(|| (0..chunks).into_par_iter().map(work).collect()),
-        None => (0..chunks).into_par_iter().map(work).collect(),
-    };
+    let parts: Vec<Option<[f64; NS]>> = map_chunks(threads, chunks, work)?;
     let mut s = [0.0; NS];
     for p in parts {
         let Some(a) = p else { return Ok(None) };
@@ -395,14 +388,7 @@ pub fn sun_exitance(
         Some(h)
     };
     let chunks = photons.div_ceil(CHUNK);
-    let parts: Vec<Option<Vec<f64>>> = match threads {
-        Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
-            .build()
-            .map_err(|e| Error::Invalid(format!("curved transport: no thread pool ({e})")))?
-            .install(|| (0..chunks).into_par_iter().map(work).collect()),
-        None => (0..chunks).into_par_iter().map(work).collect(),
-    };
+    let parts: Vec<Option<Vec<f64>>> = map_chunks(threads, chunks, work)?;
     let mut h = vec![0.0; bins];
     for p in parts {
         let Some(a) = p else { return Ok(None) };
@@ -410,6 +396,19 @@ pub fn sun_exitance(
     }
     // power πρ²·E into 4πρ²/bins of area per bin
     Ok(Some(h.iter().map(|x| x / photons as f64 * 0.25 * bins as f64).collect()))
+}
+
+/// `work` over the chunk indices 0..`chunks` in parallel, results in index order: on a pool of
+/// `threads` threads, or rayon's global pool for `None`.
+fn map_chunks<T: Send>(threads: Option<usize>, chunks: u64, work: impl Fn(u64) -> T + Sync + Send) -> Result<Vec<T>> {
+    match threads {
+        Some(n) => Ok(rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build()
+            .map_err(|e| Error::Invalid(format!("curved transport: no thread pool ({e})")))?
+            .install(|| (0..chunks).into_par_iter().map(work).collect())),
+        None => Ok((0..chunks).into_par_iter().map(work).collect()),
+    }
 }
 
 #[cfg(test)]
