@@ -22,6 +22,7 @@ pub mod convex;
 pub mod distance;
 pub mod driver;
 pub mod facet_nee;
+pub mod flight;
 pub mod grid;
 pub mod guide;
 pub mod hierarchical;
