@@ -292,22 +292,6 @@ impl Accel {
         self.intersect(o, d, tmax, skip)
     }
 
-    /// [`Self::intersect`] answered, where they can, by the per-cell triangle lists
-    /// ([`super::cells`]), starting past the distance bound at `o`: the same hit (the lists
-    /// give the BVH's). For the short rays of the light connections from a collision near the
-    /// surface ([`super::facet_nee::chain`]); a scene that is one convex body keeps the BVH call
-    /// (its outward rays need no traversal, the rest are rare fallbacks).
-    pub fn intersect_near(&self, o: V3, d: V3, tmax: f64, skip: u32) -> Option<Hit> {
-        if self.convex.is_none() {
-            if let Some(found) =
-                self.cells.as_ref().and_then(|c| c.closest(self, o, d, tmax, skip, self.clear_radius(o)))
-            {
-                return found.map(|(t, i, b1, b2)| self.hit(o, d, t, i, b1, b2));
-            }
-        }
-        self.intersect(o, d, tmax, skip)
-    }
-
     /// Whether a ray from a point of triangle `skip` along `d` leaves it outwards through a plane
     /// that supports the scene ([`Self::hull`]): it meets nothing.
     #[inline]

@@ -66,7 +66,7 @@ pub fn chain(scene: &Scene, media: &Media, v: V3, dir: V3) -> Option<Chain> {
     let (mut med, mut o, mut skip, mut tau) = (*media, v, u32::MAX, [0.0; 3]);
     for _ in 0..MAX_CHAIN {
         let m = med.medium(scene)?;
-        let h = scene.accel.intersect_near(o, dir, f64::INFINITY, skip)?;
+        let h = scene.accel.intersect(o, dir, f64::INFINITY, skip)?;
         let dt = super::grid::optical_depth(m, o, dir, h.t);
         tau = std::array::from_fn(|k| tau[k] + dt[k]);
         let (after, n1, n2) = med.across(scene, &h, dir)?;

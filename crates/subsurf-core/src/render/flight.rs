@@ -92,7 +92,7 @@ pub fn reflected_light(scene: &Scene, media: &Media, h: &Hit, d: V3, reach: &Rea
     let m = media.medium(scene)?;
     let fr = fr_dielectric(dot(d, h.n).abs(), n1, n2);
     let zero = Some([0.0; 3]);
-    let Some(h2) = scene.accel.intersect_near(h.p, r, f64::INFINITY, h.tri) else { return zero };
+    let Some(h2) = scene.accel.intersect(h.p, r, f64::INFINITY, h.tri) else { return zero };
     let Some((_, _, m2)) = media.across(scene, &h2, r).filter(|x| x.0.is_empty()) else { return zero };
     let Some(out) = refract(r, h2.n, n1, m2) else { return zero };
     let Some((_, _, le)) = light_seen(scene, &h2, out) else { return zero };

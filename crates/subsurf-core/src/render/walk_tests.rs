@@ -174,7 +174,7 @@ fn guided_walk_matches_the_classic_walk_slow() {
         assert!(super::guide::Dwivedi::for_medium(m).is_some());
     }
     let light = Light::rect("l", [0.0, -8.0, 8.0], [-6.0, 0.0, 0.0], [0.0, 4.0, 4.0], [1000.0; 3]).unwrap();
-    for (name, light, env, n) in [("environment", None, [1.0; 3], 500), ("rect", Some(light), [0.0; 3], 900)] {
+    for (name, light, env, n) in [("environment", None, [1.0; 3], 500), ("rect", Some(light), [0.0; 3], 600)] {
         let objects = vec![
             Object { name: "outer".into(), mesh: icosphere([0.0; 3], 2.0, 3).unwrap(), material: 0 },
             Object { name: "inner".into(), mesh: icosphere([0.0, 0.0, -0.3], 1.2, 2).unwrap(), material: 1 },
@@ -343,16 +343,17 @@ fn lit(mesh: super::Mesh, m: Material, light: Light, eye: V3) -> Arc<Scene> {
 /// light's expected value change the noise, not the answer: the default walk against plain path
 /// tracing (no next-event estimation: the light found only by exits), image sums within 4σ, on
 /// a torus lit from the side (not convex: straight exits leave through facets the facet search
-/// does not find, and the other side of the ring shades some) and on a cupped lens lit from
-/// behind (exits after a reflection off the front face). Power: every band is checked below
-/// 5 %; the next flight without its MIS weight (counting what the connections count) gave
-/// +50 %.
+/// does not find, and the other side of the ring shades some; a large light close by, so that
+/// path tracing converges) and on a cupped lens lit from behind (exits after a reflection off
+/// the front face). Power: every band is checked below 5 %; the next flight without its MIS
+/// weight (counting what the connections count) gave +25 % on the torus, without its occlusion
+/// test +5 %.
 #[test]
 fn light_next_flight_matches_path_tracing_slow() {
-    let light = Light::rect("l", [-4.0, -2.0, 3.0], [0.0, 6.0, 0.0], [3.0, 0.0, 3.0], [3000.0; 3]).unwrap();
+    let light = Light::rect("l", [-5.0, 0.0, 2.0], [0.0, 20.0, 0.0], [2.0, 0.0, 20.0], [45000.0; 3]).unwrap();
     let torus = super::shapes::torus([0.0; 3], 2.5, 1.0, 32, 16).unwrap();
     let m = medium([0.05, 0.2, 0.5], [3.0; 3], 0.6, 1.4);
-    for (name, s, n) in [("torus", lit(torus, m, light, [0.0, -12.0, 6.0]), 1800), ("lens", cupped_lens(1.4), 600)] {
+    for (name, s, n) in [("torus", lit(torus, m, light, [0.0, -12.0, 6.0]), 600), ("lens", cupped_lens(1.4), 600)] {
         let with = RandomWalk::new(&s);
         assert!(with.light_flight && with.reflected);
         let a = Renderer::from_parts(s.clone(), Box::new(with), 41);
@@ -374,7 +375,7 @@ fn reflected_light_matches_the_exits_it_replaces_slow() {
     off.reflected = false;
     let a = Renderer::from_parts(s.clone(), Box::new(RandomWalk::new(&s)), 43);
     let b = Renderer::from_parts(s.clone(), Box::new(off), 43);
-    let n = 500;
+    let n = 300;
     let (d, sd) = super::tests::image_difference_stats(&a, &b, n);
     let (m, _) = image_sum_stats(&b, n);
     for k in 0..3 {
