@@ -309,12 +309,24 @@ fn point_geometry(eta: f64, d1: f64, d2: f64, cos1: f64, cos2: f64) -> f64 {
 
 /// The t ∈ [0, D] minimising η√(t² + h_v²) + √((D − t)² + h_y²): the root of the derivative
 /// g(t) = ηt/√(t² + h_v²) − (D − t)/√((D − t)² + h_y²), which increases monotonically from
-/// negative at 0 to positive at D, by Newton's method from the straight line's t (the root at
-/// η = 1) safeguarded by bisection (a step leaving the bracket is replaced by its midpoint):
-/// about 5 steps instead of bisection's 64 (−7 % walk instructions on the marble sphere).
+/// negative at 0 to positive at D, by Newton's method safeguarded by bisection (a step leaving
+/// the bracket is replaced by its midpoint): about 5 steps instead of bisection's 64 (−7 % walk
+/// instructions on the marble sphere). It starts from the far-source limit where that lies in
+/// the bracket (the outside ray's direction taken as at t = 0), else from the straight line's t
+/// (the root at η = 1): measured on the benchmark's skin and ear under the rect light, −1.6 and
+/// −2.0 % instructions per spp, −5.5 and −6 % CPU time (interleaved A/B).
 fn fermat_t(eta: f64, hv: f64, hy: f64, big_d: f64) -> f64 {
     let (mut lo, mut hi) = (0.0, big_d);
     let mut t = if hv + hy > 0.0 { big_d * hv / (hv + hy) } else { 0.5 * big_d };
+    // Where the source is far (h_y ≫ h_v, an area light seen from a collision near the
+    // surface): start from the outside ray's sine as at t = 0, refracted (sin θ₂ = sin θ₁/η).
+    let s2 = big_d / (eta * (big_d * big_d + hy * hy).sqrt());
+    if s2 < 1.0 {
+        let g = hv * s2 / (1.0 - s2 * s2).sqrt();
+        if g > 0.0 && g < big_d {
+            t = g;
+        }
+    }
     for _ in 0..64 {
         let (a, b) = ((t * t + hv * hv).sqrt(), ((big_d - t).powi(2) + hy * hy).sqrt());
         let g = eta * t / a - (big_d - t) / b;
