@@ -78,6 +78,47 @@ pub struct Accel {
     /// Per-cell triangle lists on the distance grid's cells ([`super::cells`]; set with
     /// [`Self::distance`]): the walk's short rays without the BVH.
     pub cells: Option<super::cells::CellLists>,
+    /// Per triangle, whether its plane supports the scene: every triangle lies on or behind it
+    /// (within [`HULL_EPS`] of the extent), so a ray leaving it outwards meets nothing
+    /// ([`hull_facets`]; empty where not computed, or for a convex body, [`Self::convex`]).
+    pub hull: Vec<bool>,
+}
+
+/// The tolerance of [`Accel::hull`], relative to the extent: a vertex this far in front of a
+/// facet's plane still counts as behind it.
+pub const HULL_EPS: f64 = 1e-13;
+
+/// The least cosine to the facet normal of a ray that [`Accel::hull`] answers: its points past
+/// the rays' least distance (10⁻¹⁰ of the extent) are then more than [`HULL_EPS`] (and any
+/// rounding of the origin) in front of the plane, where no triangle lies.
+const HULL_COS: f64 = 2e-3;
+
+/// Per triangle, whether every vertex of `tris` lies on or behind its plane (within `tol`, mm):
+/// the vertices are binned into boxes (8 per axis of the bounding box) and a box whose farthest
+/// corner along the normal is behind the plane needs no vertex test.
+pub fn hull_facets(tris: &[Tri], lo: V3, hi: V3, tol: f64) -> Vec<bool> {
+    const K: usize = 8;
+    let size: V3 = std::array::from_fn(|a| (hi[a] - lo[a]).max(1e-300));
+    let mut bins: Vec<(V3, V3, Vec<V3>)> = vec![([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], vec![]); K * K * K];
+    for t in tris {
+        for p in [t.v0, add(t.v0, t.e1), add(t.v0, t.e2)] {
+            let c: [usize; 3] = std::array::from_fn(|a| (((p[a] - lo[a]) / size[a] * K as f64) as usize).min(K - 1));
+            let b = &mut bins[(c[0] * K + c[1]) * K + c[2]];
+            b.0 = std::array::from_fn(|a| b.0[a].min(p[a]));
+            b.1 = std::array::from_fn(|a| b.1[a].max(p[a]));
+            b.2.push(p);
+        }
+    }
+    bins.retain(|b| !b.2.is_empty());
+    tris.iter()
+        .map(|t| {
+            let top = dot(t.v0, t.n) + tol;
+            bins.iter().all(|(bl, bh, ps)| {
+                let far: f64 = (0..3).map(|a| (bl[a] * t.n[a]).max(bh[a] * t.n[a])).sum();
+                far <= top || ps.iter().all(|&p| dot(p, t.n) <= top)
+            })
+        })
+        .collect()
 }
 
 impl Accel {
@@ -132,9 +173,13 @@ impl Accel {
             })
             .collect();
         let bvh = build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
-        let mut acc = Accel { tris, bvh, extent, lo, hi, distance: None, neighbours, convex: None, cells: None };
+        let mut acc =
+            Accel { tris, bvh, extent, lo, hi, distance: None, neighbours, convex: None, cells: None, hull: vec![] };
         if meshes.len() == 1 {
             acc.convex = super::convex::Convex::new(&acc);
+        }
+        if acc.convex.is_none() {
+            acc.hull = hull_facets(&acc.tris, lo, hi, HULL_EPS * extent);
         }
         acc
     }
@@ -168,6 +213,9 @@ impl Accel {
     /// body outwards ([`Self::convex`]) meets nothing: no traversal.
     pub fn intersect(&self, o: V3, d: V3, tmax: f64, skip: u32) -> Option<Hit> {
         if self.convex.is_some() && skip != u32::MAX && dot(d, self.tris[skip as usize].n) > 0.0 {
+            return None;
+        }
+        if self.leaves_hull(d, skip) {
             return None;
         }
         let tmin = self.extent * 1e-10;
@@ -235,8 +283,21 @@ impl Accel {
         self.intersect(o, d, tmax, skip)
     }
 
-    /// Whether anything blocks the segment from `o` along `d` up to distance `tmax`.
+    /// Whether a ray from a point of triangle `skip` along `d` leaves it outwards through a plane
+    /// that supports the scene ([`Self::hull`]): it meets nothing.
+    #[inline]
+    fn leaves_hull(&self, d: V3, skip: u32) -> bool {
+        skip != u32::MAX
+            && self.hull.get(skip as usize).copied().unwrap_or(false)
+            && dot(d, self.tris[skip as usize].n) > HULL_COS
+    }
+
+    /// Whether anything blocks the segment from `o` along `d` up to distance `tmax` (nothing
+    /// where it leaves triangle `skip` outwards through a plane that supports the scene).
     pub fn occluded(&self, o: V3, d: V3, tmax: f64, skip: u32) -> bool {
+        if self.leaves_hull(d, skip) {
+            return false;
+        }
         let tmin = self.extent * 1e-10;
         let ray = Ray::new(vec3(o), dir3(d), 0.0, tmax.min(f32::MAX as f64) as f32);
         let mut found = false;
@@ -448,6 +509,37 @@ mod tests {
             assert!(acc.intersect([0.1, -0.2, 0.05], d, f64::INFINITY, u32::MAX).is_some(), "{d:?}");
         }
     }
+    /// Rays leaving a facet whose plane supports the scene (`Accel::hull`) meet nothing: on a
+    /// torus (not convex: the inner side's facets do not support it) the shortcut gives the
+    /// BVH's answer for rays from random facets in random outward directions, closest hit and
+    /// occlusion, and answers most of the outer side's rays.
+    #[test]
+    fn rays_leaving_a_supporting_facet_meet_nothing() {
+        let m = crate::render::shapes::torus([0.0; 3], 3.0, 1.0, 32, 16).unwrap();
+        let acc = Accel::new(&[&m]);
+        let mut bvh = Accel::new(&[&m]);
+        bvh.hull.clear();
+        let on = acc.hull.iter().filter(|&&h| h).count();
+        assert!(
+            acc.convex.is_none() && on > acc.tris.len() / 4 && on < acc.tris.len() * 3 / 4,
+            "{on} of {}",
+            acc.tris.len()
+        );
+        let mut rng = crate::rng::PhotonRng::new(7, 8);
+        let mut answered = 0;
+        for _ in 0..20_000 {
+            let i = (rng.uniform() * acc.tris.len() as f64) as usize % acc.tris.len();
+            let o = acc.point(i, 0.3 * rng.uniform(), 0.3 * rng.uniform());
+            let d = crate::optics::sample_uniform_sphere(rng.uniform(), rng.uniform());
+            let d = if dot(d, acc.tris[i].n) < 0.0 { scale(d, -1.0) } else { d };
+            let (a, b) = (acc.intersect(o, d, f64::INFINITY, i as u32), bvh.intersect(o, d, f64::INFINITY, i as u32));
+            assert_eq!(a.map(|h| (h.tri, h.t)), b.map(|h| (h.tri, h.t)), "facet {i}, {d:?}");
+            assert_eq!(acc.occluded(o, d, 50.0, i as u32), bvh.occluded(o, d, 50.0, i as u32));
+            answered += usize::from(acc.leaves_hull(d, i as u32));
+        }
+        assert!(answered > 5_000, "{answered}");
+    }
+
     /// `segment_clear` never clears a segment that meets the mesh (the closest hit along the ray
     /// lies beyond it), and it clears more than the bound at the start alone would (sphere
     /// tracing pays): random segments of up to 3 mm inside a sphere of radius 5 mm.

@@ -184,6 +184,18 @@ impl Light {
         }
     }
 
+    /// The area pdf (mm⁻²) of [`Self::sample_point`] and the emitting unit normal at the point
+    /// `y` of the light's surface; `None` for point and directional lights.
+    pub fn point_pdf(&self, y: V3) -> Option<(f64, V3)> {
+        match *self {
+            Light::Rect { u, v, n, .. } => Some((1.0 / (4.0 * length(cross(u, v))), n)),
+            Light::Sphere { center, radius, .. } => {
+                Some((1.0 / (4.0 * PI * radius * radius), scale(sub(y, center), 1.0 / radius)))
+            }
+            Light::Point { .. } | Light::Directional { .. } => None,
+        }
+    }
+
     /// Where a ray (o, unit d) meets the light's emitting surface before `tmax`: the distance
     /// and the radiance seen; `None` for point and directional lights (zero measure).
     pub fn hit(&self, o: V3, d: V3, tmax: f64) -> Option<(f64, Rgb)> {

@@ -24,6 +24,7 @@ pub mod distance;
 pub mod driver;
 pub mod facet_nee;
 pub mod fastmath;
+pub mod flight;
 pub mod grid;
 pub mod guide;
 pub mod hierarchical;

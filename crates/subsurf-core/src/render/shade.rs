@@ -47,6 +47,9 @@ pub enum Seen {
     /// Not the environment (0 where the ray escapes the scene): the random walk's exits whose
     /// escape to the environment its next-flight estimator counts.
     NoEnvironment,
+    /// Neither (the random walk's exits whose lights and environment its next-flight
+    /// estimators count).
+    NoEmitters,
 }
 
 /// [`trace`] of the ray `(o, d, skip)` with the directly seen emitters of `seen` only (what it
@@ -62,9 +65,9 @@ pub fn trace_seen(
     let hit = scene.accel.intersect(o, d, f64::INFINITY, skip);
     let tmax = hit.map_or(f64::INFINITY, |h| h.t);
     if let Some((_, le)) = scene.light_hit(o, d, tmax) {
-        return if seen == Seen::NoLights { [0.0; 3] } else { le };
+        return if matches!(seen, Seen::NoLights | Seen::NoEmitters) { [0.0; 3] } else { le };
     }
-    if hit.is_none() && seen == Seen::NoEnvironment {
+    if hit.is_none() && matches!(seen, Seen::NoEnvironment | Seen::NoEmitters) {
         return [0.0; 3];
     }
     shade(scene, hit, d, depth, rng, tr)

@@ -391,7 +391,7 @@ fn random_walk_point_light_far_away_is_a_directional_light() {
 
 /// Per-sample differences of the image sums of two renderers (same pixels, same sample indices):
 /// (mean, standard error) per channel.
-fn image_difference_stats(r1: &Renderer, r2: &Renderer, n: u32) -> ([f64; 3], [f64; 3]) {
+pub(super) fn image_difference_stats(r1: &Renderer, r2: &Renderer, n: u32) -> ([f64; 3], [f64; 3]) {
     let cam = r1.scene.camera.as_ref().unwrap();
     let (mut s, mut s2) = ([0.0; 3], [0.0; 3]);
     for i in 0..n {

@@ -238,6 +238,9 @@ pub trait Carrier {
     fn roulette(&mut self, p: V3, rng: &mut PhotonRng) -> bool;
     /// The path moved `t` through `m` to a boundary (before crossing it).
     fn reach(&mut self, m: &Translucent, t: f64) -> bool;
+    /// After [`Carrier::reach`], before the crossing at `hit` (arriving along `d`, inside
+    /// `media`) is drawn: estimators of what follows it; nothing by default.
+    fn boundary(&mut self, _scene: &Scene, _media: &Media, _hit: &Hit, _d: V3) {}
     /// The path was reflected at, or crossed, a boundary and stays inside the objects.
     fn bounced(&mut self, crossing: &Crossing);
     /// The path left every object at `hit.p` along `d`.
@@ -331,6 +334,7 @@ pub fn walk<C: Carrier>(
                     flight = Flight::CLASSIC; // the rest of the flight is classic
                     c.flight(&flight);
                 }
+                c.boundary(scene, &media, &h, d);
                 let x = cross_boundary(scene, &mut media, &h, d, rng);
                 match x {
                     Crossing::Opaque => return c.lost(p, false),
