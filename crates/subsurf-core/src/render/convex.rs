@@ -139,7 +139,7 @@ impl Convex {
             if s[k] >= 0.0 {
                 return Some(f);
             }
-            f = acc.neighbours[f as usize][k];
+            f = t.nb[k];
         }
         None
     }
