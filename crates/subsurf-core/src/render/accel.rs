@@ -280,10 +280,9 @@ impl Accel {
     pub fn intersect_walk(&self, o: V3, d: V3, tmax: f64, skip: u32, held: &mut bool, free: f64) -> Option<Hit> {
         let known = std::mem::replace(held, false);
         if let Some(cv) = &self.convex {
-            let end = madd(o, d, tmax.min(self.extent));
-            cv.prefetch(end); // its cube-map cell, looked up after the start's walk below
             let inside =
                 if skip == u32::MAX { known || cv.holds(self, o) } else { dot(d, self.tris[skip as usize].n) < 0.0 };
+            let end = madd(o, d, tmax.min(self.extent));
             if inside && tmax <= self.extent && cv.holds(self, end) {
                 *held = true;
                 return None; // both ends inside a convex body: so is the segment
@@ -345,14 +344,6 @@ impl Accel {
     /// Area of global triangle `i`, mm².
     pub fn area(&self, i: usize) -> f64 {
         0.5 * length(cross(self.tris[i].e1, self.tris[i].e2))
-    }
-
-    /// Prefetch the distance grid's cell of `p` ([`DistanceGrid::prefetch`]).
-    #[inline(always)]
-    pub fn prefetch_bound(&self, p: V3) {
-        if let Some(g) = &self.distance {
-            g.prefetch(p);
-        }
     }
 
     /// A distance (mm) from `p` within which no triangle lies (0 when unknown).

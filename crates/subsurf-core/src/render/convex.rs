@@ -75,18 +75,6 @@ impl Convex {
     /// The facet in the cube-map cell of the direction from c to `p`.
     #[inline]
     pub fn guess(&self, p: V3) -> u32 {
-        self.cells[self.cell(p)]
-    }
-
-    /// Prefetch the cube-map cell of `p` for a [`Self::guess`] to come.
-    #[inline]
-    pub fn prefetch(&self, p: V3) {
-        super::math::prefetch(&self.cells[self.cell(p)]);
-    }
-
-    /// The index of the cube-map cell of the direction from c to `p`.
-    #[inline(always)]
-    fn cell(&self, p: V3) -> usize {
         let d = sub(p, self.c);
         let a = [d[0].abs(), d[1].abs(), d[2].abs()];
         let ax = if a[0] > a[1] && a[0] > a[2] {
@@ -102,7 +90,7 @@ impl Convex {
         let half = 0.5 * CELLS as f64;
         let inv = half / a[ax].max(1e-300);
         let cell = |x: f64| ((x * inv + half) as i32).clamp(0, CELLS as i32 - 1) as usize;
-        (face * CELLS + cell(d[(ax + 1) % 3])) * CELLS + cell(d[(ax + 2) % 3])
+        self.cells[(face * CELLS + cell(d[(ax + 1) % 3])) * CELLS + cell(d[(ax + 2) % 3])]
     }
 
     /// Whether `p` lies inside the body by more than 10⁻¹² of the extent: behind the plane of

@@ -140,21 +140,13 @@ impl DistanceGrid {
 
     #[inline]
     fn flat(&self, c: [usize; 3]) -> usize {
-        (c[0].wrapping_mul(self.n[1]).wrapping_add(c[1])).wrapping_mul(self.n[2]).wrapping_add(c[2])
+        (c[0] * self.n[1] + c[1]) * self.n[2] + c[2]
     }
 
     /// Whether `p` lies in the grid's box (always, for an empty grid).
     #[inline]
     pub fn contains(&self, p: V3) -> bool {
         self.d2.is_empty() || (0..3).all(|a| p[a] >= self.lo[a] && p[a] <= self.hi[a])
-    }
-
-    /// Prefetch the cell of `p` for a [`Self::bound`] lookup to come. No range check: the cast
-    /// saturates and the address is only a hint (a prefetch never faults).
-    #[inline(always)]
-    pub fn prefetch(&self, p: V3) {
-        let c: [usize; 3] = std::array::from_fn(|a| ((p[a] - self.lo[a]) * self.inv_h) as i32 as usize);
-        super::math::prefetch_ptr(self.d2.as_ptr().wrapping_add(self.flat(c)));
     }
 
     /// A distance (mm) not above the distance from `p` to the nearest triangle (0 outside the

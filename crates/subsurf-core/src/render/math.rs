@@ -6,29 +6,6 @@ pub type V3 = [f64; 3];
 /// One value per colour channel (R, G, B).
 pub type Rgb = [f64; 3];
 
-/// Ask the caches for the line that holds `*x` (a hint that changes no result: the walk's next
-/// lookups of scattered data, issued before the work that precedes them).
-#[inline(always)]
-pub fn prefetch<T>(x: &T) {
-    prefetch_ptr(x as *const T);
-}
-
-/// [`prefetch`] of any address (not dereferenced: a prefetch of an address outside the
-/// process's memory is dropped by the processor, it does not fault).
-#[inline(always)]
-pub fn prefetch_ptr<T>(x: *const T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch reads nothing into the program and cannot fault; SSE is part of the
-    // x86_64 baseline.
-    #[allow(unused_unsafe)]
-    unsafe {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch::<_MM_HINT_T0>(x.cast());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
-}
-
 #[inline(always)]
 pub fn add(a: V3, b: V3) -> V3 {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]

@@ -274,14 +274,6 @@ impl Carrier for Radiance<'_> {
     }
 
     #[inline(always)]
-    fn ahead(&self, p: V3) {
-        // The bound to the facets that can face a light (`nee_draw`'s second lookup).
-        if let Some(g) = &self.rw.facing {
-            g.prefetch(p);
-        }
-    }
-
-    #[inline(always)]
     fn roulette(&mut self, _p: V3, rng: &mut PhotonRng) -> bool {
         let theta = self.rw.rr_threshold;
         let q = max3(self.beta) / theta;

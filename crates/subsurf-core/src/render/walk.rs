@@ -234,9 +234,6 @@ pub trait Carrier {
     /// estimation); nothing by default.
     #[allow(clippy::too_many_arguments)]
     fn scattered(&mut self, _scene: &Scene, _m: &Translucent, _media: &Media, _p: V3, _d: V3, _rng: &mut PhotonRng) {}
-    /// The next flight may end at `p`: prefetch what a collision there will look up (a hint:
-    /// no effect on the results); nothing by default.
-    fn ahead(&self, _p: V3) {}
     /// After the new direction is drawn: Russian roulette.
     fn roulette(&mut self, p: V3, rng: &mut PhotonRng) -> bool;
     /// The path moved `t` through `m` to a boundary (before crossing it).
@@ -283,12 +280,6 @@ pub fn walk<C: Carrier>(
         let st = m.sigma_bar[k] * flight.sample_factor();
         // −ln(1 − ξ) (1 − ξ is exact for the stream's 33-bit uniforms), by the inlined ln.
         let s = if st > 0.0 { -super::fastmath::ln(1.0 - rng.uniform()) / st } else { f64::INFINITY };
-        // The distance bounds at the flight's end (its collision, most often, and the next
-        // flight's start) are looked up after the free-path test and the collision's weights:
-        // their cells are requested now, so the misses overlap that work.
-        let end = madd(p, d, s);
-        scene.accel.prefetch_bound(end);
-        c.ahead(end);
         // The boundary ahead, unless the collision comes first. A free path that the distance
         // grid's bound shows clear of every surface (sphere tracing, `Accel::segment_clear`)
         // needs no ray, and the ray that is cast ends at the collision (a short ray skips most
