@@ -135,11 +135,13 @@ impl Convex {
             let t = &acc.tris[f as usize];
             let p = [sub(t.v0, v), sub(add(t.v0, t.e1), v), sub(add(t.v0, t.e2), v)];
             let s: [f64; 3] = std::array::from_fn(|k| dot(cross(p[k], p[(k + 1) % 3]), dir));
-            let k = (0..3).min_by(|&a, &b| s[a].total_cmp(&s[b]))?;
+            // The first least s[k] (as `min_by` with `total_cmp`), by selects, not branches.
+            let k01 = usize::from(s[1].total_cmp(&s[0]).is_lt());
+            let k = if s[2].total_cmp(&s[k01]).is_lt() { 2 } else { k01 };
             if s[k] >= 0.0 {
                 return Some(f);
             }
-            f = acc.neighbours[f as usize][k];
+            f = t.nb[k];
         }
         None
     }

@@ -211,7 +211,7 @@ pub fn points_walked(scene: &Scene, media: &Media, v: V3, y: V3, steps: usize) -
     let Some(c) = point_in(scene, media, v, y, cv) else { return out };
     let eta = media.index(scene);
     let f0 = c.hit.tri;
-    let nbs = scene.accel.neighbours[f0 as usize];
+    let nbs = scene.accel.tris[f0 as usize].nb;
     out[0] = Some(c);
     for (k, nb) in nbs.into_iter().enumerate() {
         let (mut cur, mut prev) = (nb, f0);
@@ -227,7 +227,7 @@ pub fn points_walked(scene: &Scene, media: &Media, v: V3, y: V3, steps: usize) -
                     break;
                 }
                 Attempt::Beyond(e) => {
-                    let next = scene.accel.neighbours[cur as usize][e];
+                    let next = scene.accel.tris[cur as usize].nb[e];
                     if next == prev || next == f0 || nbs.contains(&next) {
                         break;
                     }

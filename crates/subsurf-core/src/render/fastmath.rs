@@ -84,13 +84,14 @@ pub fn ln(x: f64) -> f64 {
     if !(f64::MIN_POSITIVE..f64::INFINITY).contains(&x) {
         return x.ln();
     }
+    // m = 1.mant, halved (exponent field 1022, exact) where it exceeds √2: decided on the
+    // mantissa bits without a branch (a random walk's free paths make it a coin toss).
+    const MANT: u64 = (1u64 << 52) - 1;
     let bits = x.to_bits();
-    let mut e = (bits >> 52) as i64 - 1023;
-    let mut m = f64::from_bits((bits & ((1u64 << 52) - 1)) | (1023u64 << 52));
-    if m > std::f64::consts::SQRT_2 {
-        m *= 0.5;
-        e += 1;
-    }
+    let mant = bits & MANT;
+    let big = u64::from(mant > std::f64::consts::SQRT_2.to_bits() & MANT);
+    let e = (bits >> 52) as i64 - 1023 + big as i64;
+    let m = f64::from_bits(mant | ((1023 - big) << 52));
     let f = (m - 1.0) / (m + 1.0);
     let s = f * f;
     let p = 1.0

@@ -156,14 +156,9 @@ impl Carrier for Radiance<'_> {
             return None;
         }
         self.w = scale(self.beta, 1.0 / bsum);
+        // Without branches (their outcome is random): u < w₀ ≤ w₀ + w₁ gives 0.
         let u = rng.uniform();
-        self.k = if u < self.w[0] {
-            0
-        } else if u < self.w[0] + self.w[1] {
-            1
-        } else {
-            2
-        };
+        self.k = usize::from(u >= self.w[0]) + usize::from(u >= self.w[0] + self.w[1]);
         Some(self.k)
     }
 
@@ -182,8 +177,17 @@ impl Carrier for Radiance<'_> {
         // A classic flight's β_k σs,k T_k / p̄ is computed divided through by T_c of the
         // sampled channel c: T_k/T_c = e^{(σt,c − σt,k) s} ≤ e^{−ln ξ} (no overflow), T_c/T_c
         // = 1 without an exponential (two instead of three per collision).
-        let (c, shift) = if f.gf > 0.0 { (3, 0.0) } else { (self.k, m.sigma_t[self.k]) };
-        let tr: Rgb = std::array::from_fn(|k| if k == c { 1.0 } else { exp((shift - m.sigma_t[k]) * s) });
+        // The two other channels by index (no branch on the random channel).
+        let tr: Rgb = if f.gf > 0.0 {
+            std::array::from_fn(|k| exp(-m.sigma_t[k] * s))
+        } else {
+            let (c, shift) = (self.k, m.sigma_t[self.k]);
+            let (a, b) = ([1, 2, 0][c], [2, 0, 1][c]);
+            let mut tr = [1.0; 3];
+            tr[a] = exp((shift - m.sigma_t[a]) * s);
+            tr[b] = exp((shift - m.sigma_t[b]) * s);
+            tr
+        };
         let mut pbar = dot(self.w, mul(m.sigma_t, tr));
         if f.gf > 0.0 {
             // The one-sample MIS mixture of the classic and the guided flight (per unit phase
