@@ -24,12 +24,13 @@
 
 use super::accel::Hit;
 use super::driver::Control;
-use super::irradiance::{transmitted_irradiance, Entry, Unlit};
+use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Entry, Harm, Unlit};
 use super::material::Translucent;
 use super::math::{add, dot, length, madd, mul, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
 use super::texture::shading_medium;
+use crate::bssrdf::harmonic::{factors, AtRho};
 use crate::bssrdf::RadialProfile;
 use crate::error::{Error, Result};
 use crate::rng::PhotonRng;
@@ -81,6 +82,10 @@ pub struct Sample {
     pub area: f64,
     /// Transmitted irradiance E_t per channel.
     pub e: Rgb,
+    /// The surface normal.
+    pub n: V3,
+    /// The azimuthal harmonic vectors of its light (`adaptive` under lights; else 0).
+    pub m: Harm,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -90,6 +95,9 @@ struct Node {
     area: f64,
     power: Rgb,
     centroid: V3,
+    /// Σ n A, and Σ m E_t A per class and channel (the power-weighted harmonic vectors).
+    n: V3,
+    m: Harm,
     /// Children `first .. first + count` (nodes) or samples (leaf).
     first: u32,
     count: u32,
@@ -102,6 +110,8 @@ pub struct Tree {
     nodes: Vec<Node>,
     /// Radius ρ₀ of the near field (mm): [`NEAR_FIELD`] sample spacings.
     pub rho0: f64,
+    /// Whether any sample has a harmonic (then every pair is weighted by its factor).
+    harm: bool,
 }
 
 const LEAF_SIZE: usize = 8;
@@ -114,7 +124,8 @@ impl Tree {
         let mut nodes = vec![];
         let n = samples.len();
         build_node(&mut samples, 0, n, &mut nodes, 0);
-        Tree { samples, nodes, rho0: NEAR_FIELD * delta }
+        let harm = samples.iter().any(|s| s.m != [[[0.0; 3]; 3]; 2]);
+        Tree { samples, nodes, rho0: NEAR_FIELD * delta, harm }
     }
 
     /// Σ R_d(‖x − x_j‖) E_j A_j with clusters under `epsilon` (0: exact all-pairs sum), with the
@@ -151,7 +162,9 @@ impl Tree {
             if nd.leaf {
                 for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
                     let (c, r) = pp.class(x, s.p);
-                    acc = add(acc, scale(mul(rd(c, r), s.e), s.area));
+                    let v = mul(rd(c, r), s.e);
+                    let v = if self.harm { mul(v, factors(&s.m[c], s.n, sub(x, s.p))) } else { v };
+                    acc = add(acc, scale(v, s.area));
                     if r < rho0 {
                         near_e[c] = madd(near_e[c], s.e, s.area);
                         near_a[c] += s.area;
@@ -167,7 +180,9 @@ impl Tree {
                 // A far-class node that may hold samples within ρ₀ of r⊥ = 0 is opened (every
                 // member is within the box's diagonal of the centroid, and r⊥ is 1-Lipschitz).
                 if c == 0 || r >= rho0 + length(sub(nd.hi, nd.lo)) {
-                    acc = add(acc, mul(rd(c, r), nd.power));
+                    let v = mul(rd(c, r), nd.power);
+                    let v = if self.harm { mul(v, node_factors(nd, c, x)) } else { v };
+                    acc = add(acc, v);
                     continue;
                 }
             }
@@ -195,6 +210,13 @@ pub trait PairProfiles {
     fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile;
 }
 
+/// The pair factors of a cluster of class `c` seen from `x`: its power-weighted harmonic vectors.
+fn node_factors(nd: &Node, c: usize, x: V3) -> Rgb {
+    let m: [V3; 3] =
+        std::array::from_fn(|k| if nd.power[k] > 0.0 { scale(nd.m[c][k], 1.0 / nd.power[k]) } else { [0.0; 3] });
+    factors(&m, nd.n, sub(x, nd.centroid))
+}
+
 /// One class, the material's profiles at the straight distance (every model but `adaptive`).
 struct Flat<'a>(&'a super::material::Profiles);
 
@@ -211,7 +233,14 @@ fn build_node(s: &mut [Sample], a: usize, b: usize, nodes: &mut Vec<Node>, depth
     let idx = nodes.len() as u32;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     let (mut area, mut power, mut wsum, mut c, mut ca) = (0.0, [0.0; 3], 0.0, [0.0; 3], [0.0; 3]);
+    let (mut nsum, mut msum) = ([0.0; 3], [[[0.0; 3]; 3]; 2]);
     for x in &s[a..b] {
+        nsum = madd(nsum, x.n, x.area);
+        for (mc, xc) in msum.iter_mut().zip(&x.m) {
+            for k in 0..3 {
+                mc[k] = madd(mc[k], xc[k], x.e[k] * x.area);
+            }
+        }
         for k in 0..3 {
             lo[k] = lo[k].min(x.p[k]);
             hi[k] = hi[k].max(x.p[k]);
@@ -224,7 +253,8 @@ fn build_node(s: &mut [Sample], a: usize, b: usize, nodes: &mut Vec<Node>, depth
         ca = madd(ca, x.p, x.area);
     }
     let centroid = if wsum > 0.0 { scale(c, 1.0 / wsum) } else { scale(ca, 1.0 / area.max(1e-300)) };
-    nodes.push(Node { lo, hi, area, power, centroid, first: a as u32, count: (b - a) as u32, leaf: true });
+    let (n, m) = (nsum, msum);
+    nodes.push(Node { lo, hi, area, power, centroid, n, m, first: a as u32, count: (b - a) as u32, leaf: true });
     if b - a <= LEAF_SIZE || depth > 40 || (0..3).all(|k| hi[k] - lo[k] <= 0.0) {
         return idx;
     }
@@ -310,6 +340,8 @@ impl Hierarchical {
                 Some((place_samples(scene, oi, delta), delta))
             })
             .collect();
+        let spots: Vec<Option<(Spots, f64)>> =
+            spots.into_iter().enumerate().map(|(oi, sp)| sp.map(|(s, d)| (with_amplitudes(scene, oi, s), d))).collect();
         let n_all: usize = spots.iter().flatten().map(|(s, _)| s.len()).sum();
         ctl.total.fetch_add(n_all as u64, Ordering::Relaxed);
         // First gathering: translucent surfaces black; again with that estimate if a ray saw one.
@@ -372,15 +404,20 @@ fn gather(
             .par_iter()
             .enumerate()
             .with_max_len(16) // small tasks: a sample's cost varies with the shape (second gathering)
-            .map(|(j, (h, area))| {
+            .map(|(j, (h, area, amps))| {
                 if ctl.cancel.load(Ordering::Relaxed) {
                     return None;
                 }
                 let mut rng = PhotonRng::new(key, base + j as u64);
                 let (nl, nr) = (params.light_samples, params.env_samples);
-                let e = transmitted_irradiance(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr);
+                let (e, hm) = match amps {
+                    Some(a) => irradiance_and_harmonic(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr, a),
+                    None => {
+                        (transmitted_irradiance(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr), [[[0.0; 3]; 3]; 2])
+                    }
+                };
                 ctl.done.fetch_add(1, Ordering::Relaxed);
-                Some(Sample { p: h.p, area: *area, e })
+                Some(Sample { p: h.p, area: *area, e, n: h.n, m: hm })
             })
             .collect();
         base += spots.len() as u64;
@@ -389,8 +426,25 @@ fn gather(
     Some(trees)
 }
 
-/// Irradiance sample positions (as hits) with their areas (mm²).
-type Spots = Vec<(Hit, f64)>;
+/// Irradiance sample positions (as hits) with their areas (mm²) and, for `adaptive` under
+/// lights, their azimuthal-harmonic amplitudes.
+type Spots = Vec<(Hit, f64, Option<[AtRho; 3]>)>;
+
+/// `spots` of object `oi` with their amplitudes ([`super::adaptive::entry_amplitudes`]: probed
+/// once, used by both gatherings) where its material is `adaptive` and the scene has lights.
+fn with_amplitudes(scene: &Scene, oi: usize, spots: Spots) -> Spots {
+    let Some(t) = scene.material(oi).translucent().and_then(|m| m.adaptive.as_deref()) else { return spots };
+    if scene.lights.is_empty() {
+        return spots;
+    }
+    spots
+        .into_par_iter()
+        .map(|(h, a, _)| {
+            let amps = super::adaptive::entry_amplitudes(scene, t, &h);
+            (h, a, amps)
+        })
+        .collect()
+}
 
 /// The irradiance samples of object `oi` as hits, with their areas: triangles larger than Δ²
 /// are cut into k² congruent sub-triangles (a sample at each centroid); smaller ones are visited
@@ -415,7 +469,7 @@ fn place_samples(scene: &Scene, oi: usize, delta: f64) -> Spots {
         let kf = k as f64;
         let mut push = |b1: f64, b2: f64| {
             let p = acc.point(gi, b1, b2);
-            out.push((Hit { t: 0.0, tri: gi as u32, object: oi, b1, b2, p, n: t.n }, sub_area));
+            out.push((Hit { t: 0.0, tri: gi as u32, object: oi, b1, b2, p, n: t.n }, sub_area, None));
         };
         for i in 0..k {
             for j in 0..k - i {
@@ -433,7 +487,7 @@ fn place_samples(scene: &Scene, oi: usize, delta: f64) -> Spots {
     let (mut run, mut next, mut placed) = (0.0, 0.5 * cell, 0usize);
     let sample = |gi: usize, area: f64| {
         let p = acc.point(gi, third, third);
-        (Hit { t: 0.0, tri: gi as u32, object: oi, b1: third, b2: third, p, n: acc.tris[gi].n }, area)
+        (Hit { t: 0.0, tri: gi as u32, object: oi, b1: third, b2: third, p, n: acc.tris[gi].n }, area, None)
     };
     for &gi in &small {
         run += acc.area(gi);
