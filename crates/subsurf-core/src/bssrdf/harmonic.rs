@@ -177,39 +177,61 @@ impl Harmonic {
     }
 }
 
+/// A harmonic vector m in the form the pair factors use: its unit direction and its length a
+/// (at most [`MAX_AMPLITUDE`]; 0: no harmonic).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Lobe {
+    /// Unit forward direction (0 when a = 0).
+    pub u: [f64; 3],
+    /// Amplitude a = ⟨cos φ⟩.
+    pub a: f64,
+}
+
+impl Lobe {
+    /// The lobe of harmonic vector `m`.
+    pub fn new(m: [f64; 3]) -> Lobe {
+        let len = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+        if !(len > 1e-12) {
+            return Lobe::default();
+        }
+        Lobe { u: [m[0] / len, m[1] / len, m[2] / len], a: len.min(MAX_AMPLITUDE) }
+    }
+    /// The harmonic vector a·u.
+    pub fn vector(&self) -> [f64; 3] {
+        [self.a * self.u[0], self.a * self.u[1], self.a * self.u[2]]
+    }
+}
+
 /// The wrapped-Cauchy factor (1 − a²)/(1 + a² − 2a cos φ) of a pair (see the module docs): `m`
 /// the entry point's harmonic vector (a = |m|, its direction the forward tangent), `n` its
 /// normal (any length), `v` the vector from the entry point to the exit point; 1 when there is no
 /// harmonic or no tangential direction.
-#[inline]
 pub fn factor(m: [f64; 3], n: [f64; 3], v: [f64; 3]) -> f64 {
-    factors(&[m; 3], n, v)[0]
+    let nl = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    let n = if nl > 0.0 { [n[0] / nl, n[1] / nl, n[2] / nl] } else { [0.0; 3] };
+    factors(&[Lobe::new(m); 3], n, v)[0]
 }
 
-/// [`factor`] for three harmonic vectors (one per channel) and the same pair.
+/// [`factor`] for three lobes (one per channel) and the same pair; `n` the entry point's unit
+/// normal (or 0).
 #[inline]
-pub fn factors(m: &[[f64; 3]; 3], n: [f64; 3], v: [f64; 3]) -> [f64; 3] {
-    let dot = |p: [f64; 3], q: [f64; 3]| p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
-    let a2 = m.map(|mk| dot(mk, mk));
-    if a2.iter().all(|&x| x <= 1e-24) {
+pub fn factors(l: &[Lobe; 3], n: [f64; 3], v: [f64; 3]) -> [f64; 3] {
+    if l[0].a == 0.0 && l[1].a == 0.0 && l[2].a == 0.0 {
         return [1.0; 3];
     }
-    let nn = dot(n, n);
+    let dot = |p: [f64; 3], q: [f64; 3]| p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
     let vn = dot(v, n);
-    let k = if nn > 0.0 { vn / nn } else { 0.0 };
-    let t = [v[0] - k * n[0], v[1] - k * n[1], v[2] - k * n[2]]; // v's tangential part
-    let t2 = dot(t, t);
+    let t2 = dot(v, v) - vn * vn; // |v's tangential part|²
     if t2 <= 1e-24 {
         return [1.0; 3];
     }
     let inv_t = 1.0 / t2.sqrt();
     std::array::from_fn(|c| {
-        if a2[c] <= 1e-24 {
+        let a = l[c].a;
+        if a == 0.0 {
             return 1.0;
         }
-        let len = a2[c].sqrt();
-        let a = len.min(MAX_AMPLITUDE);
-        let cos_phi = (dot(m[c], t) * inv_t / len).clamp(-1.0, 1.0);
+        let cos_phi = ((dot(l[c].u, v) - vn * dot(l[c].u, n)) * inv_t).clamp(-1.0, 1.0);
         (1.0 - a * a) / (1.0 + a * a - 2.0 * a * cos_phi)
     })
 }

@@ -24,13 +24,13 @@
 
 use super::accel::Hit;
 use super::driver::Control;
-use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Entry, Harm, Unlit};
+use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Entry, Unlit};
 use super::material::Translucent;
 use super::math::{add, dot, length, madd, mul, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
 use super::texture::shading_medium;
-use crate::bssrdf::harmonic::{factors, AtRho};
+use crate::bssrdf::harmonic::{factors, AtRho, Lobe};
 use crate::bssrdf::RadialProfile;
 use crate::error::{Error, Result};
 use crate::rng::PhotonRng;
@@ -82,10 +82,11 @@ pub struct Sample {
     pub area: f64,
     /// Transmitted irradiance E_t per channel.
     pub e: Rgb,
-    /// The surface normal.
+    /// The surface normal (unit).
     pub n: V3,
-    /// The azimuthal harmonic vectors of its light (`adaptive` under lights; else 0).
-    pub m: Harm,
+    /// The azimuthal harmonic of its light per class and channel (`adaptive` under lights; else
+    /// none).
+    pub m: [[Lobe; 3]; 2],
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -95,9 +96,10 @@ struct Node {
     area: f64,
     power: Rgb,
     centroid: V3,
-    /// Σ n A, and Σ m E_t A per class and channel (the power-weighted harmonic vectors).
+    /// The unit mean normal, and per class and channel the lobe of the power-weighted mean
+    /// harmonic vector Σ m E_t A / Σ E_t A.
     n: V3,
-    m: Harm,
+    m: [[Lobe; 3]; 2],
     /// Children `first .. first + count` (nodes) or samples (leaf).
     first: u32,
     count: u32,
@@ -124,7 +126,7 @@ impl Tree {
         let mut nodes = vec![];
         let n = samples.len();
         build_node(&mut samples, 0, n, &mut nodes, 0);
-        let harm = samples.iter().any(|s| s.m != [[[0.0; 3]; 3]; 2]);
+        let harm = samples.iter().any(|s| s.m.iter().flatten().any(|l| l.a != 0.0));
         Tree { samples, nodes, rho0: NEAR_FIELD * delta, harm }
     }
 
@@ -181,7 +183,7 @@ impl Tree {
                 // member is within the box's diagonal of the centroid, and r⊥ is 1-Lipschitz).
                 if c == 0 || r >= rho0 + length(sub(nd.hi, nd.lo)) {
                     let v = mul(rd(c, r), nd.power);
-                    let v = if self.harm { mul(v, node_factors(nd, c, x)) } else { v };
+                    let v = if self.harm { mul(v, factors(&nd.m[c], nd.n, sub(x, nd.centroid))) } else { v };
                     acc = add(acc, v);
                     continue;
                 }
@@ -210,13 +212,6 @@ pub trait PairProfiles {
     fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile;
 }
 
-/// The pair factors of a cluster of class `c` seen from `x`: its power-weighted harmonic vectors.
-fn node_factors(nd: &Node, c: usize, x: V3) -> Rgb {
-    let m: [V3; 3] =
-        std::array::from_fn(|k| if nd.power[k] > 0.0 { scale(nd.m[c][k], 1.0 / nd.power[k]) } else { [0.0; 3] });
-    factors(&m, nd.n, sub(x, nd.centroid))
-}
-
 /// One class, the material's profiles at the straight distance (every model but `adaptive`).
 struct Flat<'a>(&'a super::material::Profiles);
 
@@ -238,7 +233,7 @@ fn build_node(s: &mut [Sample], a: usize, b: usize, nodes: &mut Vec<Node>, depth
         nsum = madd(nsum, x.n, x.area);
         for (mc, xc) in msum.iter_mut().zip(&x.m) {
             for k in 0..3 {
-                mc[k] = madd(mc[k], xc[k], x.e[k] * x.area);
+                mc[k] = madd(mc[k], xc[k].vector(), x.e[k] * x.area);
             }
         }
         for k in 0..3 {
@@ -253,7 +248,11 @@ fn build_node(s: &mut [Sample], a: usize, b: usize, nodes: &mut Vec<Node>, depth
         ca = madd(ca, x.p, x.area);
     }
     let centroid = if wsum > 0.0 { scale(c, 1.0 / wsum) } else { scale(ca, 1.0 / area.max(1e-300)) };
-    let (n, m) = (nsum, msum);
+    let nl = length(nsum);
+    let n = if nl > 0.0 { scale(nsum, 1.0 / nl) } else { [0.0; 3] };
+    let m = msum.map(|mc| {
+        std::array::from_fn(|k| if power[k] > 0.0 { Lobe::new(scale(mc[k], 1.0 / power[k])) } else { Lobe::default() })
+    });
     nodes.push(Node { lo, hi, area, power, centroid, n, m, first: a as u32, count: (b - a) as u32, leaf: true });
     if b - a <= LEAF_SIZE || depth > 40 || (0..3).all(|k| hi[k] - lo[k] <= 0.0) {
         return idx;
@@ -411,9 +410,13 @@ fn gather(
                 let mut rng = PhotonRng::new(key, base + j as u64);
                 let (nl, nr) = (params.light_samples, params.env_samples);
                 let (e, hm) = match amps {
-                    Some(a) => irradiance_and_harmonic(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr, a),
+                    Some(a) => {
+                        let (e, hm) = irradiance_and_harmonic(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr, a);
+                        (e, hm.map(|mc| mc.map(Lobe::new)))
+                    }
                     None => {
-                        (transmitted_irradiance(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr), [[[0.0; 3]; 3]; 2])
+                        let e = transmitted_irradiance(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr);
+                        (e, [[Lobe::default(); 3]; 2])
                     }
                 };
                 ctl.done.fetch_add(1, Ordering::Relaxed);
@@ -430,18 +433,34 @@ fn gather(
 /// lights, their azimuthal-harmonic amplitudes.
 type Spots = Vec<(Hit, f64, Option<[AtRho; 3]>)>;
 
-/// `spots` of object `oi` with their amplitudes ([`super::adaptive::entry_amplitudes`]: probed
-/// once, used by both gatherings) where its material is `adaptive` and the scene has lights.
+/// `spots` of object `oi` with their amplitudes ([`super::adaptive::entry_amplitudes`] at the
+/// centroid of the sample's triangle: probed once, used by both gatherings) where its material
+/// is `adaptive` and the scene has lights.
 fn with_amplitudes(scene: &Scene, oi: usize, spots: Spots) -> Spots {
     let Some(t) = scene.material(oi).translucent().and_then(|m| m.adaptive.as_deref()) else { return spots };
     if scene.lights.is_empty() {
         return spots;
     }
+    // Probed once per triangle, at its centroid (the curvature varies on the scale of the mesh,
+    // and several samples share a triangle where the profile is finer than the facets).
+    let mut tris: Vec<u32> = spots.iter().map(|(h, _, _)| h.tri).collect();
+    tris.sort_unstable();
+    tris.dedup();
+    let third = 1.0 / 3.0;
+    let amps: Vec<Option<[AtRho; 3]>> = tris
+        .par_iter()
+        .map(|&gi| {
+            let n = scene.accel.tris[gi as usize].n;
+            let p = scene.accel.point(gi as usize, third, third);
+            let h = Hit { t: 0.0, tri: gi, object: oi, b1: third, b2: third, p, n };
+            super::adaptive::entry_amplitudes(scene, t, &h)
+        })
+        .collect();
     spots
-        .into_par_iter()
+        .into_iter()
         .map(|(h, a, _)| {
-            let amps = super::adaptive::entry_amplitudes(scene, t, &h);
-            (h, a, amps)
+            let i = tris.binary_search(&h.tri).expect("every sample's triangle was probed");
+            (h, a, amps[i])
         })
         .collect()
 }

@@ -31,7 +31,7 @@ use super::math::{add, dot, length, madd, max3, mul, scale, sub, Frame, Rgb, V3}
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
 use super::texture::shading_medium;
-use crate::bssrdf::harmonic::factors;
+use crate::bssrdf::harmonic::{factors, Lobe};
 use crate::rng::PhotonRng;
 use std::f64::consts::PI;
 
@@ -157,7 +157,7 @@ impl Translucency for Probe {
                 match amps {
                     Some(a) => {
                         let (e, hm) = irradiance_and_harmonic(scene, &hi, Entry::of(m), 1, 1, depth, rng, self, &a);
-                        (mul(rd, factors(&hm[c], hi.n, sub(hit.p, hi.p))), e)
+                        (mul(rd, factors(&hm[c].map(Lobe::new), hi.n, sub(hit.p, hi.p))), e)
                     }
                     None => (rd, transmitted_irradiance(scene, &hi, Entry::of(m), 1, 1, depth, rng, self)),
                 }
