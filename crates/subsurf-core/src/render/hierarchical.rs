@@ -20,7 +20,10 @@
 //!    angle ΔΩ = A_node/‖x_o − centroid‖² is below `epsilon` and x_o is outside its box
 //!    (the paper's error criterion, §3.3); otherwise its children (or samples) are visited.
 //!    M_o = Σ R_d(‖x_o − x_j‖) P_j, and L_o = F_t(η, ω_o) M_o /(π c(η)) (see `material`),
-//!    plus the single-scattering term S⁽¹⁾ ([`super::shade::single_scattering`]).
+//!    plus the single-scattering term S⁽¹⁾ ([`super::shade::single_scattering`]). For
+//!    `adaptive` under lights every pair (sample or cluster) is also weighted by the entry's
+//!    azimuthal factor ([`crate::bssrdf::harmonic`]: the samples carry their lights' harmonic,
+//!    the nodes its power-weighted mean).
 
 use super::accel::Hit;
 use super::driver::Control;
