@@ -84,6 +84,10 @@ def test_profiles_and_bad_input(cache):
     # the oblique-incidence gain: 1 at normal incidence, from the flat pencil runs at 30–80°
     assert cd["oblique_theta"] == [30.0, 50.0, 65.0, 80.0] and len(cd["oblique"]) == 4
     assert t.oblique_gain(0, 1.0) == 1.0 and t.oblique_gain(0, 0.0) > 0
+    # the azimuthal harmonic: ⟨cos φ⟩ per curvature node and angle, forward (> 0) on the near side
+    for k in ("harmonic_near", "harmonic_far"):
+        assert len(cd[k]) == len(cd["rho"]) and all(len(a) == 4 and all(-1 <= x <= 1 for x in a) for a in cd[k])
+    assert all(a[2] > 0 for a in cd["harmonic_near"])
     with pytest.raises(ParameterError, match="mu"):
         t.oblique_gain(0, 1.5)
     # the curved transport: a non-absorbing, index-matched sphere returns every photon

@@ -7,7 +7,8 @@ transmission T(r; d) profiles of the material cut into slabs of thickness d (nod
 curvature data: the exact escape of diffuse light from spheres, spherical cavities and cylinders of radius
 ρ = ℓ·2^j relative to the flat half-space (``subsurf_core::bssrdf::curvature``), and the flat
 half-space's reflectance under pencil beams at 30, 50, 65 and 80° (the oblique-incidence gain,
-``subsurf_core::bssrdf::oblique``). The renderer picks
+``subsurf_core::bssrdf::oblique``), and where a pencil beam's light leaves a sphere around its
+entry point (the first azimuthal harmonic, ``subsurf_core::bssrdf::harmonic``). The renderer picks
 the profiles per shading point by the local thickness and scales them by the local principal curvatures
 (``render::adaptive``).
 
@@ -30,8 +31,9 @@ from . import _core
 from .medium import Stack
 
 FORMAT = "subsurf-adaptive-table"
-FORMAT_VERSION = 4  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
-# 4: and the flat oblique pencil runs of the oblique-incidence gain (``oblique``, ``oblique_stderr``)
+FORMAT_VERSION = 5  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
+# 4: and the flat oblique pencil runs of the oblique-incidence gain (``oblique``, ``oblique_stderr``);
+# 5: and the sphere's azimuthal harmonic under pencil beams (``harmonic_near``, ``harmonic_far``)
 _ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
 
 
@@ -90,8 +92,10 @@ class AdaptiveTable:
         (``sphere``, ``cavity``, the part through the entry's hemisphere ``*_near``, and their
         ``*_stderr``; ``sphere_bins``: the near part per chord bin), the flat one (``flat``,
         ``flat_stderr``), the flat pencil runs at ``oblique_theta`` degrees (``oblique``,
-        ``oblique_stderr``: diffuse reflectance per incident power), and the kernel scales derived
-        from them (``scale_convex``: the near side's per bin, ``scale_convex_far``,
+        ``oblique_stderr``: diffuse reflectance per incident power), the first azimuthal harmonic
+        ⟨cos φ⟩ of the sphere's escapes under pencil beams at those angles (``harmonic_near``,
+        ``harmonic_far``: per curvature node, per angle; ``subsurf_core::bssrdf::harmonic``), and the
+        kernel scales derived from them (``scale_convex``: the near side's per bin, ``scale_convex_far``,
         ``scale_concave``)."""
         return self._t.curvature()
 

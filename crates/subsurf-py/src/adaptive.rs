@@ -90,7 +90,8 @@ impl PyAdaptiveTable {
 
     /// Per channel: {rho, sphere, sphere_stderr, sphere_near, sphere_near_stderr, the same for
     /// cavity and cylinder, sphere_bins, cylinder_bins, flat, flat_stderr, oblique_theta (deg),
-    /// oblique, oblique_stderr (the flat pencil runs of the oblique gain), scale_convex,
+    /// oblique, oblique_stderr (the flat pencil runs of the oblique gain), harmonic_near,
+    /// harmonic_far (the sphere's ⟨cos φ⟩ under pencil beams, per ρ node × oblique angle), scale_convex,
     /// scale_convex_far, scale_cylinder, scale_cylinder_far, scale_concave} (lists over the
     /// curvature nodes; `scale_*` derived, not read back).
     fn curvature<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
@@ -111,6 +112,9 @@ impl PyAdaptiveTable {
             o.set_item("oblique_theta", OBLIQUE_THETA_DEG.to_vec())?;
             o.set_item("oblique", cd.oblique.iter().map(|e| e.mean).collect::<Vec<_>>())?;
             o.set_item("oblique_stderr", cd.oblique.iter().map(|e| e.stderr).collect::<Vec<_>>())?;
+            for (k, i) in [("harmonic_near", 0), ("harmonic_far", 1)] {
+                o.set_item(k, cd.harmonic.iter().map(|r| r.iter().map(|a| a[i]).collect()).collect::<Vec<Vec<f64>>>())?;
+            }
             o.set_item("scale_convex", self.inner.scales(c).convex.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
             o.set_item("scale_convex_far", self.inner.scales(c).convex_far.clone())?;
             o.set_item("scale_cylinder", self.inner.scales(c).cylinder.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
@@ -239,7 +243,13 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
         harmonic: vec![],
     });
     let oblique = oblique.collect();
-    Ok(CurvatureData { rho: list("rho")?, sphere, cavity: pairs("cavity")?, cylinder, flat, oblique })
+    let (hn, hf): (Vec<Vec<f64>>, Vec<Vec<f64>>) =
+        (item(d, "harmonic_near")?.extract()?, item(d, "harmonic_far")?.extract()?);
+    if hn.len() != hf.len() || hn.iter().zip(&hf).any(|(a, b)| a.len() != b.len()) {
+        return Err(to_py(Error::Invalid("adaptive table curvature: harmonic_near and harmonic_far differ".into())));
+    }
+    let harmonic = hn.iter().zip(&hf).map(|(a, b)| a.iter().zip(b).map(|(&x, &y)| [x, y]).collect()).collect();
+    Ok(CurvatureData { rho: list("rho")?, sphere, cavity: pairs("cavity")?, cylinder, flat, oblique, harmonic })
 }
 
 /// The curvature nodes (mm) of a stack's adaptive table.

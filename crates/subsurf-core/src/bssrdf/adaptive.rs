@@ -22,8 +22,9 @@
 //!   between the last finite node d_n and ∞ with weight d_n/d on the finite one (continuous; at
 //!   d ≥ d_n the profile is within the Monte Carlo noise of the semi-infinite one).
 //!
-//! With them, per channel, the curvature data ([`super::curvature`]) and the oblique-incidence
-//! gain ([`super::oblique`]) the renderer applies to the transmitted irradiance.
+//! With them, per channel, the curvature data ([`super::curvature`]), the oblique-incidence
+//! gain ([`super::oblique`]) the renderer applies to the transmitted irradiance, and the
+//! azimuthal harmonic of collimated light ([`super::harmonic`]).
 //!
 //! The tables are deterministic (fixed seeds per node, the engine's exact merging), so a cache
 //! keyed by the stacks, the settings and the engine's version holds exactly what a rebuild makes
@@ -32,6 +33,7 @@
 use super::curvature::{
     build_curvature, curvature_photons, cylinder_gather, sphere_gather, CurvatureData, Gathers, LocalScale, Scales,
 };
+use super::harmonic::Harmonic;
 use super::monte_carlo::{default_edges, McSettings, MonteCarloProfile, RadialData, RadialTally};
 use super::oblique::{Gain, OBLIQUE_THETA_DEG};
 use super::RadialProfile;
@@ -226,6 +228,8 @@ struct ChannelTable {
     entering: f64,
     /// The oblique-incidence gain g(μ) ([`super::oblique`]).
     gain: Gain,
+    /// The azimuthal harmonic's amplitudes ([`super::harmonic`]).
+    harmonic: Harmonic,
 }
 
 /// The per-channel tables (see the module docs).
@@ -308,7 +312,8 @@ impl AdaptiveTable {
                 )));
             }
             let gain = Gain::new(stack, nodes[nodes.len() - 1].top.total, oblique);
-            channels.push(ChannelTable { d: nodes.iter().map(|n| n.d).collect(), r, t, entering, gain });
+            let harmonic = Harmonic::new(&curvature[c].rho, &curvature[c].harmonic)?;
+            channels.push(ChannelTable { d: nodes.iter().map(|n| n.d).collect(), r, t, entering, gain, harmonic });
         }
         let median_radius = channels
             .iter()
@@ -410,6 +415,10 @@ impl AdaptiveTable {
     /// Channel `c`'s gain and its nodes.
     pub fn gain(&self, c: usize) -> &Gain {
         &self.channels[c].gain
+    }
+    /// Channel `c`'s azimuthal-harmonic amplitudes ([`super::harmonic`]).
+    pub fn harmonic(&self, c: usize) -> &Harmonic {
+        &self.channels[c].harmonic
     }
     /// Number of channels.
     pub fn channels(&self) -> usize {

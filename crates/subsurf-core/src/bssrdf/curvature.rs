@@ -13,7 +13,9 @@
 //!   cavity escapes P(ρ_j) (seed offsets [`SEED_SPHERE`] + j, [`SEED_CYLINDER`] + j and
 //!   [`SEED_CAVITY`] + j), with [`curved_photons`] each: a quarter of the table's photons,
 //!   at most [`MAX_CURVED_PHOTONS`], as an escape fraction near 1 varies little from photon to
-//!   photon (0.1–0.3 % standard error at 2 500 photons, below the flat run's). The sphere's and
+//!   photon (0.1–0.3 % standard error at 2 500 photons, below the flat run's), and the sphere's
+//!   pencil runs of the azimuthal harmonic ([`super::harmonic`], seed offsets
+//!   [`super::harmonic::SEED_HARMONIC`] + i, as many photons). The sphere's and
 //!   the cylinder's escapes are also tallied by where they leave: per chord bin of the entry's
 //!   half ([`NEAR_BINS`] bins, of equal area on the sphere, [`bin_edges`]) and the far half.
 //! - [`Scales`]: C = P/R_flat is the curvature's own effect (the same illumination on both sides
@@ -99,6 +101,10 @@ pub struct CurvatureData {
     /// The engine's flat half-space diffuse reflectance (per unit incident power) under pencil
     /// beams at [`super::oblique::OBLIQUE_THETA_DEG`] (the oblique-incidence gain).
     pub oblique: Vec<Escape>,
+    /// The first azimuthal harmonic ⟨cos φ⟩ of the sphere's escapes under pencil beams, per
+    /// radius ρ_j, per angle of [`super::oblique::OBLIQUE_THETA_DEG`]: (entry's half, far half)
+    /// ([`super::harmonic`]).
+    pub harmonic: Vec<Vec<[f64; 2]>>,
 }
 
 /// The curvature nodes (mm) of a stack (see the module docs).
@@ -168,15 +174,19 @@ pub fn build_curvature(
         cavity.push(b);
         cylinder.push(c);
     }
-    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique }))
+    let Some(harmonic) = super::harmonic::build_harmonic(stack, channel, &rho, s, cancel, progress)? else {
+        return Ok(None);
+    };
+    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic }))
 }
 
 /// Photons a channel's curvature data traces (with its oblique runs).
 pub fn curvature_photons(stack: &Stack, photons: u64) -> u64 {
-    let n = curvature_nodes(stack).map_or(0, |v| 3 * v.len()) as u64;
+    let n_rho = curvature_nodes(stack).map_or(0, |v| v.len());
     let oblique = super::oblique::OBLIQUE_PHOTONS * super::oblique::OBLIQUE_THETA_DEG.len() as u64;
     let flat = photons.saturating_mul(1 + oblique);
-    flat.saturating_add(curved_photons(photons).saturating_mul(n))
+    let harmonic = super::harmonic::harmonic_photons(n_rho, photons);
+    flat.saturating_add(curved_photons(photons).saturating_mul(3 * n_rho as u64)).saturating_add(harmonic)
 }
 
 /// Edges (mm) of the near-side chord bins of a sphere of radius `rho` ([`NEAR_BINS`]; the last

@@ -24,6 +24,11 @@
 //! d/(1 + dH) used before moved light into T, to the far side, where on a sphere the extra light
 //! leaves near where it entered; measured worse on spheres and the torus, see `docs/render.md`.)
 //!
+//! Direction: each pair is weighted by the azimuthal factor of the entry point's light
+//! ([`crate::bssrdf::harmonic`]; `hierarchical` and `probe` apply it, [`entry_amplitudes`]
+//! gives an entry point's amplitudes at its own probed curvature): light from a light source
+//! that enters obliquely leaves forward of its entry point, as the curved transport tallies.
+//!
 //! On a flat surface of a thick object (d ≥ the table's last node, several diffusion lengths)
 //! this is the semi-infinite Monte Carlo profile, so exitance = total × E_t as for
 //! `monte_carlo`. The BSSRDF is the renderer's (`material`): F_t R F_t /(π c) and the same
@@ -35,6 +40,7 @@ use super::math::{dot, length, madd, neg, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use crate::bssrdf::adaptive::{AdaptiveTable, Mix};
 use crate::bssrdf::curvature::Binned;
+use crate::bssrdf::harmonic::AtRho;
 use crate::bssrdf::RadialProfile;
 use std::f64::consts::FRAC_1_SQRT_2;
 
@@ -123,6 +129,23 @@ pub fn principal_curvatures(scene: &Scene, hit: &Hit, s: f64) -> (f64, f64) {
     (mean + root, mean - root)
 }
 
+/// The thickness and the principal curvatures at `hit` as [`Kernel::at`] probes them: d (mm)
+/// and (κ₁, κ₂) (mm⁻¹).
+fn local_geometry(scene: &Scene, table: &AdaptiveTable, hit: &Hit) -> (f64, (f64, f64)) {
+    let d = thickness(scene, hit);
+    let s = table.median_radius.min(0.25 * d);
+    (d, if s > 0.0 { principal_curvatures(scene, hit, s) } else { (0.0, 0.0) })
+}
+
+/// The azimuthal-harmonic amplitudes of an entry point `hit` per channel, at its principal
+/// curvatures probed as [`Kernel::at`] does ([`crate::bssrdf::harmonic`]); `None` when they are
+/// all 0 (no factor to apply).
+pub fn entry_amplitudes(scene: &Scene, table: &AdaptiveTable, hit: &Hit) -> Option<[AtRho; 3]> {
+    let (_, (k1, k2)) = local_geometry(scene, table, hit);
+    let a: [AtRho; 3] = std::array::from_fn(|k| table.harmonic(k.min(table.channels() - 1)).at_principal(k1, k2));
+    (!a.iter().all(AtRho::is_zero)).then_some(a)
+}
+
 /// The adaptive BSSRDF at one shading point (see the module docs).
 pub struct Kernel {
     p: V3,
@@ -140,9 +163,7 @@ pub struct Kernel {
 impl Kernel {
     /// The kernel at `hit` with the material's table.
     pub fn at(scene: &Scene, table: &AdaptiveTable, hit: &Hit) -> Kernel {
-        let d = thickness(scene, hit);
-        let s = table.median_radius.min(0.25 * d);
-        let (k1, k2) = if s > 0.0 { principal_curvatures(scene, hit, s) } else { (0.0, 0.0) };
+        let (d, (k1, k2)) = local_geometry(scene, table, hit);
         let pair = |k: usize| {
             let c = k.min(table.channels() - 1);
             let sc = table.curvature_scale_principal(c, k1, k2);
@@ -155,8 +176,13 @@ impl Kernel {
 
     /// The profile value per channel (mm⁻²) for light entering at `q`.
     pub fn value(&self, q: V3) -> Rgb {
+        self.value_class(q).1
+    }
+
+    /// The class of `q` ([`PairProfiles::class`]) and [`Kernel::value`].
+    pub fn value_class(&self, q: V3) -> (usize, Rgb) {
         let (c, r) = self.class(self.p, q);
-        std::array::from_fn(|k| self.profile(c, k).rd(r))
+        (c, std::array::from_fn(|k| self.profile(c, k).rd(r)))
     }
 }
 

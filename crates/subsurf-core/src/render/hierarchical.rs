@@ -20,16 +20,20 @@
 //!    angle ΔΩ = A_node/‖x_o − centroid‖² is below `epsilon` and x_o is outside its box
 //!    (the paper's error criterion, §3.3); otherwise its children (or samples) are visited.
 //!    M_o = Σ R_d(‖x_o − x_j‖) P_j, and L_o = F_t(η, ω_o) M_o /(π c(η)) (see `material`),
-//!    plus the single-scattering term S⁽¹⁾ ([`super::shade::single_scattering`]).
+//!    plus the single-scattering term S⁽¹⁾ ([`super::shade::single_scattering`]). For
+//!    `adaptive` under lights every pair (sample or cluster) is also weighted by the entry's
+//!    azimuthal factor ([`crate::bssrdf::harmonic`]: the samples carry their lights' harmonic,
+//!    the nodes its power-weighted mean).
 
 use super::accel::Hit;
 use super::driver::Control;
-use super::irradiance::{transmitted_irradiance, Entry, Unlit};
+use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Entry, Unlit};
 use super::material::Translucent;
 use super::math::{add, dot, length, madd, mul, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
 use super::texture::shading_medium;
+use crate::bssrdf::harmonic::{factors, AtRho, Lobe};
 use crate::bssrdf::RadialProfile;
 use crate::error::{Error, Result};
 use crate::rng::PhotonRng;
@@ -81,6 +85,11 @@ pub struct Sample {
     pub area: f64,
     /// Transmitted irradiance E_t per channel.
     pub e: Rgb,
+    /// The surface normal (unit).
+    pub n: V3,
+    /// The azimuthal harmonic of its light per class and channel (`adaptive` under lights; else
+    /// none).
+    pub m: [[Lobe; 3]; 2],
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -90,6 +99,10 @@ struct Node {
     area: f64,
     power: Rgb,
     centroid: V3,
+    /// The unit mean normal, and per class and channel the lobe of the power-weighted mean
+    /// harmonic vector Σ m E_t A / Σ E_t A.
+    n: V3,
+    m: [[Lobe; 3]; 2],
     /// Children `first .. first + count` (nodes) or samples (leaf).
     first: u32,
     count: u32,
@@ -102,6 +115,8 @@ pub struct Tree {
     nodes: Vec<Node>,
     /// Radius ρ₀ of the near field (mm): [`NEAR_FIELD`] sample spacings.
     pub rho0: f64,
+    /// Whether any sample has a harmonic (then every pair is weighted by its factor).
+    harm: bool,
 }
 
 const LEAF_SIZE: usize = 8;
@@ -114,7 +129,8 @@ impl Tree {
         let mut nodes = vec![];
         let n = samples.len();
         build_node(&mut samples, 0, n, &mut nodes, 0);
-        Tree { samples, nodes, rho0: NEAR_FIELD * delta }
+        let harm = samples.iter().any(|s| s.m.iter().flatten().any(|l| l.a != 0.0));
+        Tree { samples, nodes, rho0: NEAR_FIELD * delta, harm }
     }
 
     /// Σ R_d(‖x − x_j‖) E_j A_j with clusters under `epsilon` (0: exact all-pairs sum), with the
@@ -151,7 +167,9 @@ impl Tree {
             if nd.leaf {
                 for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
                     let (c, r) = pp.class(x, s.p);
-                    acc = add(acc, scale(mul(rd(c, r), s.e), s.area));
+                    let v = mul(rd(c, r), s.e);
+                    let v = if self.harm { mul(v, factors(&s.m[c], s.n, sub(x, s.p))) } else { v };
+                    acc = add(acc, scale(v, s.area));
                     if r < rho0 {
                         near_e[c] = madd(near_e[c], s.e, s.area);
                         near_a[c] += s.area;
@@ -167,7 +185,9 @@ impl Tree {
                 // A far-class node that may hold samples within ρ₀ of r⊥ = 0 is opened (every
                 // member is within the box's diagonal of the centroid, and r⊥ is 1-Lipschitz).
                 if c == 0 || r >= rho0 + length(sub(nd.hi, nd.lo)) {
-                    acc = add(acc, mul(rd(c, r), nd.power));
+                    let v = mul(rd(c, r), nd.power);
+                    let v = if self.harm { mul(v, factors(&nd.m[c], nd.n, sub(x, nd.centroid))) } else { v };
+                    acc = add(acc, v);
                     continue;
                 }
             }
@@ -211,7 +231,14 @@ fn build_node(s: &mut [Sample], a: usize, b: usize, nodes: &mut Vec<Node>, depth
     let idx = nodes.len() as u32;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     let (mut area, mut power, mut wsum, mut c, mut ca) = (0.0, [0.0; 3], 0.0, [0.0; 3], [0.0; 3]);
+    let (mut nsum, mut msum) = ([0.0; 3], [[[0.0; 3]; 3]; 2]);
     for x in &s[a..b] {
+        nsum = madd(nsum, x.n, x.area);
+        for (mc, xc) in msum.iter_mut().zip(&x.m) {
+            for k in 0..3 {
+                mc[k] = madd(mc[k], xc[k].vector(), x.e[k] * x.area);
+            }
+        }
         for k in 0..3 {
             lo[k] = lo[k].min(x.p[k]);
             hi[k] = hi[k].max(x.p[k]);
@@ -224,7 +251,12 @@ fn build_node(s: &mut [Sample], a: usize, b: usize, nodes: &mut Vec<Node>, depth
         ca = madd(ca, x.p, x.area);
     }
     let centroid = if wsum > 0.0 { scale(c, 1.0 / wsum) } else { scale(ca, 1.0 / area.max(1e-300)) };
-    nodes.push(Node { lo, hi, area, power, centroid, first: a as u32, count: (b - a) as u32, leaf: true });
+    let nl = length(nsum);
+    let n = if nl > 0.0 { scale(nsum, 1.0 / nl) } else { [0.0; 3] };
+    let m = msum.map(|mc| {
+        std::array::from_fn(|k| if power[k] > 0.0 { Lobe::new(scale(mc[k], 1.0 / power[k])) } else { Lobe::default() })
+    });
+    nodes.push(Node { lo, hi, area, power, centroid, n, m, first: a as u32, count: (b - a) as u32, leaf: true });
     if b - a <= LEAF_SIZE || depth > 40 || (0..3).all(|k| hi[k] - lo[k] <= 0.0) {
         return idx;
     }
@@ -310,6 +342,8 @@ impl Hierarchical {
                 Some((place_samples(scene, oi, delta), delta))
             })
             .collect();
+        let spots: Vec<Option<(Spots, f64)>> =
+            spots.into_iter().enumerate().map(|(oi, sp)| sp.map(|(s, d)| (with_amplitudes(scene, oi, s), d))).collect();
         let n_all: usize = spots.iter().flatten().map(|(s, _)| s.len()).sum();
         ctl.total.fetch_add(n_all as u64, Ordering::Relaxed);
         // First gathering: translucent surfaces black; again with that estimate if a ray saw one.
@@ -372,15 +406,24 @@ fn gather(
             .par_iter()
             .enumerate()
             .with_max_len(16) // small tasks: a sample's cost varies with the shape (second gathering)
-            .map(|(j, (h, area))| {
+            .map(|(j, (h, area, amps))| {
                 if ctl.cancel.load(Ordering::Relaxed) {
                     return None;
                 }
                 let mut rng = PhotonRng::new(key, base + j as u64);
                 let (nl, nr) = (params.light_samples, params.env_samples);
-                let e = transmitted_irradiance(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr);
+                let (e, hm) = match amps {
+                    Some(a) => {
+                        let (e, hm) = irradiance_and_harmonic(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr, a);
+                        (e, hm.map(|mc| mc.map(Lobe::new)))
+                    }
+                    None => {
+                        let e = transmitted_irradiance(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr);
+                        (e, [[Lobe::default(); 3]; 2])
+                    }
+                };
                 ctl.done.fetch_add(1, Ordering::Relaxed);
-                Some(Sample { p: h.p, area: *area, e })
+                Some(Sample { p: h.p, area: *area, e, n: h.n, m: hm })
             })
             .collect();
         base += spots.len() as u64;
@@ -389,8 +432,41 @@ fn gather(
     Some(trees)
 }
 
-/// Irradiance sample positions (as hits) with their areas (mm²).
-type Spots = Vec<(Hit, f64)>;
+/// Irradiance sample positions (as hits) with their areas (mm²) and, for `adaptive` under
+/// lights, their azimuthal-harmonic amplitudes.
+type Spots = Vec<(Hit, f64, Option<[AtRho; 3]>)>;
+
+/// `spots` of object `oi` with their amplitudes ([`super::adaptive::entry_amplitudes`] at the
+/// centroid of the sample's triangle: probed once, used by both gatherings) where its material
+/// is `adaptive` and the scene has lights.
+fn with_amplitudes(scene: &Scene, oi: usize, spots: Spots) -> Spots {
+    let Some(t) = scene.material(oi).translucent().and_then(|m| m.adaptive.as_deref()) else { return spots };
+    if scene.lights.is_empty() {
+        return spots;
+    }
+    // Probed once per triangle, at its centroid (the curvature varies on the scale of the mesh,
+    // and several samples share a triangle where the profile is finer than the facets).
+    let mut tris: Vec<u32> = spots.iter().map(|(h, _, _)| h.tri).collect();
+    tris.sort_unstable();
+    tris.dedup();
+    let third = 1.0 / 3.0;
+    let amps: Vec<Option<[AtRho; 3]>> = tris
+        .par_iter()
+        .map(|&gi| {
+            let n = scene.accel.tris[gi as usize].n;
+            let p = scene.accel.point(gi as usize, third, third);
+            let h = Hit { t: 0.0, tri: gi, object: oi, b1: third, b2: third, p, n };
+            super::adaptive::entry_amplitudes(scene, t, &h)
+        })
+        .collect();
+    spots
+        .into_iter()
+        .map(|(h, a, _)| {
+            let i = tris.binary_search(&h.tri).expect("every sample's triangle was probed");
+            (h, a, amps[i])
+        })
+        .collect()
+}
 
 /// The irradiance samples of object `oi` as hits, with their areas: triangles larger than Δ²
 /// are cut into k² congruent sub-triangles (a sample at each centroid); smaller ones are visited
@@ -415,7 +491,7 @@ fn place_samples(scene: &Scene, oi: usize, delta: f64) -> Spots {
         let kf = k as f64;
         let mut push = |b1: f64, b2: f64| {
             let p = acc.point(gi, b1, b2);
-            out.push((Hit { t: 0.0, tri: gi as u32, object: oi, b1, b2, p, n: t.n }, sub_area));
+            out.push((Hit { t: 0.0, tri: gi as u32, object: oi, b1, b2, p, n: t.n }, sub_area, None));
         };
         for i in 0..k {
             for j in 0..k - i {
@@ -433,7 +509,7 @@ fn place_samples(scene: &Scene, oi: usize, delta: f64) -> Spots {
     let (mut run, mut next, mut placed) = (0.0, 0.5 * cell, 0usize);
     let sample = |gi: usize, area: f64| {
         let p = acc.point(gi, third, third);
-        (Hit { t: 0.0, tri: gi as u32, object: oi, b1: third, b2: third, p, n: acc.tris[gi].n }, area)
+        (Hit { t: 0.0, tri: gi as u32, object: oi, b1: third, b2: third, p, n: acc.tris[gi].n }, area, None)
     };
     for &gi in &small {
         run += acc.area(gi);

@@ -17,10 +17,11 @@
 
 use super::accel::Hit;
 use super::material::Translucent;
-use super::math::{add, madd, mul, scale, Frame, Rgb};
+use super::math::{add, dot, length, madd, mul, scale, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{direct_irradiance, ft, trace_seen, Seen, Translucency, MAX_DEPTH};
 use crate::bssrdf::adaptive::AdaptiveTable;
+use crate::bssrdf::harmonic::AtRho;
 use crate::optics::sample_cosine_hemisphere;
 use crate::rng::PhotonRng;
 use std::f64::consts::PI;
@@ -96,6 +97,68 @@ pub fn transmitted_irradiance(
     madd(e, acc, PI / rays as f64)
 }
 
+/// Per class (0: the kernel's near side, 1: across) and channel, an entry point's harmonic
+/// vector m = ⟨a(μ)·t̂⟩ over its transmitted irradiance ([`crate::bssrdf::harmonic`]): t̂ the unit
+/// tangent of each light's propagation direction, a the table's amplitude at the light's μ, the
+/// mean weighted by the light's share of E_t,k (the gathered light, which arrives from every
+/// direction, counts with none). |m| is the pair factor's amplitude, m/|m| its forward direction.
+pub type Harm = [[V3; 3]; 2];
+
+/// [`transmitted_irradiance`] and the harmonic vectors of its lights (see [`Harm`]) for the
+/// amplitudes `amps` (per channel, at the entry point's curvature). The same draws, in the same
+/// order, and the same E_t to the last bit: the lights are sampled as
+/// [`direct_irradiance`]'s, then the gathering rays are [`transmitted_irradiance`]'s.
+#[allow(clippy::too_many_arguments)]
+pub fn irradiance_and_harmonic(
+    scene: &Scene,
+    hit: &Hit,
+    into: Entry<'_>,
+    light_samples: u32,
+    rays: u32,
+    depth: u32,
+    rng: &mut PhotonRng,
+    tr: &dyn Translucency,
+    amps: &[AtRho; 3],
+) -> (Rgb, Harm) {
+    let n = hit.n;
+    let p = scene.accel.offset(hit.p, n, 1.0);
+    let (mut e, mut m) = ([0.0; 3], [[[0.0; 3]; 3]; 2]);
+    for _ in 0..light_samples {
+        let mut one = [0.0; 3];
+        for l in &scene.lights {
+            let Some(ls) = l.sample(p, rng.uniform(), rng.uniform()) else { continue };
+            let c = dot(ls.wi, n);
+            if c <= 0.0 || ls.value == [0.0; 3] {
+                continue;
+            }
+            let w = into.weight(c);
+            if scene.accel.occluded(p, ls.wi, ls.dist, hit.tri) {
+                continue;
+            }
+            let de = mul(ls.value, scale(w, c));
+            one = add(one, de);
+            let tan = sub(scale(n, c), ls.wi); // the propagation direction −ω_i, its tangential part
+            let tl = length(tan);
+            if tl > 1e-12 {
+                for k in 0..3 {
+                    let a = amps[k].at(c);
+                    for (cl, mc) in m.iter_mut().enumerate() {
+                        mc[k] = madd(mc[k], tan, de[k] * a[cl] / tl);
+                    }
+                }
+            }
+        }
+        e = add(e, one);
+    }
+    if light_samples > 1 {
+        e = scale(e, 1.0 / light_samples as f64);
+        m = m.map(|mc| mc.map(|v| scale(v, 1.0 / light_samples as f64)));
+    }
+    let e = add(e, transmitted_irradiance(scene, hit, into, 0, rays, depth, rng, tr));
+    let m = m.map(|mc| std::array::from_fn(|k| if e[k] > 0.0 { scale(mc[k], 1.0 / e[k]) } else { [0.0; 3] }));
+    (e, m)
+}
+
 /// A stand-in for the translucent objects while their own irradiance is being computed: black,
 /// noting whether a gathering ray reached one (then the hierarchical method gathers again with
 /// the first estimate: one bounce of light between translucent surfaces).
@@ -106,7 +169,7 @@ pub struct Unlit {
 }
 
 impl Translucency for Unlit {
-    fn radiance(&self, _: &Scene, _: &Hit, _: super::math::V3, _: u32, _: &mut PhotonRng) -> Rgb {
+    fn radiance(&self, _: &Scene, _: &Hit, _: V3, _: u32, _: &mut PhotonRng) -> Rgb {
         self.reached.store(true, Ordering::Relaxed);
         [0.0; 3]
     }
@@ -117,7 +180,6 @@ mod tests {
     use super::*;
     use crate::render::light::Light;
     use crate::render::material::{Material, TestProfile, Translucent};
-    use crate::render::math::V3;
     use crate::render::scene::Object;
     use crate::render::shapes::{cuboid, rectangle};
     use std::sync::Arc;

@@ -21,14 +21,17 @@
 //! radiance is F_t(η, ω_o) R_d(‖x_o − x_i‖) E_t(x_i) / (π c(η) p(x_i)) per channel, E_t from
 //! one shadow-ray sample of each light and one cosine-weighted gathering ray (environment, light
 //! reflected by other surfaces, translucent surfaces by this method at depth + 1;
-//! [`super::irradiance`]).
+//! [`super::irradiance`]). For `adaptive` under lights, R_d is weighted by the entry point's
+//! azimuthal factor ([`crate::bssrdf::harmonic`], amplitudes at x_i's probed curvature).
 
 use super::accel::Hit;
-use super::irradiance::{transmitted_irradiance, Entry};
+use super::adaptive::entry_amplitudes;
+use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Entry};
 use super::math::{add, dot, length, madd, max3, mul, scale, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
 use super::texture::shading_medium;
+use crate::bssrdf::harmonic::{factors, Lobe};
 use crate::rng::PhotonRng;
 use std::f64::consts::PI;
 
@@ -147,11 +150,23 @@ impl Translucency for Probe {
             return s1;
         }
         let dist = length(dx);
-        let rd: Rgb = match &m.adaptive {
-            Some(t) => super::adaptive::Kernel::at(scene, t, hit).value(hi.p),
-            None => std::array::from_fn(|k| m.profiles()[k].rd(dist)),
+        let (rd, e) = match &m.adaptive {
+            Some(t) => {
+                let (c, rd) = super::adaptive::Kernel::at(scene, t, hit).value_class(hi.p);
+                let amps = if scene.lights.is_empty() { None } else { entry_amplitudes(scene, t, &hi) };
+                match amps {
+                    Some(a) => {
+                        let (e, hm) = irradiance_and_harmonic(scene, &hi, Entry::of(m), 1, 1, depth, rng, self, &a);
+                        (mul(rd, factors(&hm[c].map(Lobe::new), hi.n, sub(hit.p, hi.p))), e)
+                    }
+                    None => (rd, transmitted_irradiance(scene, &hi, Entry::of(m), 1, 1, depth, rng, self)),
+                }
+            }
+            None => {
+                let rd: Rgb = std::array::from_fn(|k| m.profiles()[k].rd(dist));
+                (rd, transmitted_irradiance(scene, &hi, Entry::of(m), 1, 1, depth, rng, self))
+            }
         };
-        let e = transmitted_irradiance(scene, &hi, Entry::of(m), 1, 1, depth, rng, self);
         let w = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm * pdf);
         add(scale(mul(mul(rd, e), tint(scene, hit)), w), s1)
     }
