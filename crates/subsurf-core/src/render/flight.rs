@@ -20,7 +20,7 @@ use super::facet_nee;
 use super::fastmath::exp;
 use super::light::Light;
 use super::material::Translucent;
-use super::math::{add, dot, madd, normalize, scale, sub, Rgb, V3};
+use super::math::{add, box_corners, dot, madd, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::walk::Media;
 use crate::optics::{fr_dielectric, reflect, refract};
@@ -149,15 +149,7 @@ impl Reach {
 
 fn cones(scene: &Scene) -> Vec<Option<(V3, f64)>> {
     let Some((lo, hi)) = scene.translucent_box() else { return vec![None; scene.lights.len()] };
-    let corners: Vec<V3> = (0..8)
-        .map(|i| {
-            [
-                if i & 1 == 0 { lo[0] } else { hi[0] },
-                if i & 2 == 0 { lo[1] } else { hi[1] },
-                if i & 4 == 0 { lo[2] } else { hi[2] },
-            ]
-        })
-        .collect();
+    let corners = box_corners(lo, hi);
     let mid = scale(add(lo, hi), 0.5);
     let turn = scene
         .materials

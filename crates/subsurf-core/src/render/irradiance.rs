@@ -17,7 +17,7 @@
 
 use super::accel::Hit;
 use super::material::Translucent;
-use super::math::{add, dot, length, madd, mul, scale, sub, Frame, Rgb, V3};
+use super::math::{add, length, madd, mul, scale, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{direct_irradiance, ft, trace_seen, Seen, Translucency, MAX_DEPTH};
 use crate::bssrdf::adaptive::AdaptiveTable;
@@ -121,23 +121,12 @@ pub fn irradiance_and_harmonic(
     amps: &[AtRho; 3],
 ) -> (Rgb, Harm) {
     let n = hit.n;
-    let p = scene.accel.offset(hit.p, n, 1.0);
     let (mut e, mut m) = ([0.0; 3], [[[0.0; 3]; 3]; 2]);
     for _ in 0..light_samples {
         let mut one = [0.0; 3];
-        for l in &scene.lights {
-            let Some(ls) = l.sample(p, rng.uniform(), rng.uniform()) else { continue };
-            let c = dot(ls.wi, n);
-            if c <= 0.0 || ls.value == [0.0; 3] {
-                continue;
-            }
-            let w = into.weight(c);
-            if scene.accel.occluded(p, ls.wi, ls.dist, hit.tri) {
-                continue;
-            }
-            let de = mul(ls.value, scale(w, c));
+        super::shade::light_samples(scene, hit, Some(into), rng, |wi, c, de| {
             one = add(one, de);
-            let tan = sub(scale(n, c), ls.wi); // the propagation direction −ω_i, its tangential part
+            let tan = sub(scale(n, c), wi); // the propagation direction −ω_i, its tangential part
             let tl = length(tan);
             if tl > 1e-12 {
                 for k in 0..3 {
@@ -147,7 +136,7 @@ pub fn irradiance_and_harmonic(
                     }
                 }
             }
-        }
+        });
         e = add(e, one);
     }
     if light_samples > 1 {

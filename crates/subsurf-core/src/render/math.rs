@@ -6,6 +6,11 @@ pub type V3 = [f64; 3];
 /// One value per colour channel (R, G, B).
 pub type Rgb = [f64; 3];
 
+/// The 8 corners of the box `lo`–`hi`: corner i takes hi along axis k where bit k of i is set.
+pub fn box_corners(lo: V3, hi: V3) -> [V3; 8] {
+    std::array::from_fn(|i| std::array::from_fn(|k| if i >> k & 1 == 0 { lo[k] } else { hi[k] }))
+}
+
 #[inline(always)]
 pub fn add(a: V3, b: V3) -> V3 {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]

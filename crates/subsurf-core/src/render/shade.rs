@@ -117,16 +117,8 @@ pub fn direct_irradiance(
     let n = hit.n;
     let p = scene.accel.offset(hit.p, n, 1.0);
     let mut e = [0.0; 3];
-    for l in scene.lights.iter().filter(|_| lights) {
-        let Some(ls) = l.sample(p, rng.uniform(), rng.uniform()) else { continue };
-        let c = dot(ls.wi, n);
-        if c <= 0.0 || ls.value == [0.0; 3] {
-            continue;
-        }
-        let w = into.map_or([1.0; 3], |i| i.weight(c));
-        if !scene.accel.occluded(p, ls.wi, ls.dist, hit.tri) {
-            e = add(e, mul(ls.value, scale(w, c)));
-        }
+    if lights {
+        light_samples(scene, hit, into, rng, |_, _, de| e = add(e, de));
     }
     if scene.environment != [0.0; 3] && env_samples > 0 {
         let f = Frame::new(n);
@@ -141,6 +133,31 @@ pub fn direct_irradiance(
         e = add(e, mul(scene.environment, acc.map(|a| PI * a / env_samples as f64)));
     }
     e
+}
+
+/// One shadow-ray sample of every light at `hit` (front side), in the scene's order: for each
+/// that arrives from the front and is not occluded, `f(ω_i, cos θ_i, E)` with E = L cos θ_i times
+/// the entry weight of `into` (1 for `None`). [`direct_irradiance`]'s lights are the sum of the E.
+pub fn light_samples(
+    scene: &Scene,
+    hit: &Hit,
+    into: Option<Entry<'_>>,
+    rng: &mut PhotonRng,
+    mut f: impl FnMut(V3, f64, Rgb),
+) {
+    let n = hit.n;
+    let p = scene.accel.offset(hit.p, n, 1.0);
+    for l in &scene.lights {
+        let Some(ls) = l.sample(p, rng.uniform(), rng.uniform()) else { continue };
+        let c = dot(ls.wi, n);
+        if c <= 0.0 || ls.value == [0.0; 3] {
+            continue;
+        }
+        let w = into.map_or([1.0; 3], |i| i.weight(c));
+        if !scene.accel.occluded(p, ls.wi, ls.dist, hit.tri) {
+            f(ls.wi, c, mul(ls.value, scale(w, c)));
+        }
+    }
 }
 
 /// The single-scattering radiance S⁽¹⁾ at `hit` towards `wo`: the Hanrahan–Krueger

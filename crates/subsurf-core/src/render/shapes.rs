@@ -1,7 +1,7 @@
 //! Built-in shapes as closed (or, for the plane, open) triangle meshes, counter-clockwise seen
 //! from outside: icosphere, axis-aligned box, rectangle (plane) and torus.
 
-use super::math::{add, normalize, scale, V3};
+use super::math::{add, box_corners, normalize, scale, V3};
 use super::mesh::{Mesh, MAX_COORDINATE};
 use crate::error::{Error, Result};
 
@@ -85,15 +85,7 @@ pub fn cuboid(lo: V3, hi: V3) -> Result<Mesh> {
     if let Some(k) = (0..3).find(|&k| !(hi[k] > lo[k])) {
         return Err(Error::Invalid(format!("hi[{k}] = {:?}: every coordinate of hi must exceed lo's", hi[k])));
     }
-    let p: Vec<V3> = (0..8)
-        .map(|i| {
-            [
-                if i & 1 == 0 { lo[0] } else { hi[0] },
-                if i & 2 == 0 { lo[1] } else { hi[1] },
-                if i & 4 == 0 { lo[2] } else { hi[2] },
-            ]
-        })
-        .collect();
+    let p = box_corners(lo, hi).to_vec();
     let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
     let mut t = Vec::new();
     for q in quads {
