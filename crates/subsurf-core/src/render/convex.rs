@@ -32,7 +32,12 @@ pub struct Convex {
     /// than [`PLANE_EPS`] of the extent: the nearest plane's distance less that margin (and a
     /// relative 10⁻⁹ for rounding). A point in it [`Convex::holds`] without a mesh walk.
     ball2: f64,
+    /// The squared radius (mm²) of the circumscribed sphere about c (the farthest vertex).
+    outer2: f64,
 }
+
+/// Plane refinements of [`Convex::facet_of_line`]'s first guess.
+const REFINE: usize = 2;
 
 /// Cells per cube-map face side. Measured on the 81,920-triangle benchmark sphere (callgrind,
 /// docs/render.md "Random walk speed"): 32 → 64 cuts the mesh walks from a guess from about
@@ -55,7 +60,9 @@ impl Convex {
         let nearest = acc.tris.iter().map(|t| dot(t.n, sub(t.v0, c))).fold(f64::INFINITY, f64::min);
         let r = nearest * (1.0 - 1e-9) - 2.0 * PLANE_EPS * acc.extent;
         let ball2 = if r > 0.0 { r * r } else { 0.0 };
-        let mut cv = Convex { c, cells: Vec::with_capacity(6 * CELLS * CELLS), ball2 };
+        let verts = acc.tris.iter().flat_map(|t| [t.v0, add(t.v0, t.e1), add(t.v0, t.e2)]);
+        let outer2 = verts.map(|w| dot(sub(w, c), sub(w, c))).fold(0.0, f64::max);
+        let mut cv = Convex { c, cells: Vec::with_capacity(6 * CELLS * CELLS), ball2, outer2 };
         for face in 0..6 {
             for j in 0..CELLS {
                 let mut prev = None;
@@ -124,12 +131,16 @@ impl Convex {
         dot(t.n, sub(p, t.v0)) < -PLANE_EPS * acc.extent
     }
 
-    /// [`Self::facet_along`] from a first guess refined twice: the cube-map cell of the line's
-    /// point at distance `t0`, then of its crossing with that facet's plane (the body's surface
-    /// is near the plane of a nearby facet).
-    pub fn facet_of_line(&self, acc: &Accel, v: V3, dir: V3, t0: f64) -> Option<u32> {
-        let mut g = self.guess(madd(v, dir, t0));
-        for _ in 0..2 {
+    /// [`Self::facet_along`] from a first guess: the cube-map cell of the line's exit from the
+    /// circumscribed sphere about c (the body lies between it and the inscribed ball, so on a
+    /// round body that point is next to the facet crossed), refined `REFINE` times by the
+    /// crossing with the guessed facet's plane (a body far from round: a box).
+    pub fn facet_of_line(&self, acc: &Accel, v: V3, dir: V3) -> Option<u32> {
+        let w = sub(v, self.c);
+        let b = dot(w, dir);
+        let s = -b + (b * b - dot(w, w) + self.outer2).max(0.0).sqrt();
+        let mut g = self.guess(madd(v, dir, s));
+        for _ in 0..REFINE {
             let t = &acc.tris[g as usize];
             let s = dot(sub(t.v0, v), t.n) / dot(dir, t.n);
             if !(s > 0.0 && s.is_finite()) {

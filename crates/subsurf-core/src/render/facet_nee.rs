@@ -168,11 +168,11 @@ pub fn point(scene: &Scene, media: &Media, v: V3, y: V3) -> Option<Connection> {
 }
 
 /// [`point`] with the convex lookup decided ([`convex_from`]): the first facet by walking the
-/// mesh from the cube-map cell of the line's point at the distance bound, else by [`chain`].
+/// mesh from a cube-map guess ([`Convex::facet_of_line`]), else by [`chain`].
 fn point_in(scene: &Scene, media: &Media, v: V3, y: V3, cv: Option<&Convex>) -> Option<Connection> {
     let eta = media.index(scene);
     let dir = normalize(sub(y, v));
-    let walked = cv.and_then(|cv| cv.facet_of_line(&scene.accel, v, dir, scene.accel.clear_radius(v)));
+    let walked = cv.and_then(|cv| cv.facet_of_line(&scene.accel, v, dir));
     let mut tri = match walked {
         Some(t) => t,
         None => chain(scene, media, v, dir)?.hit.tri,
