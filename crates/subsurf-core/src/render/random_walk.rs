@@ -349,7 +349,10 @@ impl Carrier for Radiance<'_> {
 }
 
 impl Radiance<'_> {
-    /// Next-event estimation at a (real) collision, made with probability q.
+    /// Next-event estimation at a (real) collision, made with probability q. Inlined into the
+    /// walk (the draw and the bookkeeping run at every collision); the connections themselves
+    /// ([`RandomWalk::nee`], a few collisions in a hundred) stay a call.
+    #[inline(always)]
     fn connect(&mut self, scene: &Scene, m: &Translucent, media: &Media, p: V3, d: V3, rng: &mut PhotonRng) {
         let drawn = self.rw.nee_draw(scene, m, p, rng);
         (self.straight, self.mirrored) = (true, false);
@@ -463,6 +466,7 @@ impl RandomWalk {
     /// light and collision, and it was far below the transmittance of refracted connections
     /// through nearby facets facing away from the light: those exits carried 30 % of a marble
     /// sphere's light as rare, bright hits on the area light, > 90 % of the squared error.)
+    #[inline(always)]
     fn nee_draw(&self, scene: &Scene, m: &Translucent, p: V3, rng: &mut PhotonRng) -> Option<(f64, f64)> {
         if !self.nee || scene.lights.is_empty() {
             return None;
@@ -532,6 +536,7 @@ impl RandomWalk {
     /// balance heuristic of the two strategies' expected densities at v, a_c = q p_c (p_c the
     /// connection's solid-angle pdf, the light's area pdf × η²/(G cos θ_l)) and a_f = q_f p(ω)
     /// (the phase function's): f/(q p_c) × a_c/(a_c + a_f) = f/(p_c (q + a_f/p_c)).
+    #[inline(never)]
     fn nee(
         &self,
         scene: &Scene,
