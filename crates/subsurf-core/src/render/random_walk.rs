@@ -178,14 +178,18 @@ impl Carrier for Radiance<'_> {
         // sampled channel c: T_k/T_c = e^{(σt,c − σt,k) s} ≤ e^{−ln ξ} (no overflow), T_c/T_c
         // = 1 without an exponential (two instead of three per collision).
         // The two other channels by index (no branch on the random channel).
+        // A walk of one channel (the environment's per-channel walks: the other β are 0) needs
+        // neither: their weights stay 0 and p̄ = σt,c.
         let tr: Rgb = if f.gf > 0.0 {
             std::array::from_fn(|k| exp(-m.sigma_t[k] * s))
         } else {
             let (c, shift) = (self.k, m.sigma_t[self.k]);
             let (a, b) = ([1, 2, 0][c], [2, 0, 1][c]);
             let mut tr = [1.0; 3];
-            tr[a] = exp((shift - m.sigma_t[a]) * s);
-            tr[b] = exp((shift - m.sigma_t[b]) * s);
+            if self.w[a] != 0.0 || self.w[b] != 0.0 {
+                tr[a] = exp((shift - m.sigma_t[a]) * s);
+                tr[b] = exp((shift - m.sigma_t[b]) * s);
+            }
             tr
         };
         let mut pbar = dot(self.w, mul(m.sigma_t, tr));
