@@ -358,8 +358,11 @@ impl Radiance<'_> {
     /// ([`RandomWalk::nee`], a few collisions in a hundred) stay a call.
     #[inline(always)]
     fn connect(&mut self, scene: &Scene, m: &Translucent, media: &Media, p: V3, d: V3, rng: &mut PhotonRng) {
-        let drawn = self.rw.nee_draw(scene, m, p, rng);
         (self.straight, self.mirrored) = (true, false);
+        if !self.rw.nee || scene.lights.is_empty() {
+            return; // `last` and `arrive` serve the lights' estimators only
+        }
+        let drawn = self.rw.nee_draw(scene, m, p, rng);
         self.last = (p, *media);
         self.arrive = d;
         if let Some((q, tau)) = drawn {
@@ -449,9 +452,13 @@ impl RandomWalk {
     /// collision made its connections (made with probability q, they are weighted by 1/q);
     /// every other exit (other facets, failed searches, exits after a reflection) counts the
     /// light, so the two estimators partition the paths exactly.
+    /// The nearest light along the exit first (no ray where there is none, as in a scene lit
+    /// by the environment alone), then whether a surface hides it.
     fn exit_counted_by_nee(&self, scene: &Scene, last: &(V3, Media), h: &Hit, d: V3) -> bool {
-        let tmax = scene.accel.intersect(h.p, d, f64::INFINITY, h.tri).map_or(f64::INFINITY, |x| x.t);
-        let Some((tl, _)) = scene.light_hit(h.p, d, tmax) else { return false };
+        let Some((tl, _)) = scene.light_hit(h.p, d, f64::INFINITY) else { return false };
+        if scene.accel.intersect(h.p, d, tl, h.tri).is_some() {
+            return false;
+        }
         let y = super::math::madd(h.p, d, tl);
         facet_nee::points_walked(scene, &last.1, last.0, y, self.nee_walk).iter().flatten().any(|c| c.hit.tri == h.tri)
     }
