@@ -105,6 +105,8 @@ pub struct CurvatureData {
     /// radius ρ_j, per angle of [`super::oblique::OBLIQUE_THETA_DEG`]: (entry's half, far half)
     /// ([`super::harmonic`]).
     pub harmonic: Vec<Vec<[f64; 2]>>,
+    /// The exit-angle histogram of the oblique runs ([`super::exit`]).
+    pub exit: super::oblique::ExitBins,
 }
 
 /// The curvature nodes (mm) of a stack (see the module docs).
@@ -154,7 +156,7 @@ pub fn build_curvature(
     let Some(flat) = flat_escape(stack, s.photons, base + SEED_FLAT, s.threads, cancel, progress)? else {
         return Ok(None);
     };
-    let Some(oblique) = super::oblique::build_oblique(stack, channel, s, cancel, progress)? else {
+    let Some((oblique, exit)) = super::oblique::build_oblique(stack, channel, s, cancel, progress)? else {
         return Ok(None);
     };
     let rho = curvature_nodes(stack)?;
@@ -177,7 +179,7 @@ pub fn build_curvature(
     let Some(harmonic) = super::harmonic::build_harmonic(stack, channel, &rho, s, cancel, progress)? else {
         return Ok(None);
     };
-    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic }))
+    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic, exit }))
 }
 
 /// Photons a channel's curvature data traces (with its oblique runs).

@@ -555,8 +555,12 @@ impl Translucency for Hierarchical {
             Some(t) => tree.exitance_with(&super::adaptive::Kernel::at(scene, t, hit), hit.p, self.params.epsilon),
             None => tree.exitance(m, hit.p, self.params.epsilon),
         };
-        let f = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm);
+        let mu_o = dot(wo, hit.n);
+        let f = ft(m.eta, mu_o) / (PI * m.c_norm);
         let mut l = scale(mul(mo, tint(scene, hit)), f);
+        if let Some(t) = &m.adaptive {
+            l = mul(l, t.exit_factors(mu_o)); // the exit term's angular shape (`bssrdf::exit`)
+        }
         if m.single_scattering {
             l = add(l, single_scattering(scene, m, hit, wo, depth, rng, self));
         }

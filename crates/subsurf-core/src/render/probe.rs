@@ -167,7 +167,12 @@ impl Translucency for Probe {
                 (rd, transmitted_irradiance(scene, &hi, Entry::of(m), 1, 1, depth, rng, self))
             }
         };
-        let w = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm * pdf);
-        add(scale(mul(mul(rd, e), tint(scene, hit)), w), s1)
+        let mu_o = dot(wo, hit.n);
+        let w = ft(m.eta, mu_o) / (PI * m.c_norm * pdf);
+        let mut l = scale(mul(mul(rd, e), tint(scene, hit)), w);
+        if let Some(t) = &m.adaptive {
+            l = mul(l, t.exit_factors(mu_o)); // the exit term's angular shape (`bssrdf::exit`)
+        }
+        add(l, s1)
     }
 }
