@@ -8,8 +8,9 @@ curvature data: the exact escape of diffuse light from spheres, spherical caviti
 ρ = ℓ·2^j relative to the flat half-space (``subsurf_core::bssrdf::curvature``), and the flat
 half-space's reflectance under pencil beams at 30, 50, 65 and 80° (the oblique-incidence gain,
 ``subsurf_core::bssrdf::oblique``), and where a pencil beam's light leaves a sphere around its
-entry point (the first azimuthal harmonic, ``subsurf_core::bssrdf::harmonic``), and the exit-angle
-histogram of those flat pencil runs (the exit term's angular shape, ``subsurf_core::bssrdf::exit``). The renderer picks
+entry point (the first azimuthal harmonic, ``subsurf_core::bssrdf::harmonic``), and the flat
+half-space's exit-angle histogram under diffuse light (the exit term's angular shape,
+``subsurf_core::bssrdf::exit``). The renderer picks
 the profiles per shading point by the local thickness and scales them by the local principal curvatures
 (``render::adaptive``).
 
@@ -35,7 +36,7 @@ FORMAT = "subsurf-adaptive-table"
 FORMAT_VERSION = 6  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
 # 4: and the flat oblique pencil runs of the oblique-incidence gain (``oblique``, ``oblique_stderr``);
 # 5: and the sphere's azimuthal harmonic under pencil beams (``harmonic_near``, ``harmonic_far``);
-# 6: and the oblique runs' exit-angle histogram of the exit term (``exit``, ``exit_stderr``)
+# 6: and the flat exit-angle histogram of the exit term (``exit``, ``exit_stderr``)
 _ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
 
 
@@ -96,9 +97,9 @@ class AdaptiveTable:
         ``flat_stderr``), the flat pencil runs at ``oblique_theta`` degrees (``oblique``,
         ``oblique_stderr``: diffuse reflectance per incident power), the first azimuthal harmonic
         ⟨cos φ⟩ of the sphere's escapes under pencil beams at those angles (``harmonic_near``,
-        ``harmonic_far``: per curvature node, per angle; ``subsurf_core::bssrdf::harmonic``), the oblique
-        runs' exit-angle histogram (``exit``, ``exit_stderr``: weight per incident photon on bins
-        uniform in the exit cosine, the four runs summed) and its fitted slope ``exit_beta``
+        ``harmonic_far``: per curvature node, per angle; ``subsurf_core::bssrdf::harmonic``), the flat
+        half-space's exit-angle histogram under diffuse light (``exit``, ``exit_stderr``: weight per
+        incident photon on bins uniform in the exit cosine) and its fitted slope ``exit_beta``
         (``subsurf_core::bssrdf::exit``), and the
         kernel scales derived from them (``scale_convex``: the near side's per bin, ``scale_convex_far``,
         ``scale_concave``)."""

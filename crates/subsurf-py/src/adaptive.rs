@@ -13,7 +13,8 @@ use std::sync::Arc;
 use subsurf_core::bssrdf::adaptive::{thickness_nodes, AdaptiveSettings, AdaptiveTable, SlabData};
 use subsurf_core::bssrdf::curvature::{curvature_nodes, CurvatureData};
 use subsurf_core::bssrdf::curved::{escape_from, sun_exitance, Curved, Escape};
-use subsurf_core::bssrdf::oblique::{ExitBins, OBLIQUE_THETA_DEG};
+use subsurf_core::bssrdf::exit::ExitBins;
+use subsurf_core::bssrdf::oblique::OBLIQUE_THETA_DEG;
 use subsurf_core::mc::Source;
 use subsurf_core::medium::Stack;
 use subsurf_core::Error;
@@ -92,7 +93,7 @@ impl PyAdaptiveTable {
     /// cavity and cylinder, sphere_bins, cylinder_bins, flat, flat_stderr, oblique_theta (deg),
     /// oblique, oblique_stderr (the flat pencil runs of the oblique gain), harmonic_near,
     /// harmonic_far (the sphere's ⟨cos φ⟩ under pencil beams, per ρ node × oblique angle), exit,
-    /// exit_stderr (the oblique runs' exit-angle histogram), exit_beta (its fitted slope), scale_convex,
+    /// exit_stderr (the flat exit-angle histogram under diffuse light), exit_beta (its fitted slope), scale_convex,
     /// scale_convex_far, scale_cylinder, scale_cylinder_far, scale_concave} (lists over the
     /// curvature nodes; `scale_*` and `exit_beta` derived, not read back).
     fn curvature<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {

@@ -105,8 +105,8 @@ pub struct CurvatureData {
     /// radius ρ_j, per angle of [`super::oblique::OBLIQUE_THETA_DEG`]: (entry's half, far half)
     /// ([`super::harmonic`]).
     pub harmonic: Vec<Vec<[f64; 2]>>,
-    /// The exit-angle histogram of the oblique runs ([`super::exit`]).
-    pub exit: super::oblique::ExitBins,
+    /// The engine's exit-angle histogram of the flat half-space under diffuse light ([`super::exit`]).
+    pub exit: super::exit::ExitBins,
 }
 
 /// The curvature nodes (mm) of a stack (see the module docs).
@@ -156,7 +156,7 @@ pub fn build_curvature(
     let Some(flat) = flat_escape(stack, s.photons, base + SEED_FLAT, s.threads, cancel, progress)? else {
         return Ok(None);
     };
-    let Some((oblique, exit)) = super::oblique::build_oblique(stack, channel, s, cancel, progress)? else {
+    let Some(oblique) = super::oblique::build_oblique(stack, channel, s, cancel, progress)? else {
         return Ok(None);
     };
     let rho = curvature_nodes(stack)?;
@@ -179,6 +179,9 @@ pub fn build_curvature(
     let Some(harmonic) = super::harmonic::build_harmonic(stack, channel, &rho, s, cancel, progress)? else {
         return Ok(None);
     };
+    let Some(exit) = super::exit::build_exit(stack, channel, s, cancel, progress)? else {
+        return Ok(None);
+    };
     Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic, exit }))
 }
 
@@ -187,7 +190,7 @@ pub fn curvature_photons(stack: &Stack, photons: u64) -> u64 {
     let n_rho = curvature_nodes(stack).map_or(0, |v| v.len());
     let oblique = super::oblique::OBLIQUE_PHOTONS * super::oblique::OBLIQUE_THETA_DEG.len() as u64;
     let flat = photons.saturating_mul(1 + oblique);
-    let harmonic = super::harmonic::harmonic_photons(n_rho, photons);
+    let harmonic = super::harmonic::harmonic_photons(n_rho, photons).saturating_add(super::exit::exit_photons(photons));
     flat.saturating_add(curved_photons(photons).saturating_mul(3 * n_rho as u64)).saturating_add(harmonic)
 }
 

@@ -16,9 +16,11 @@
 //! s ≡ 1 exactly.
 //!
 //! β per channel is the weighted least-squares fit of the engine's exit-angle histogram
-//! ([`ExitTally`]: the weight leaving through the top on [`EXIT_BINS`] bins uniform in μ_o)
-//! summed over the table's four oblique pencil runs ([`super::oblique`], 30–80°: no photons of
-//! their own; the tally draws no random numbers, so the runs' totals keep their bits), to the
+//! ([`ExitTally`]: the weight leaving through the top on [`EXIT_BINS`] bins uniform in μ_o) of
+//! the semi-infinite stack under diffuse light ([`build_exit`]: seed + 64c + [`SEED_EXIT`], from
+//! 4 × the table's photons, doubled (the same run extended, [`crate::mc::run::extend`]) until the
+//! fit's standard error of β is at most [`BETA_STDERR`] or the run holds 64 × the table's photons:
+//! dark channels escape little weight per photon and need more of them, and trace them fast), to the
 //! model's bin integrals ∫_bin F_t (1 + β μ_i) μ dμ. Measured (2026-12-03, 0.4 M photons per run):
 //! the one-parameter shape fits every semi-infinite stack tried within the noise (χ² 3–12 for 8
 //! degrees of freedom on marble and ketchup; 7–25 on the two-layer skin), and β depends little on
@@ -27,10 +29,17 @@
 //! −0.36, ketchup −0.30 … −0.39). It is the semi-infinite stack's at every thickness and for
 //! both classes of entry point (thin parts' R and T have other shapes: `docs/render.md`).
 
+use super::adaptive::{AdaptiveSettings, SEED_STRIDE};
 use crate::diffusion::bssrdf::ft;
+use crate::error::Result;
+use crate::mc::config::CHUNK_PHOTONS;
+use crate::mc::run::{extend, finish};
+use crate::mc::state::TallyState;
 use crate::mc::tally::accum::Accum;
 use crate::mc::tally::{Channel, ChannelState};
-use crate::mc::{Packet, Side, Tally};
+use crate::mc::{Packet, RunConfig, Side, Source, Tally};
+use crate::medium::Stack;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// Number of exit-angle bins (uniform in μ_o = cos θ_o outside the medium).
 pub const EXIT_BINS: usize = 10;
@@ -40,6 +49,60 @@ const NORM_STEPS: usize = 20_000;
 /// β is held in [`BETA_MIN`, `BETA_MAX`] (the internal radiance 1 + β μ_i stays positive).
 const BETA_MIN: f64 = -0.95;
 const BETA_MAX: f64 = 20.0;
+
+/// Seed offset of the exit run within a channel's stride.
+pub const SEED_EXIT: u64 = 61;
+/// The exit run stops doubling once the standard error of β is at most this.
+pub const BETA_STDERR: f64 = 0.01;
+/// Photons of the exit run's first step, and its largest, in the table's photons.
+const FIRST: u64 = 4;
+const LAST: u64 = 64;
+
+/// An exit-angle histogram ([`ExitTally`]): weight per bin and its standard error.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExitBins {
+    /// Weight leaving per bin of μ_o (uniform bins over [0, 1]) per incident photon.
+    pub weight: Vec<f64>,
+    /// Its standard error.
+    pub stderr: Vec<f64>,
+}
+
+/// The exit run of channel `channel` (see the module docs); `None` when cancelled. `progress`
+/// counts the first step's photons (the doublings are not known in advance).
+pub fn build_exit(
+    stack: &Stack,
+    channel: usize,
+    s: &AdaptiveSettings,
+    cancel: &AtomicBool,
+    progress: &AtomicU64,
+) -> Result<Option<ExitBins>> {
+    let seed = s.seed.wrapping_add(SEED_STRIDE * channel as u64 + SEED_EXIT);
+    let eta = stack.layers[0].n / stack.n_above;
+    let round = |n: u64| n.div_ceil(CHUNK_PHOTONS).max(1).saturating_mul(CHUNK_PHOTONS);
+    let (first, last) = (round(s.photons.saturating_mul(FIRST)), round(s.photons.saturating_mul(LAST)));
+    let mut layout = vec![];
+    ExitTally::default().channels(&mut layout);
+    let mut state = TallyState::new(layout, 0, 0)?;
+    let mut photons = first;
+    let local = AtomicU64::new(0);
+    loop {
+        let cfg = RunConfig { photons, seed, threads: s.threads, source: Source::Diffuse, isa: None };
+        if extend(stack, &cfg, &mut state, ExitTally::default, cancel, &local)? {
+            return Ok(None);
+        }
+        let (weight, stderr) = finish(&state, ExitTally::default).data();
+        if photons >= last || Exit::fit(eta, &weight, &stderr).stderr <= BETA_STDERR {
+            progress.fetch_add(first, Ordering::Relaxed);
+            return Ok(Some(ExitBins { weight, stderr }));
+        }
+        photons = (2 * photons).min(last);
+    }
+}
+
+/// Photons counted by [`build_exit`]'s progress.
+pub fn exit_photons(photons: u64) -> u64 {
+    photons.saturating_mul(FIRST).div_ceil(CHUNK_PHOTONS).max(1).saturating_mul(CHUNK_PHOTONS)
+}
 
 /// Weight leaving through the top face by exit cosine ([`EXIT_BINS`] bins; a photon escapes
 /// once, so per-photon moments).
@@ -120,6 +183,8 @@ fn moments(eta: f64, a: f64, b: f64, steps: usize) -> (f64, f64) {
 pub struct Exit {
     /// Slope β of the internal radiance in its cosine (0: the flat surface's term).
     pub beta: f64,
+    /// Standard error of the fitted β (0 for a shape not fitted).
+    pub stderr: f64,
     eta: f64,
     /// c₀ / (c₀ + β c₁).
     norm: f64,
@@ -129,12 +194,12 @@ impl Exit {
     /// The shape of slope `beta` for relative index `eta`.
     pub fn new(eta: f64, beta: f64) -> Exit {
         let (c0, c1) = moments(eta, 0.0, 1.0, NORM_STEPS);
-        Exit { beta, eta, norm: c0 / (c0 + beta * c1) }
+        Exit { beta, stderr: 0.0, eta, norm: c0 / (c0 + beta * c1) }
     }
 
     /// The weighted least-squares β of an exit-angle histogram (`weight[b]`, `stderr[b]` of bins
     /// uniform in μ_o; bins with no standard error are left out), held in [−0.95, 20]; 0 when
-    /// the histogram holds nothing to fit.
+    /// the histogram holds nothing to fit. With its standard error.
     pub fn fit(eta: f64, weight: &[f64], stderr: &[f64]) -> Exit {
         let n = weight.len();
         let (mut a, mut r) = ([[0.0; 2]; 2], [0.0; 2]);
@@ -156,8 +221,15 @@ impl Exit {
         let amp = (a[1][1] * r[0] - a[0][1] * r[1]) / det;
         let slope = (a[0][0] * r[1] - a[1][0] * r[0]) / det;
         let beta = slope / amp;
-        let beta = if beta.is_finite() && amp > 0.0 { beta.clamp(BETA_MIN, BETA_MAX) } else { 0.0 };
-        Exit::new(eta, beta)
+        if !(beta.is_finite() && amp > 0.0) {
+            return Exit::new(eta, 0.0);
+        }
+        // the covariance of (amp, slope) is the inverse normal matrix; β's error by the delta method
+        let (c00, c01, c11) = (a[1][1] / det, -a[0][1] / det, a[0][0] / det);
+        let var = (c11 - 2.0 * beta * c01 + beta * beta * c00) / (amp * amp);
+        let mut e = Exit::new(eta, beta.clamp(BETA_MIN, BETA_MAX));
+        e.stderr = var.max(0.0).sqrt();
+        e
     }
 
     /// s(μ_o): the factor on the flat surface's F_t(η, μ_o)/(π c) at exterior cosine `mu`.
@@ -195,8 +267,9 @@ mod tests {
         }
     }
 
-    /// The fit recovers β from exact bin integrals of its own model (10⁻⁹), any scale; empty or
-    /// error-free histograms give β = 0; a bin without standard error is left out.
+    /// The fit recovers β from exact bin integrals of its own model (10⁻⁹), any scale, with a
+    /// standard error proportional to the bins'; empty or error-free histograms give β = 0; a bin
+    /// without standard error is left out.
     #[test]
     fn fit_recovers_the_slope() {
         let eta = 1.3;
@@ -208,7 +281,11 @@ mod tests {
                 })
                 .collect();
             let mut se: Vec<f64> = w.iter().map(|x| 0.01 * x).collect();
-            assert!((Exit::fit(eta, &w, &se).beta - beta).abs() < 1e-9);
+            let e = Exit::fit(eta, &w, &se);
+            assert!((e.beta - beta).abs() < 1e-9);
+            let quarter: Vec<f64> = se.iter().map(|x| 0.25 * x).collect();
+            let e4 = Exit::fit(eta, &w, &quarter);
+            assert!(e.stderr > 0.0 && (e4.stderr / e.stderr - 0.25).abs() < 1e-6, "β's error scales with the bins'");
             se[3] = 0.0;
             let mut w2 = w.clone();
             w2[3] = 5.0;

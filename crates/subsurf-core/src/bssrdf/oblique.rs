@@ -34,7 +34,6 @@
 
 use super::adaptive::{AdaptiveSettings, SEED_STRIDE};
 use super::curved::Escape;
-use super::exit::{ExitTally, EXIT_BINS};
 use crate::error::Result;
 use crate::mc::tally::totals::{Total, Totals};
 use crate::mc::{run, RunConfig, Source};
@@ -53,46 +52,28 @@ pub const SEED_OBLIQUE: u64 = 30;
 pub const OBLIQUE_PHOTONS: u64 = 4;
 
 /// The engine's diffuse reflectance (per unit incident power, specular excluded) of `stack`
-/// under pencil beams at [`OBLIQUE_THETA_DEG`] (channel `channel`'s seeds), and the exit-angle
-/// histogram of the four runs together (per incident photon of each run, summed; standard errors
-/// in quadrature: [`super::exit`]); `None` when cancelled.
+/// under pencil beams at [`OBLIQUE_THETA_DEG`] (channel `channel`'s seeds); `None` when cancelled.
 pub fn build_oblique(
     stack: &Stack,
     channel: usize,
     s: &AdaptiveSettings,
     cancel: &AtomicBool,
     progress: &AtomicU64,
-) -> Result<Option<(Vec<Escape>, ExitBins)>> {
+) -> Result<Option<Vec<Escape>>> {
     let base = s.seed.wrapping_add(SEED_STRIDE * channel as u64 + SEED_OBLIQUE);
     let mut out = vec![];
-    let mut exit = ExitBins { weight: vec![0.0; EXIT_BINS], stderr: vec![0.0; EXIT_BINS] };
     for (i, deg) in OBLIQUE_THETA_DEG.iter().enumerate() {
         let source = Source::Pencil { theta: deg.to_radians(), phi: 0.0 };
         let photons = s.photons.saturating_mul(OBLIQUE_PHOTONS);
         let cfg = RunConfig { photons, seed: base + i as u64, threads: s.threads, source, isa: None };
-        let make = || (Totals::new(stack.layers.len()), ExitTally::default());
-        let o = run(stack, &cfg, make, cancel, progress)?;
+        let o = run(stack, &cfg, || Totals::new(stack.layers.len()), cancel, progress)?;
         if o.cancelled {
             return Ok(None);
         }
-        let (mean, stderr) = o.tally.0.get(Total::Diffuse);
+        let (mean, stderr) = o.tally.get(Total::Diffuse);
         out.push(Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![], shift: 0.0, harmonic: vec![] });
-        let (w, e) = o.tally.1.data();
-        for b in 0..EXIT_BINS {
-            exit.weight[b] += w[b];
-            exit.stderr[b] = exit.stderr[b].hypot(e[b]);
-        }
     }
-    Ok(Some((out, exit)))
-}
-
-/// An exit-angle histogram ([`super::exit::ExitTally`]): weight per bin and its standard error.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ExitBins {
-    /// Weight leaving per bin of μ_o (uniform bins over [0, 1]).
-    pub weight: Vec<f64>,
-    /// Its standard error.
-    pub stderr: Vec<f64>,
+    Ok(Some(out))
 }
 
 /// One channel's gain g(μ) at its nodes (see the module docs).

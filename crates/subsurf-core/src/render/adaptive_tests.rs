@@ -372,7 +372,7 @@ fn sun_lit_sphere_cap_matches_the_curved_transport() {
 /// [0.2, 0.3] (about 18°, 41° and 75° from the normal; the radiance μ-weighted over 100 exit
 /// cosines) against the engine's own exit-angle tally of an independent run (normal pencil,
 /// 10⁶ photons per channel): within 2 % (the stated model tolerance: the shape is fitted on the
-/// table's oblique pencil runs, and β moves by up to 0.02 with the incidence on ketchup,
+/// table's flat run under diffuse light, and β moves by up to 0.02 with the incidence on ketchup,
 /// `bssrdf::exit`) + 4σ of the tally. The flat surface's F_t(μ_o)/(π c) misses by more than that
 /// bound in the first and last bins (asserted: the test can fail). The shape is applied to any
 /// exitance alike, so the slab need not be thick for this (the thick-slab test above checks the
