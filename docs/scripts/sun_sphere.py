@@ -26,6 +26,10 @@ RADIUS, DIST, FOV, BINS = 10.0, 60.0, 24.0, 10
 
 
 def material(name, scale, model):
+    if name == "skin_layered":  # the validation matrix's two-layer skin (adaptive_validation.py)
+        import adaptive_validation
+
+        return adaptive_validation.skin_layered(scale, model, 10000)
     m = R.Translucent.library(name, model=model, mc_photons=10000, mc_seed=3)
     m.sigma_a, m.sigma_s = [scale * x for x in m.sigma_a], [scale * x for x in m.sigma_s]
     return m
@@ -125,7 +129,9 @@ def pencil_table(name, scale, photons=40000):
 
 def main(argv=None):
     ap = argparse.ArgumentParser()
-    ap.add_argument("--cases", default="ketchup:1,marble:0.25", help="material:scale, comma-separated")
+    ap.add_argument(
+        "--cases", default="ketchup:1,marble:0.25", help="material:scale, comma-separated (or skin_layered:1)"
+    )
     ap.add_argument("--size", type=int, default=48)
     ap.add_argument("--spp", type=int, default=4)
     a = ap.parse_args(argv)

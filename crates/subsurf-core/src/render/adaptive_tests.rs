@@ -165,7 +165,7 @@ fn thin_slab_lit_from_below_transmits() {
     let got = middle(&s);
     for k in 0..3 {
         let (_, tr) = t.totals(k, 1.0);
-        let want = f0 * tr * f0 / (PI * c) * t.exit(k).factor(1.0);
+        let want = f0 * tr * f0 / (PI * c); // light across the part: the flat exit term
         println!("channel {k}: {:.6} vs {want:.6} ({:+.3} %)", got[k], 100.0 * (got[k] / want - 1.0));
         assert!(tr > 0.2 && (got[k] / want - 1.0).abs() < 0.02, "channel {k}: T = {tr}");
     }
