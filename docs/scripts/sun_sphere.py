@@ -4,11 +4,12 @@
 The reference is ``_core.bssrdf_sun_exitance`` (the curved Monte Carlo on an analytic sphere: the
 exitance per unit sun irradiance by equal-area bins of cos α, α from the sub-solar point). The
 model's exitance is read from its ``hierarchical`` image by dividing each pixel by its
-deterministic exit term F_t(μ_o) s(μ_o)/(π c) (s the exit term's shape) and binned the same way (pixels with μ_o > 0.2; a sun from
-the camera shows the lit bins, from behind the dark ones). Then, per incidence angle, the sphere's
-own tallies under a pencil launch (``_core.bssrdf_curved_escape_parts``): total and near-half
-escape per entering power against the diffuse run's, the forward exit offset and the exits' first
-azimuthal harmonic ⟨cos φ⟩ per chord bin and for the far half.
+deterministic exit term F_t(μ_o) s(μ_o)/(π c) (s the exit term's shape) and binned the same way
+(pixels with μ_o > 0.2; a sun from the camera shows the lit bins, from behind the dark ones).
+Then, per incidence angle, the sphere's own tallies under a pencil launch
+(``_core.bssrdf_curved_escape_parts``): total and near-half escape per entering power against the
+diffuse run's, the forward exit offset and the exits' first azimuthal harmonic ⟨cos φ⟩ per chord
+bin and for the far half.
 
 Usage: python docs/scripts/sun_sphere.py [--cases ketchup:1,marble:0.25] [--size 48] [--spp 4]
 """
