@@ -19,8 +19,9 @@
 //! ([`ExitTally`]: the weight leaving through the top on [`EXIT_BINS`] bins uniform in μ_o) of
 //! the semi-infinite stack under diffuse light ([`build_exit`]: seed + 64c + [`SEED_EXIT`], from
 //! 4 × the table's photons, doubled (the same run extended, [`crate::mc::run::extend`]) until the
-//! fit's standard error of β is at most [`BETA_STDERR`] or the run holds 64 × the table's photons:
-//! dark channels escape little weight per photon and need more of them, and trace them fast), to the
+//! fit's standard error moves s by at most [`EXIT_TOLERANCE`] at any angle ([`Exit::spread`]) or the
+//! run holds 16 × the table's photons: dark channels escape little weight per photon and need more
+//! of them, and trace them fast), to the
 //! model's bin integrals ∫_bin F_t (1 + β μ_i) μ dμ. Measured (2026-12-03, 0.4 M photons per run):
 //! the one-parameter shape fits every semi-infinite stack tried within the noise (χ² 3–12 for 8
 //! degrees of freedom on marble and ketchup; 7–25 on the two-layer skin), and β depends little on
@@ -52,11 +53,11 @@ const BETA_MAX: f64 = 20.0;
 
 /// Seed offset of the exit run within a channel's stride.
 pub const SEED_EXIT: u64 = 61;
-/// The exit run stops doubling once the standard error of β is at most this.
-pub const BETA_STDERR: f64 = 0.01;
+/// The exit run stops doubling once β's standard error moves s(μ) by at most this at any μ.
+pub const EXIT_TOLERANCE: f64 = 0.01;
 /// Photons of the exit run's first step, and its largest, in the table's photons.
 const FIRST: u64 = 4;
-const LAST: u64 = 64;
+const LAST: u64 = 16;
 
 /// An exit-angle histogram ([`ExitTally`]): weight per bin and its standard error.
 #[derive(Clone, Debug, PartialEq)]
@@ -91,7 +92,8 @@ pub fn build_exit(
             return Ok(None);
         }
         let (weight, stderr) = finish(&state, ExitTally::default).data();
-        if photons >= last || Exit::fit(eta, &weight, &stderr).stderr <= BETA_STDERR {
+        let fit = Exit::fit(eta, &weight, &stderr);
+        if photons >= last || fit.stderr * fit.spread() <= EXIT_TOLERANCE {
             progress.fetch_add(first, Ordering::Relaxed);
             return Ok(Some(ExitBins { weight, stderr }));
         }
@@ -188,13 +190,15 @@ pub struct Exit {
     eta: f64,
     /// c₀ / (c₀ + β c₁).
     norm: f64,
+    /// c₁ / c₀.
+    ratio: f64,
 }
 
 impl Exit {
     /// The shape of slope `beta` for relative index `eta`.
     pub fn new(eta: f64, beta: f64) -> Exit {
         let (c0, c1) = moments(eta, 0.0, 1.0, NORM_STEPS);
-        Exit { beta, stderr: 0.0, eta, norm: c0 / (c0 + beta * c1) }
+        Exit { beta, stderr: 0.0, eta, norm: c0 / (c0 + beta * c1), ratio: c1 / c0 }
     }
 
     /// The weighted least-squares β of an exit-angle histogram (`weight[b]`, `stderr[b]` of bins
@@ -232,6 +236,13 @@ impl Exit {
         e
     }
 
+    /// max over μ of |∂s(μ)/∂β|: how far an error of β moves the factor at most (at normal or
+    /// grazing exit).
+    pub fn spread(&self) -> f64 {
+        let lo = mu_inside(self.eta, 0.0);
+        (1.0 - self.ratio).max(self.ratio - lo).abs() * self.norm * self.norm
+    }
+
     /// s(μ_o): the factor on the flat surface's F_t(η, μ_o)/(π c) at exterior cosine `mu`.
     #[inline]
     pub fn factor(&self, mu: f64) -> f64 {
@@ -247,7 +258,7 @@ mod tests {
     use super::*;
 
     /// Every hemispherical total is unchanged: ∫ s F_t μ dμ = ∫ F_t μ dμ (another rule, 10⁻⁶),
-    /// for β from −0.9 to 3 and η 1.3, 1.5; β = 0 is exactly 1.
+    /// for β from −0.9 to 3 and η 1.3, 1.5; β = 0 is exactly 1; `spread` is the largest |∂s/∂β|.
     #[test]
     fn shape_keeps_the_total() {
         for eta in [1.3, 1.5] {
@@ -263,6 +274,12 @@ mod tests {
                 }
                 assert!((with / flat - 1.0).abs() < 1e-6, "η {eta} β {beta}: {}", with / flat);
                 assert!((e.factor(1.0) > 1.0) == (beta > 0.0), "peaked when β > 0");
+                // spread: the largest |∂s/∂β| over μ (at μ = 0 or 1), by finite differences
+                let h = 1e-6;
+                let slope = |mu: f64| ((Exit::new(eta, beta + h).factor(mu) - e.factor(mu)) / h).abs();
+                let most = [0.0, 1.0].map(slope).into_iter().fold(0.0, f64::max);
+                assert!((e.spread() / most - 1.0).abs() < 1e-4, "{} vs {most}", e.spread());
+                assert!((0..=100).all(|i| slope(i as f64 / 100.0) <= most * (1.0 + 1e-4)));
             }
         }
     }
