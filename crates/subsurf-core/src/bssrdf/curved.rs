@@ -414,7 +414,7 @@ pub fn sun_retro(
     seed: u64,
     pred: impl Fn(f64) -> f64,
 ) -> Result<(f64, f64, f64)> {
-    if !(rho > 0.0 && rho.is_finite()) || !(cone > 0.0 && cone < 1.0) || photons < 2 {
+    if !(rho > 0.0 && rho.is_finite() && cone > 0.0 && cone < 1.0) || photons < 2 {
         return Err(Error::Invalid("sun retro: rho > 0 (mm), cone in (0, 1) rad and photons >= 2".into()));
     }
     let g = Geometry::new(stack, Curved::Sphere, rho, Source::Diffuse)?;
