@@ -12,7 +12,7 @@ import subsurf.render as R
 from subsurf import ParameterError, Stack, _core
 from subsurf.bssrdf import AdaptiveTable, Profile
 from subsurf.medium import Layer
-from subsurf.optics import diffuse_fresnel_reflectance
+from subsurf.optics import diffuse_fresnel_reflectance, fresnel_transmittance
 
 # ℓ = 0.45 mm, L = 0.83 mm: five thickness nodes and ∞, short histories.
 STACK = Stack([Layer(1.4, 0.2, 2.0, 0.0)])
@@ -90,6 +90,17 @@ def test_profiles_and_bad_input(cache):
     assert all(a[2] > 0 for a in cd["harmonic_near"])
     with pytest.raises(ParameterError, match="mu"):
         t.oblique_gain(0, 1.5)
+    # the exit term: the flat exit-angle histogram under diffuse light (10 bins in the exit cosine,
+    # the diffuse reflectance in all) and its fitted shape, every hemispherical total unchanged
+    assert len(cd["exit"]) == len(cd["exit_stderr"]) == 10
+    assert sum(cd["exit"]) == pytest.approx(cd["flat"], rel=0.05)
+    mu = (np.arange(2000) + 0.5) / 2000
+    ftm = fresnel_transmittance(mu, 1.0, 1.4)
+    s = np.array([t.exit_factor(0, m) for m in mu])
+    assert np.mean(s * ftm * mu) == pytest.approx(np.mean(ftm * mu), rel=1e-5)
+    assert -0.95 <= cd["exit_beta"] <= 20 and (s[-1] > 1) == (cd["exit_beta"] > 0)
+    with pytest.raises(ParameterError, match="mu"):
+        t.exit_factor(0, -0.1)
     # the curved transport: a non-absorbing, index-matched sphere returns every photon
     clear = Stack([Layer(1.0, 0.0, 2.0, 0.0)])._to_core()
     assert _core.bssrdf_curved_escape(clear, "sphere", 1.0, 200, 1) == (1.0, 0.0)
@@ -126,6 +137,6 @@ def test_backlit_thin_slab_renders_the_transmitted_light(cache):
     t = mats["adaptive"].adaptive_table()
     f0 = 1 - ((1.4 - 1) / (1.4 + 1)) ** 2
     c = 1 - float(diffuse_fresnel_reflectance(1.4, internal=False))
-    want = f0 * t.totals(0, 1.0)[1] * f0 / (np.pi * c)
+    want = f0 * t.totals(0, 1.0)[1] * f0 / (np.pi * c)  # light across the part: the flat exit term
     assert out["adaptive"][0] == pytest.approx(want, rel=0.03)
     assert np.all(out["adaptive"] > 3 * out["monte_carlo"])

@@ -4,11 +4,12 @@
 The reference is ``_core.bssrdf_sun_exitance`` (the curved Monte Carlo on an analytic sphere: the
 exitance per unit sun irradiance by equal-area bins of cos α, α from the sub-solar point). The
 model's exitance is read from its ``hierarchical`` image by dividing each pixel by its
-deterministic exit term F_t(μ_o)/(π c) and binned the same way (pixels with μ_o > 0.2; a sun from
-the camera shows the lit bins, from behind the dark ones). Then, per incidence angle, the sphere's
-own tallies under a pencil launch (``_core.bssrdf_curved_escape_parts``): total and near-half
-escape per entering power against the diffuse run's, the forward exit offset and the exits' first
-azimuthal harmonic ⟨cos φ⟩ per chord bin and for the far half.
+deterministic exit term F_t(μ_o) s(μ_o)/(π c) (s the exit term's shape) and binned the same way
+(pixels with μ_o > 0.2; a sun from the camera shows the lit bins, from behind the dark ones).
+Then, per incidence angle, the sphere's own tallies under a pencil launch
+(``_core.bssrdf_curved_escape_parts``): total and near-half escape per entering power against the
+diffuse run's, the forward exit offset and the exits' first azimuthal harmonic ⟨cos φ⟩ per chord
+bin and for the far half.
 
 Usage: python docs/scripts/sun_sphere.py [--cases ketchup:1,marble:0.25] [--size 48] [--spp 4]
 """
@@ -26,6 +27,10 @@ RADIUS, DIST, FOV, BINS = 10.0, 60.0, 24.0, 10
 
 
 def material(name, scale, model):
+    if name == "skin_layered":  # the validation matrix's two-layer skin (adaptive_validation.py)
+        import adaptive_validation
+
+        return adaptive_validation.skin_layered(scale, model, 10000)
     m = R.Translucent.library(name, model=model, mc_photons=10000, mc_seed=3)
     m.sigma_a, m.sigma_s = [scale * x for x in m.sigma_a], [scale * x for x in m.sigma_s]
     return m
@@ -59,6 +64,7 @@ def model_exitance(m, angle, size, spp):
         R.Camera(tuple(cam), fov=FOV, width=size, height=size),
     )
     img = R.render(scene, "hierarchical", spp=spp, seed=2).array
+    tab = m.adaptive_table()
     mus = (np.arange(100000) + 0.5) / 100000
     c = 1 - np.mean(2 * mus * fresnel(mus, m.eta))
     t = np.tan(np.radians(FOV) / 2)
@@ -76,7 +82,8 @@ def model_exitance(m, angle, size, spp):
             if mu_o < 0.2:
                 continue
             k = min(int((np.dot(n, to_sun) + 1) / 2 * BINS), BINS - 1)
-            sums[k] += img[i, j] * np.pi * c / (1 - fresnel(mu_o, m.eta))
+            shape = np.array([tab.exit_factor(ch, mu_o) for ch in range(3)])  # the exit term's shape
+            sums[k] += img[i, j] * np.pi * c / ((1 - fresnel(mu_o, m.eta)) * shape)
             count[k] += 1
     return np.where(count[:, None] >= 8, sums / np.maximum(count, 1)[:, None], np.nan)
 
@@ -123,7 +130,9 @@ def pencil_table(name, scale, photons=40000):
 
 def main(argv=None):
     ap = argparse.ArgumentParser()
-    ap.add_argument("--cases", default="ketchup:1,marble:0.25", help="material:scale, comma-separated")
+    ap.add_argument(
+        "--cases", default="ketchup:1,marble:0.25", help="material:scale, comma-separated (or skin_layered:1)"
+    )
     ap.add_argument("--size", type=int, default=48)
     ap.add_argument("--spp", type=int, default=4)
     a = ap.parse_args(argv)

@@ -8,7 +8,9 @@ curvature data: the exact escape of diffuse light from spheres, spherical caviti
 ρ = ℓ·2^j relative to the flat half-space (``subsurf_core::bssrdf::curvature``), and the flat
 half-space's reflectance under pencil beams at 30, 50, 65 and 80° (the oblique-incidence gain,
 ``subsurf_core::bssrdf::oblique``), and where a pencil beam's light leaves a sphere around its
-entry point (the first azimuthal harmonic, ``subsurf_core::bssrdf::harmonic``). The renderer picks
+entry point (the first azimuthal harmonic, ``subsurf_core::bssrdf::harmonic``), and the flat
+half-space's exit-angle histogram under diffuse light (the exit term's angular shape,
+``subsurf_core::bssrdf::exit``). The renderer picks
 the profiles per shading point by the local thickness and scales them by the local principal curvatures
 (``render::adaptive``).
 
@@ -31,9 +33,10 @@ from . import _core
 from .medium import Stack
 
 FORMAT = "subsurf-adaptive-table"
-FORMAT_VERSION = 5  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
+FORMAT_VERSION = 6  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
 # 4: and the flat oblique pencil runs of the oblique-incidence gain (``oblique``, ``oblique_stderr``);
-# 5: and the sphere's azimuthal harmonic under pencil beams (``harmonic_near``, ``harmonic_far``)
+# 5: and the sphere's azimuthal harmonic under pencil beams (``harmonic_near``, ``harmonic_far``);
+# 6: and the flat exit-angle histogram of the exit term (``exit``, ``exit_stderr``)
 _ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
 
 
@@ -94,7 +97,10 @@ class AdaptiveTable:
         ``flat_stderr``), the flat pencil runs at ``oblique_theta`` degrees (``oblique``,
         ``oblique_stderr``: diffuse reflectance per incident power), the first azimuthal harmonic
         ⟨cos φ⟩ of the sphere's escapes under pencil beams at those angles (``harmonic_near``,
-        ``harmonic_far``: per curvature node, per angle; ``subsurf_core::bssrdf::harmonic``), and the
+        ``harmonic_far``: per curvature node, per angle; ``subsurf_core::bssrdf::harmonic``), the flat
+        half-space's exit-angle histogram under diffuse light (``exit``, ``exit_stderr``: weight per
+        incident photon on bins uniform in the exit cosine) and its fitted slope ``exit_beta``
+        (``subsurf_core::bssrdf::exit``), and the
         kernel scales derived from them (``scale_convex``: the near side's per bin, ``scale_convex_far``,
         ``scale_concave``)."""
         return self._t.curvature()
@@ -104,6 +110,12 @@ class AdaptiveTable:
         semi-infinite total per unit entering power relative to normal incidence, by which the
         renderer weights light arriving at θi (``subsurf_core::bssrdf::oblique``)."""
         return self._t.oblique_gain(int(channel), float(mu))
+
+    def exit_factor(self, channel, mu) -> float:
+        """The exit term's factor s(μ_o) of ``channel`` at the exit cosine μ_o (outside): the
+        renderer's radiance is the exitance × F_t(η, μ_o)/(π c) × s(μ_o), s fitted to the engine's
+        exit-angle tally with every hemispherical total unchanged (``subsurf_core::bssrdf::exit``)."""
+        return self._t.exit_factor(int(channel), float(mu))
 
     def curvature_scale(self, channel, h) -> tuple:
         """The scales (near side R per chord bin, far side T) of ``channel``'s profiles at mean
@@ -143,7 +155,7 @@ class AdaptiveTable:
                 # The core's curvature data as it gives it (lists: datasets; numbers: attributes);
                 # the scales (`scale_*`) are derived from it when the table is assembled.
                 for k, v in cd.items():
-                    if k.startswith("scale_"):
+                    if k.startswith("scale_") or k == "exit_beta":
                         continue
                     if isinstance(v, float):
                         g.attrs[k] = v

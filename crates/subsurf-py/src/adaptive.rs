@@ -13,6 +13,7 @@ use std::sync::Arc;
 use subsurf_core::bssrdf::adaptive::{thickness_nodes, AdaptiveSettings, AdaptiveTable, SlabData};
 use subsurf_core::bssrdf::curvature::{curvature_nodes, CurvatureData};
 use subsurf_core::bssrdf::curved::{escape_from, sun_exitance, Curved, Escape};
+use subsurf_core::bssrdf::exit::ExitBins;
 use subsurf_core::bssrdf::oblique::OBLIQUE_THETA_DEG;
 use subsurf_core::mc::Source;
 use subsurf_core::medium::Stack;
@@ -91,9 +92,10 @@ impl PyAdaptiveTable {
     /// Per channel: {rho, sphere, sphere_stderr, sphere_near, sphere_near_stderr, the same for
     /// cavity and cylinder, sphere_bins, cylinder_bins, flat, flat_stderr, oblique_theta (deg),
     /// oblique, oblique_stderr (the flat pencil runs of the oblique gain), harmonic_near,
-    /// harmonic_far (the sphere's ⟨cos φ⟩ under pencil beams, per ρ node × oblique angle), scale_convex,
+    /// harmonic_far (the sphere's ⟨cos φ⟩ under pencil beams, per ρ node × oblique angle), exit,
+    /// exit_stderr (the flat exit-angle histogram under diffuse light), exit_beta (its fitted slope), scale_convex,
     /// scale_convex_far, scale_cylinder, scale_cylinder_far, scale_concave} (lists over the
-    /// curvature nodes; `scale_*` derived, not read back).
+    /// curvature nodes; `scale_*` and `exit_beta` derived, not read back).
     fn curvature<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         let mut out = vec![];
         for (c, cd) in self.inner.curvature().iter().enumerate() {
@@ -115,6 +117,9 @@ impl PyAdaptiveTable {
             for (k, i) in [("harmonic_near", 0), ("harmonic_far", 1)] {
                 o.set_item(k, cd.harmonic.iter().map(|r| r.iter().map(|a| a[i]).collect()).collect::<Vec<Vec<f64>>>())?;
             }
+            o.set_item("exit", cd.exit.weight.clone())?;
+            o.set_item("exit_stderr", cd.exit.stderr.clone())?;
+            o.set_item("exit_beta", self.inner.exit(c).beta)?;
             o.set_item("scale_convex", self.inner.scales(c).convex.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
             o.set_item("scale_convex_far", self.inner.scales(c).convex_far.clone())?;
             o.set_item("scale_cylinder", self.inner.scales(c).cylinder.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
@@ -132,6 +137,16 @@ impl PyAdaptiveTable {
             return Err(to_py(Error::param("mu", mu, "a cosine in [0, 1]")));
         }
         Ok(self.inner.oblique_gain(channel, mu))
+    }
+
+    /// The exit term's factor s(μ_o) of `channel` on the flat surface's F_t(η, μ_o)/(π c), at the
+    /// exterior exit cosine μ_o in [0, 1] (`subsurf_core::bssrdf::exit`).
+    fn exit_factor(&self, channel: usize, mu: f64) -> PyResult<f64> {
+        self.check(channel, 1.0)?;
+        if !(0.0..=1.0).contains(&mu) {
+            return Err(to_py(Error::param("mu", mu, "a cosine in [0, 1]")));
+        }
+        Ok(self.inner.exit(channel).factor(mu))
     }
 
     /// The curvature scales (near side per chord bin, far side) of `channel` at mean curvature
@@ -249,7 +264,9 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
         return Err(to_py(Error::Invalid("adaptive table curvature: harmonic_near and harmonic_far differ".into())));
     }
     let harmonic = hn.iter().zip(&hf).map(|(a, b)| a.iter().zip(b).map(|(&x, &y)| [x, y]).collect()).collect();
-    Ok(CurvatureData { rho: list("rho")?, sphere, cavity: pairs("cavity")?, cylinder, flat, oblique, harmonic })
+    let exit = ExitBins { weight: list("exit")?, stderr: list("exit_stderr")? };
+    let cavity = pairs("cavity")?;
+    Ok(CurvatureData { rho: list("rho")?, sphere, cavity, cylinder, flat, oblique, harmonic, exit })
 }
 
 /// The curvature nodes (mm) of a stack's adaptive table.

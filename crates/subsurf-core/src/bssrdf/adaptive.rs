@@ -24,7 +24,8 @@
 //!
 //! With them, per channel, the curvature data ([`super::curvature`]), the oblique-incidence
 //! gain ([`super::oblique`]) the renderer applies to the transmitted irradiance, and the
-//! azimuthal harmonic of collimated light ([`super::harmonic`]).
+//! azimuthal harmonic of collimated light ([`super::harmonic`]), and the exit term's angular
+//! shape ([`super::exit`]).
 //!
 //! The tables are deterministic (fixed seeds per node, the engine's exact merging), so a cache
 //! keyed by the stacks, the settings and the engine's version holds exactly what a rebuild makes
@@ -33,6 +34,7 @@
 use super::curvature::{
     build_curvature, curvature_photons, cylinder_gather, sphere_gather, CurvatureData, Gathers, LocalScale, Scales,
 };
+use super::exit::{Exit, EXIT_BINS};
 use super::harmonic::Harmonic;
 use super::monte_carlo::{default_edges, McSettings, MonteCarloProfile, RadialData, RadialTally};
 use super::oblique::{Gain, OBLIQUE_THETA_DEG};
@@ -230,6 +232,8 @@ struct ChannelTable {
     gain: Gain,
     /// The azimuthal harmonic's amplitudes ([`super::harmonic`]).
     harmonic: Harmonic,
+    /// The exit term's angular shape ([`super::exit`]).
+    exit: Exit,
 }
 
 /// The per-channel tables (see the module docs).
@@ -313,7 +317,15 @@ impl AdaptiveTable {
             }
             let gain = Gain::new(stack, nodes[nodes.len() - 1].top.total, oblique);
             let harmonic = Harmonic::new(&curvature[c].rho, &curvature[c].harmonic)?;
-            channels.push(ChannelTable { d: nodes.iter().map(|n| n.d).collect(), r, t, entering, gain, harmonic });
+            let ex = &curvature[c].exit;
+            if ex.weight.len() != EXIT_BINS || ex.stderr.len() != EXIT_BINS {
+                return Err(Error::Invalid(format!(
+                    "adaptive table: channel {c}'s exit histogram needs {EXIT_BINS} bins"
+                )));
+            }
+            let exit = Exit::fit(top.n / stack.n_above, &ex.weight, &ex.stderr);
+            let d = nodes.iter().map(|n| n.d).collect();
+            channels.push(ChannelTable { d, r, t, entering, gain, harmonic, exit });
         }
         let median_radius = channels
             .iter()
@@ -419,6 +431,15 @@ impl AdaptiveTable {
     /// Channel `c`'s azimuthal-harmonic amplitudes ([`super::harmonic`]).
     pub fn harmonic(&self, c: usize) -> &Harmonic {
         &self.channels[c].harmonic
+    }
+    /// Channel `c`'s exit shape ([`super::exit`]).
+    pub fn exit(&self, c: usize) -> &Exit {
+        &self.channels[c].exit
+    }
+    /// The exit term's factors s_c(μ_o) on the flat surface's F_t(η, μ_o)/(π c), per channel
+    /// (the first three; [`super::exit`]).
+    pub fn exit_factors(&self, mu: f64) -> [f64; 3] {
+        std::array::from_fn(|c| self.channels[c.min(self.channels.len() - 1)].exit.factor(mu))
     }
     /// Number of channels.
     pub fn channels(&self) -> usize {

@@ -105,6 +105,8 @@ pub struct CurvatureData {
     /// radius ρ_j, per angle of [`super::oblique::OBLIQUE_THETA_DEG`]: (entry's half, far half)
     /// ([`super::harmonic`]).
     pub harmonic: Vec<Vec<[f64; 2]>>,
+    /// The engine's exit-angle histogram of the flat half-space under diffuse light ([`super::exit`]).
+    pub exit: super::exit::ExitBins,
 }
 
 /// The curvature nodes (mm) of a stack (see the module docs).
@@ -177,7 +179,10 @@ pub fn build_curvature(
     let Some(harmonic) = super::harmonic::build_harmonic(stack, channel, &rho, s, cancel, progress)? else {
         return Ok(None);
     };
-    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic }))
+    let Some(exit) = super::exit::build_exit(stack, channel, s, cancel, progress)? else {
+        return Ok(None);
+    };
+    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic, exit }))
 }
 
 /// Photons a channel's curvature data traces (with its oblique runs).
@@ -185,7 +190,7 @@ pub fn curvature_photons(stack: &Stack, photons: u64) -> u64 {
     let n_rho = curvature_nodes(stack).map_or(0, |v| v.len());
     let oblique = super::oblique::OBLIQUE_PHOTONS * super::oblique::OBLIQUE_THETA_DEG.len() as u64;
     let flat = photons.saturating_mul(1 + oblique);
-    let harmonic = super::harmonic::harmonic_photons(n_rho, photons);
+    let harmonic = super::harmonic::harmonic_photons(n_rho, photons).saturating_add(super::exit::exit_photons(photons));
     flat.saturating_add(curved_photons(photons).saturating_mul(3 * n_rho as u64)).saturating_add(harmonic)
 }
 

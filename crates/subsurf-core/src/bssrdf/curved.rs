@@ -175,13 +175,13 @@ impl Geometry {
     }
 
     /// One photon's escaped weight, exit point, launch direction in the engine's frame (z into
-    /// the medium) and near chord bin.
-    fn trace_path(&self, seed: u64, photon: u64) -> (f64, [f64; 3], [f64; 3], Option<usize>) {
+    /// the medium) and near chord bin, and its exit direction (outside).
+    fn trace_path(&self, seed: u64, photon: u64) -> (f64, [f64; 3], [f64; 3], Option<usize>, [f64; 3]) {
         let mut rng = PhotonRng::new(seed, photon);
         let (d, rsp) = self.launcher.launch(&mut rng);
         let w0 = 1.0 - rsp;
         if !(w0 > 0.0) {
-            return (0.0, [0.0; 3], d, None);
+            return (0.0, [0.0; 3], d, None, [0.0; 3]);
         }
         let rho = self.shells[0].r_top;
         // engine frame (z into the medium) → the entry point (ρ, 0, 0), inward ∓x
@@ -217,7 +217,7 @@ impl Geometry {
                 };
                 match cross(&mut u, nr, sh.n, n_next, &mut rng) {
                     false => {}
-                    true if up && k == 0 => return (w, p, d, self.near_bin(p, rho)),
+                    true if up && k == 0 => return (w, p, d, self.near_bin(p, rho), u),
                     true => k = if up { k - 1 } else { k + 1 },
                 }
                 continue;
@@ -233,11 +233,11 @@ impl Geometry {
                 if rng.uniform() * ROULETTE_M <= 1.0 {
                     w *= ROULETTE_M;
                 } else {
-                    return (0.0, [0.0; 3], d, None);
+                    return (0.0, [0.0; 3], d, None, [0.0; 3]);
                 }
             }
         }
-        (0.0, [0.0; 3], d, None)
+        (0.0, [0.0; 3], d, None, [0.0; 3])
     }
 }
 
@@ -311,7 +311,7 @@ pub fn escape_from(
         let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(photons));
         let mut s = [0.0; NS];
         for k in lo..hi {
-            let (x, p, _, near) = g.trace_path(seed, k);
+            let (x, p, _, near, _) = g.trace_path(seed, k);
             s[0] += x;
             s[1] += x * x;
             s[4] += x * p[1];
@@ -373,7 +373,7 @@ pub fn sun_exitance(
         let (lo, hi) = (c * CHUNK, ((c + 1) * CHUNK).min(photons));
         let mut h = vec![0.0; bins];
         for k in lo..hi {
-            let (w, p, d, _) = g.trace_path(seed, k);
+            let (w, p, d, _, _) = g.trace_path(seed, k);
             if w > 0.0 {
                 // the sun's direction before refraction: tangential part d/η, towards the sun −(x, y, z)
                 let (x, y) = (d[0] / eta, d[1] / eta);
@@ -396,6 +396,49 @@ pub fn sun_exitance(
     }
     // power πρ²·E into 4πρ²/bins of area per bin
     Ok(Some(h.iter().map(|x| x / photons as f64 * 0.25 * bins as f64).collect()))
+}
+
+/// The radiance a sphere of radius `rho` (mm) made of `stack` sends back towards a sun of unit
+/// irradiance (the retro-reflection a camera beside the light sees), exactly: the weight leaving
+/// within `cone` rad of the sun's direction per unit solid angle (the intensity I; the image mean
+/// of the sphere's disk seen from the sun is I/(πρ²)·πρ² = I per unit irradiance), with its
+/// standard error; and what an exit radiance symmetric about each exit point's normal would
+/// give from the same exits: Σ w·`pred`(μ) with μ = n·ω_sun (`pred`(μ) = the exit distribution's
+/// intensity towards ω_sun per unit exiting power, e.g. F_t s μ/(π c)), 0 for μ ≤ 0. Per unit
+/// incident power; the photons of [`sun_exitance`]'s launch (same seed, same photons).
+pub fn sun_retro(
+    stack: &Stack,
+    rho: f64,
+    cone: f64,
+    photons: u64,
+    seed: u64,
+    pred: impl Fn(f64) -> f64,
+) -> Result<(f64, f64, f64)> {
+    if !(rho > 0.0 && rho.is_finite() && cone > 0.0 && cone < 1.0) || photons < 2 {
+        return Err(Error::Invalid("sun retro: rho > 0 (mm), cone in (0, 1) rad and photons >= 2".into()));
+    }
+    let g = Geometry::new(stack, Curved::Sphere, rho, Source::Diffuse)?;
+    let eta = stack.n_above / stack.layers[0].n;
+    let (mut hit, mut hit2, mut model) = (0.0, 0.0, 0.0);
+    let dom = 2.0 * std::f64::consts::PI * (1.0 - cone.cos());
+    for k in 0..photons {
+        let (w, p, d, _, u) = g.trace_path(seed, k);
+        if w > 0.0 {
+            let (x, y) = (d[0] / eta, d[1] / eta);
+            let z = (1.0 - x * x - y * y).max(0.0).sqrt();
+            let to_sun = [z, -x, -y]; // as in `sun_exitance`
+            let mu = (p[0] * to_sun[0] + p[1] * to_sun[1] + p[2] * to_sun[2]) / rho;
+            if mu > 0.0 {
+                model += w * pred(mu);
+            }
+            if u[0] * to_sun[0] + u[1] * to_sun[1] + u[2] * to_sun[2] > cone.cos() {
+                hit += w / dom;
+                hit2 += (w / dom).powi(2);
+            }
+        }
+    }
+    let (mean, stderr) = mean_stderr(hit, hit2, photons);
+    Ok((mean, stderr, model / photons as f64))
 }
 
 /// `work` over the chunk indices 0..`chunks` in parallel, results in index order: on a pool of

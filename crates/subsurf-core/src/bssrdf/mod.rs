@@ -24,6 +24,7 @@ pub mod chandrasekhar;
 pub mod curvature;
 pub mod curved;
 pub mod dipole;
+pub mod exit;
 pub mod harmonic;
 pub mod inverse;
 pub mod monte_carlo;

@@ -109,8 +109,9 @@ fn thick_slab_reduces_to_the_semi_infinite_profile() {
         let n = t.data()[k].len();
         let node = |j: usize| &t.data()[k][j].top;
         let cd = &t.curvature()[k];
+        let s1 = t.exit(k).factor(1.0); // seen along the normal: the exit term's shape there
         if k == 0 {
-            let want = f0 * r * f0 / (PI * c);
+            let want = f0 * r * f0 / (PI * c) * s1;
             println!("channel {k}: {:.6} vs {want:.6} ({:+.3} %), T = {tr:.2e}", got[k], 100.0 * (got[k] / want - 1.0));
             assert!((got[k] / want - 1.0).abs() < 0.01, "channel {k}");
             let semi = m.profiles()[k].total();
@@ -118,7 +119,7 @@ fn thick_slab_reduces_to_the_semi_infinite_profile() {
             assert!((r - semi).abs() < 4.0 * se * 1.1, "R(30) = {r}, semi-infinite {semi} ± {se}");
         } else {
             // per unit incident power at 60°: R(60°) F_t(60°) cos 60° (the engine scores R per incident)
-            let want = r60 * mu * f0 / (PI * c);
+            let want = r60 * mu * f0 / (PI * c) * s1;
             let rel = [
                 (r60, se60),
                 (node(n - 1).total, node(n - 1).total_stderr),
@@ -164,7 +165,7 @@ fn thin_slab_lit_from_below_transmits() {
     let got = middle(&s);
     for k in 0..3 {
         let (_, tr) = t.totals(k, 1.0);
-        let want = f0 * tr * f0 / (PI * c);
+        let want = f0 * tr * f0 / (PI * c); // light across the part: the flat exit term
         println!("channel {k}: {:.6} vs {want:.6} ({:+.3} %)", got[k], 100.0 * (got[k] / want - 1.0));
         assert!(tr > 0.2 && (got[k] / want - 1.0).abs() < 0.02, "channel {k}: T = {tr}");
     }
@@ -324,8 +325,9 @@ fn sun_lit_sphere_cap_matches_the_curved_transport() {
         Object { name: "s".into(), mesh: super::super::shapes::icosphere([0.0; 3], rho, 5).unwrap(), material: 0 };
     let sun = Light::directional("sun", [0.0, 0.0, 1.0], [1.0; 3]).unwrap();
     let s = Scene::new(vec![obj], vec![material()], vec![sun], [0.0; 3], None).unwrap();
-    let (_, c) = table(&s);
+    let (t, c) = table(&s);
     let h = Hierarchical::new(&s, &HierarchicalParams::default(), 7).unwrap();
+    let s1 = t.exit(0).factor(1.0);
     let (n_mu, n_phi) = (8, 8);
     let mut got = 0.0;
     for i in 0..n_mu {
@@ -337,7 +339,7 @@ fn sun_lit_sphere_cap_matches_the_curved_transport() {
             let o = [3.0 * rho * dir[0], 3.0 * rho * dir[1], 3.0 * rho * dir[2]];
             let hit = s.accel.intersect(o, [-dir[0], -dir[1], -dir[2]], f64::INFINITY, u32::MAX).unwrap();
             let l = h.radiance(&s, &hit, hit.n, 0, &mut PhotonRng::new(3, (i * n_phi + j) as u64));
-            got += l[0] * PI * c / ft(ETA, 1.0) / (n_mu * n_phi) as f64;
+            got += l[0] * PI * c / (ft(ETA, 1.0) * s1) / (n_mu * n_phi) as f64;
         }
     }
     let Material::Translucent(m) = &s.materials[0] else { unreachable!() };
@@ -362,4 +364,83 @@ fn sun_lit_sphere_cap_matches_the_curved_transport() {
     let se = (var / batches as f64).sqrt();
     println!("lit cap: model {got:.5}, exact {want:.5} ± {se:.5} ({:+.1} %)", 100.0 * (got / want - 1.0));
     assert!((got - want).abs() < 0.06 * want + 4.0 * se, "{got} vs {want} ± {se}");
+}
+
+/// The exit term on a flat ketchup slab (8 × 8 × 4 mm; red albedo 0.75, green and blue 0.07 and
+/// 0.02: low-order media) under a normal sun: the share of the exitance that the
+/// `hierarchical` radiance at the centre sends into the exit-cosine bins [0.9, 1], [0.7, 0.8] and
+/// [0.2, 0.3] (about 18°, 41° and 75° from the normal; the radiance μ-weighted over 100 exit
+/// cosines) against the engine's own exit-angle tally of an independent run (normal pencil,
+/// 10⁶ photons per channel): within 2 % (the stated model tolerance: the shape is fitted on the
+/// table's flat run under diffuse light, and β moves by up to 0.02 with the incidence on ketchup,
+/// `bssrdf::exit`) + 4σ of the tally. The flat surface's F_t(μ_o)/(π c) misses by more than that
+/// bound in the first and last bins (asserted: the test can fail). The shape is applied to any
+/// exitance alike, so the slab need not be thick for this (the thick-slab test above checks the
+/// totals with it).
+#[test]
+fn ketchup_slab_exit_shape_matches_the_engine() {
+    use super::super::hierarchical::Hierarchical;
+    use super::super::shade::Translucency;
+    use crate::bssrdf::exit::{ExitTally, EXIT_BINS};
+    use crate::mc::{run, RunConfig, Source};
+    use crate::rng::PhotonRng;
+    let (sa, ss, eta) = ([0.061, 0.97, 1.45], [0.18, 0.07, 0.03], 1.3);
+    let stacks = [0, 1, 2]
+        .map(|k| Stack::new(vec![Layer::new(eta, sa[k], ss[k], 0.0, f64::INFINITY).unwrap()], 1.0, 1.0).unwrap());
+    let spec = TranslucentSpec {
+        field: "materials.ketchup".into(),
+        sigma_a: sa,
+        sigma_s: ss,
+        g: 0.0,
+        eta,
+        model: "adaptive".into(),
+        stacks: stacks.clone(),
+        mc: McSettings { photons: 20_000, seed: 1, threads: Some(2), ..McSettings::default() },
+        reflectance: None,
+        single_scattering: None,
+        grid: None,
+        texture: None,
+        adaptive: None,
+    };
+    let m = spec.build(true, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();
+    let slab = cuboid([-4.0, -4.0, -4.0], [4.0, 4.0, 0.0]).unwrap();
+    let sun = Light::directional("sun", [0.0, 0.0, 1.0], [1.0; 3]).unwrap();
+    let obj = Object { name: "slab".into(), mesh: slab, material: 0 };
+    let s = Scene::new(vec![obj], vec![Material::Translucent(Box::new(m))], vec![sun], [0.0; 3], None).unwrap();
+    let params = HierarchicalParams { spacing: 2.0, ..HierarchicalParams::default() };
+    let h = Hierarchical::new(&s, &params, 7).unwrap();
+    let hit = s.accel.intersect([0.3, 0.2, 50.0], [0.0, 0.0, -1.0], f64::INFINITY, u32::MAX).unwrap();
+    // the renderer's μ-weighted radiance on 100 exit cosines, summed per bin
+    let steps = 100;
+    let (mut model, mut flat) = ([[0.0; EXIT_BINS]; 3], [0.0; EXIT_BINS]);
+    for i in 0..steps {
+        let mu = (i as f64 + 0.5) / steps as f64;
+        let wo = [(1.0 - mu * mu).sqrt(), 0.0, mu];
+        let l = h.radiance(&s, &hit, wo, 0, &mut PhotonRng::new(3, i as u64));
+        for k in 0..3 {
+            model[k][i * EXIT_BINS / steps] += l[k] * mu;
+        }
+        flat[i * EXIT_BINS / steps] += ft(eta, mu) * mu;
+    }
+    for k in 0..3 {
+        let cfg = RunConfig { photons: 1_000_000, seed: 4242, threads: Some(2), source: Source::default(), isa: None };
+        let o = run(&stacks[k], &cfg, ExitTally::default, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap();
+        let (w, se) = o.tally.data();
+        let total: f64 = w.iter().sum();
+        let (mt, ft_t) = (model[k].iter().sum::<f64>(), flat.iter().sum::<f64>());
+        for b in [9, 7, 2] {
+            let (want, sig) = (w[b] / total, se[b] / total);
+            let (got, flat_share) = (model[k][b] / mt, flat[b] / ft_t);
+            println!(
+                "channel {k} bin {b}: model {got:.5} ({:+.2} %), flat term {flat_share:.5} ({:+.2} %), engine {want:.5} ± {sig:.5}",
+                100.0 * (got / want - 1.0),
+                100.0 * (flat_share / want - 1.0)
+            );
+            let bound = 0.02 * want + 4.0 * sig;
+            assert!((got - want).abs() < bound, "channel {k} bin {b}: {got} vs {want} ± {sig}");
+            if b != 7 {
+                assert!((flat_share - want).abs() > bound, "channel {k} bin {b}: the flat term passes too");
+            }
+        }
+    }
 }

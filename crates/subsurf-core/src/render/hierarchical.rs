@@ -155,12 +155,19 @@ impl Tree {
     /// optically small ketchup sphere, 10 mm at 0.59 × ketchup, under uniform light: red −37 %
     /// against the all-pairs sum; `docs/render.md`.)
     pub fn exitance_with(&self, pp: &dyn PairProfiles, x: V3, epsilon: f64) -> Rgb {
+        let [a, b] = self.exitance_classes(pp, x, epsilon);
+        add(a, b)
+    }
+
+    /// [`exitance_with`](Self::exitance_with) per class of `pp` (0: the near side, 1: across):
+    /// the adaptive model gives each class its own exit term.
+    pub fn exitance_classes(&self, pp: &dyn PairProfiles, x: V3, epsilon: f64) -> [Rgb; 2] {
         let rho0 = self.rho0;
         let cap: [Rgb; 2] = std::array::from_fn(|c| std::array::from_fn(|k| pp.profile(c, k).rd(rho0)));
         let rd = |c: usize, r: f64| -> Rgb {
             std::array::from_fn(|k| pp.profile(c, k).rd(r).min(if r < rho0 { cap[c][k] } else { f64::INFINITY }))
         };
-        let (mut acc, mut near_e, mut near_a) = ([0.0; 3], [[0.0; 3]; 2], [0.0; 2]);
+        let (mut acc, mut near_e, mut near_a) = ([[0.0; 3]; 2], [[0.0; 3]; 2], [0.0; 2]);
         let mut stack = vec![0u32];
         while let Some(i) = stack.pop() {
             let nd = &self.nodes[i as usize];
@@ -169,7 +176,7 @@ impl Tree {
                     let (c, r) = pp.class(x, s.p);
                     let v = mul(rd(c, r), s.e);
                     let v = if self.harm { mul(v, factors(&s.m[c], s.n, sub(x, s.p))) } else { v };
-                    acc = add(acc, scale(v, s.area));
+                    acc[c] = add(acc[c], scale(v, s.area));
                     if r < rho0 {
                         near_e[c] = madd(near_e[c], s.e, s.area);
                         near_a[c] += s.area;
@@ -187,7 +194,7 @@ impl Tree {
                 if c == 0 || r >= rho0 + length(sub(nd.hi, nd.lo)) {
                     let v = mul(rd(c, r), nd.power);
                     let v = if self.harm { mul(v, factors(&nd.m[c], nd.n, sub(x, nd.centroid))) } else { v };
-                    acc = add(acc, v);
+                    acc[c] = add(acc[c], v);
                     continue;
                 }
             }
@@ -199,7 +206,7 @@ impl Tree {
                     let p = pp.profile(c, k);
                     (p.total() * p.cdf(rho0) - PI * rho0 * rho0 * cap[c][k]).max(0.0) * near_e[c][k] / near_a[c]
                 });
-                acc = add(acc, near);
+                acc[c] = add(acc[c], near);
             }
         }
         acc
@@ -551,11 +558,17 @@ impl Translucency for Hierarchical {
         let (Some(m), Some(tree)) = (shading_medium(scene, hit), self.trees[hit.object].as_ref()) else {
             return [0.0; 3];
         };
+        let mu_o = dot(wo, hit.n);
         let mo = match &m.adaptive {
-            Some(t) => tree.exitance_with(&super::adaptive::Kernel::at(scene, t, hit), hit.p, self.params.epsilon),
+            Some(t) => {
+                // the exit term's angular shape on the near class (`bssrdf::exit`); across a part, none
+                let k = super::adaptive::Kernel::at(scene, t, hit);
+                let [near, far] = tree.exitance_classes(&k, hit.p, self.params.epsilon);
+                add(mul(near, t.exit_factors(mu_o)), far)
+            }
             None => tree.exitance(m, hit.p, self.params.epsilon),
         };
-        let f = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm);
+        let f = ft(m.eta, mu_o) / (PI * m.c_norm);
         let mut l = scale(mul(mo, tint(scene, hit)), f);
         if m.single_scattering {
             l = add(l, single_scattering(scene, m, hit, wo, depth, rng, self));

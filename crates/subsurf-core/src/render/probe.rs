@@ -150,9 +150,12 @@ impl Translucency for Probe {
             return s1;
         }
         let dist = length(dx);
+        let mu_o = dot(wo, hit.n);
         let (rd, e) = match &m.adaptive {
             Some(t) => {
                 let (c, rd) = super::adaptive::Kernel::at(scene, t, hit).value_class(hi.p);
+                // the exit term's angular shape on the near class (`bssrdf::exit`); across a part, none
+                let rd = if c == 0 { mul(rd, t.exit_factors(mu_o)) } else { rd };
                 let amps = if scene.lights.is_empty() { None } else { entry_amplitudes(scene, t, &hi) };
                 match amps {
                     Some(a) => {
@@ -167,7 +170,7 @@ impl Translucency for Probe {
                 (rd, transmitted_irradiance(scene, &hi, Entry::of(m), 1, 1, depth, rng, self))
             }
         };
-        let w = ft(m.eta, dot(wo, hit.n)) / (PI * m.c_norm * pdf);
+        let w = ft(m.eta, mu_o) / (PI * m.c_norm * pdf);
         add(scale(mul(mul(rd, e), tint(scene, hit)), w), s1)
     }
 }
