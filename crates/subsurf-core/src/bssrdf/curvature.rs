@@ -301,6 +301,60 @@ pub fn cylinder_gather(r: &dyn RadialProfile, t: &dyn RadialProfile, rho: f64) -
     (near, far)
 }
 
+/// The cylinder's area densities relative to the plane for radius 1 on coarser steps than
+/// [`cylinder_gather`]'s (8 per chord bin, then 2^⅛ over 3 octaves and 2^½ up to 16; the far
+/// half 64 steps to the radius, then the same): (from, to, density) in units of the radius,
+/// entry half and far half. The area within a chord (an offset) scales as ρ², so these hold for
+/// every radius.
+type UnitSteps = (Vec<(f64, f64, f64)>, Vec<(f64, f64, f64)>);
+
+fn unit_steps() -> &'static UnitSteps {
+    static STEPS: std::sync::OnceLock<UnitSteps> = std::sync::OnceLock::new();
+    STEPS.get_or_init(|| {
+        // 2^⅛ over the first three octaves (the area's density changes fast past the radius),
+        // then 2^½ up to 16 octaves, then ∞
+        let tail = |lo: f64| {
+            let fine = (0..24).map(move |i| lo * 2f64.powf(i as f64 / 8.0));
+            fine.chain((6..=32).map(move |i| lo * 2f64.powf(i as f64 / 2.0))).chain([f64::INFINITY])
+        };
+        let e = bin_edges(1.0);
+        let mut near = vec![0.0];
+        for b in 0..NEAR_BINS - 1 {
+            near.extend(steps_sq(e[b], e[b + 1], 8).into_iter().skip(1));
+        }
+        near.extend(tail(e[NEAR_BINS - 1]).skip(1));
+        let mut far = steps_sq(0.0, 1.0, 64);
+        far.extend(tail(1.0).skip(1));
+        let densities = |xs: &[f64], area: &dyn Fn(f64) -> f64| {
+            let mut g = 1.0;
+            let mut out = vec![];
+            for w in xs.windows(2) {
+                if w[1].is_finite() {
+                    g = (area(w[1]) - area(w[0])) / (PI * (w[1] * w[1] - w[0] * w[0]));
+                }
+                out.push((w[0], w[1], g));
+            }
+            out
+        };
+        (densities(&near, &|c| cylinder_near_area(c, 1.0)), densities(&far, &|u| cylinder_far_area(u, 1.0)))
+    })
+}
+
+/// The kernel's whole integral over an infinite cylinder of radius `rho` (R on the entry's half
+/// by chord, T on the far half by lateral offset, as [`cylinder_gather`] sums them), on coarser
+/// steps: a few hundred CDF evaluations, for a kernel per shading point (`render::adaptive`).
+pub fn cylinder_mass(r: &dyn RadialProfile, t: &dyn RadialProfile, rho: f64) -> f64 {
+    let (near, far) = unit_steps();
+    let sum = |p: &dyn RadialProfile, steps: &[(f64, f64, f64)]| {
+        if !(p.total() > 0.0) {
+            return 0.0;
+        }
+        let s: f64 = steps.iter().map(|&(a, b, g)| (cdf_at(p, rho * b) - cdf_at(p, rho * a)).max(0.0) * g).sum();
+        s * p.total()
+    };
+    sum(r, near) + sum(t, far)
+}
+
 /// Per-bin near scales and the far scale that make a kernel whose integral is `(k_near, k_far)`
 /// give the escape `esc` (`unit`: escape per incident power → the kernel's units).
 fn convex_scales(esc: &Escape, (k_near, k_far): ([f64; NEAR_BINS], f64), unit: f64) -> ([f64; NEAR_BINS], f64) {

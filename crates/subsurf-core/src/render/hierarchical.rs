@@ -125,7 +125,7 @@ const LEAF_SIZE: usize = 8;
 pub const NEAR_FIELD: f64 = 2.0;
 
 impl Tree {
-    fn build(mut samples: Vec<Sample>, delta: f64) -> Tree {
+    pub(crate) fn build(mut samples: Vec<Sample>, delta: f64) -> Tree {
         let mut nodes = vec![];
         let n = samples.len();
         build_node(&mut samples, 0, n, &mut nodes, 0);
@@ -161,6 +161,8 @@ impl Tree {
             std::array::from_fn(|k| pp.profile(c, k).rd(r).min(if r < rho0 { cap[c][k] } else { f64::INFINITY }))
         };
         let (mut acc, mut near_e, mut near_a) = ([0.0; 3], [[0.0; 3]; 2], [0.0; 2]);
+        let target = pp.target();
+        let mut mass = [0.0; 3]; // Σ profile × area (for `target`)
         let mut stack = vec![0u32];
         while let Some(i) = stack.pop() {
             let nd = &self.nodes[i as usize];
@@ -170,6 +172,9 @@ impl Tree {
                     let v = mul(rd(c, r), s.e);
                     let v = if self.harm { mul(v, factors(&s.m[c], s.n, sub(x, s.p))) } else { v };
                     acc = add(acc, scale(v, s.area));
+                    if target.is_some() {
+                        mass = madd(mass, rd(c, r), s.area);
+                    }
                     if r < rho0 {
                         near_e[c] = madd(near_e[c], s.e, s.area);
                         near_a[c] += s.area;
@@ -185,7 +190,11 @@ impl Tree {
                 // A far-class node that may hold samples within ρ₀ of r⊥ = 0 is opened (every
                 // member is within the box's diagonal of the centroid, and r⊥ is 1-Lipschitz).
                 if c == 0 || r >= rho0 + length(sub(nd.hi, nd.lo)) {
-                    let v = mul(rd(c, r), nd.power);
+                    let p = rd(c, r);
+                    if target.is_some() {
+                        mass = madd(mass, p, nd.area);
+                    }
+                    let v = mul(p, nd.power);
                     let v = if self.harm { mul(v, factors(&nd.m[c], nd.n, sub(x, nd.centroid))) } else { v };
                     acc = add(acc, v);
                     continue;
@@ -195,14 +204,18 @@ impl Tree {
         }
         for c in 0..2 {
             if near_a[c] > 0.0 {
-                let near: Rgb = std::array::from_fn(|k| {
+                let peak: Rgb = std::array::from_fn(|k| {
                     let p = pp.profile(c, k);
-                    (p.total() * p.cdf(rho0) - PI * rho0 * rho0 * cap[c][k]).max(0.0) * near_e[c][k] / near_a[c]
+                    (p.total() * p.cdf(rho0) - PI * rho0 * rho0 * cap[c][k]).max(0.0)
                 });
-                acc = add(acc, near);
+                acc = add(acc, std::array::from_fn(|k| peak[k] * near_e[c][k] / near_a[c]));
+                mass = add(mass, peak);
             }
         }
-        acc
+        match target {
+            Some(t) => std::array::from_fn(|k| if mass[k] > 0.0 { acc[k] * t[k] / mass[k] } else { acc[k] }),
+            None => acc,
+        }
     }
 }
 
@@ -213,6 +226,13 @@ pub trait PairProfiles {
     fn class(&self, x: V3, q: V3) -> (usize, f64);
     /// The profile of class `c` (0 or 1) for channel `k`.
     fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile;
+    /// The profiles' integral over the surface (per channel) that [`Tree::exitance_with`]
+    /// normalises the gathered sum to, if any: the sum is then scaled by this over the same
+    /// profiles' integral over the tree's samples (their areas, with the same clusters and near
+    /// field), so only how the light is distributed over the surface comes from the mesh.
+    fn target(&self) -> Option<Rgb> {
+        None
+    }
 }
 
 /// One class, the material's profiles at the straight distance (every model but `adaptive`).
