@@ -35,7 +35,7 @@
 //! for T, both per unit entering power.
 
 use super::accel::Hit;
-use super::hierarchical::PairProfiles;
+use super::hierarchical::{PairProfiles, Tree};
 use super::math::{dot, length, madd, neg, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use crate::bssrdf::adaptive::{AdaptiveTable, Mix};
@@ -168,9 +168,7 @@ pub struct Kernel {
     t: [Mix; 3],
     /// At a tube's saddle ([`is_tube_saddle`], no edge): per channel the kernel's integral over the
     /// tangent cylinder of radius 1/κ₁, which [`Tree::exitance_with`] makes its integral over the mesh
-    /// ([`PairProfiles::target`]); `None` elsewhere.
-    ///
-    /// [`Tree::exitance_with`]: super::hierarchical::Tree::exitance_with
+    /// ([`PairProfiles::target`]; `probe`: [`Kernel::normalisation`]); `None` elsewhere.
     pub target: Option<Rgb>,
 }
 
@@ -214,6 +212,28 @@ pub const TUBE_MATCH: f64 = 0.22; // ln 1.25
 /// curvatures are the edge's model: nothing is normalised there.
 fn is_tube_saddle(d: f64, k1: f64, k2: f64) -> bool {
     k1 > 0.0 && k2 < 0.0 && k1 + k2 > 0.0 && (0.5 * d * k1).ln().abs() < TUBE_MATCH
+}
+
+impl Kernel {
+    /// The factor per channel that makes this kernel's integral over the object's surface (the
+    /// samples of `tree`, E_t = 1) its [`Kernel::target`]; 1 without a target.
+    pub fn normalisation(&self, tree: &Tree, epsilon: f64) -> Rgb {
+        let Some(t) = self.target else { return [1.0; 3] };
+        let mass = tree.exitance_with(&Unnormalised(self), self.p, epsilon);
+        std::array::from_fn(|k| if mass[k] > 0.0 { t[k] / mass[k] } else { 1.0 })
+    }
+}
+
+/// A kernel without its [`Kernel::target`]: the plain sum.
+pub struct Unnormalised<'a>(pub &'a Kernel);
+
+impl PairProfiles for Unnormalised<'_> {
+    fn class(&self, x: V3, q: V3) -> (usize, f64) {
+        self.0.class(x, q)
+    }
+    fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile {
+        self.0.profile(c, k)
+    }
 }
 
 impl PairProfiles for Kernel {

@@ -367,42 +367,23 @@ fn sun_lit_sphere_cap_matches_the_curved_transport() {
 /// A saddle (the inside of a torus' ring: κ₂ < 0 < H) takes a tube's scales, but the ring rises
 /// above the tangent plane there, so the kernel's integral over the torus exceeds its integral
 /// over the tangent cylinder (the shape its scales make exact); [`super::Kernel::target`] makes
-/// the hierarchical sum the cylinder's. Samples at the centroids of a fine torus (tube 2.5, ring
-/// 7 mm) with E_t = 1: at the inner equator the gathered exitance is the tangent cylinder's
-/// mass (10⁻⁹) and the mesh's own integral is above it; at the outer equator (no saddle, no
-/// normalisation) the mesh's integral is the tangent cylinder's within 2 %.
+/// the hierarchical sum the cylinder's, and `probe` scales by [`super::Kernel::normalisation`].
+/// On the hierarchical samples of a fine torus (tube 2.5, ring 7 mm) with E_t = 1
+/// ([`area_tree`]): at the inner equator the gathered exitance is the tangent cylinder's mass
+/// (10⁻⁹), the mesh's own integral is above it (> 2 %), and the probe's factor times it is the
+/// same; at the outer equator (no saddle: factor 1) the mesh's integral is the tangent
+/// cylinder's within 2 %.
 #[test]
 fn saddle_kernel_gathers_the_tube_total() {
-    use super::super::hierarchical::{PairProfiles, Sample, Tree};
-    use super::super::math::{cross, length, sub, Rgb, V3};
-    use super::Kernel;
+    use super::super::hierarchical::{area_tree, PairProfiles};
+    use super::super::math::Rgb;
+    use super::{Kernel, Unnormalised};
     use crate::bssrdf::curvature::cylinder_mass;
-    use crate::bssrdf::RadialProfile;
-    /// The kernel without its normalisation.
-    struct Plain<'a>(&'a Kernel);
-    impl PairProfiles for Plain<'_> {
-        fn class(&self, x: V3, q: V3) -> (usize, f64) {
-            self.0.class(x, q)
-        }
-        fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile {
-            self.0.profile(c, k)
-        }
-    }
     let mesh = super::super::shapes::torus([0.0; 3], 7.0, 2.5, 384, 96).unwrap();
-    let samples: Vec<Sample> = (0..mesh.triangles.len())
-        .map(|i| {
-            let [a, b, c] = mesh.vertices(i);
-            let n = cross(sub(b, a), sub(c, a));
-            let p = std::array::from_fn(|k| (a[k] + b[k] + c[k]) / 3.0);
-            let n = std::array::from_fn(|k| n[k] / length(n));
-            Sample { p, area: mesh.area(i), e: [1.0; 3], n, m: Default::default() }
-        })
-        .collect();
-    let delta = (mesh.total_area() / samples.len() as f64).sqrt();
-    let tree = Tree::build(samples, delta);
     let obj = Object { name: "t".into(), mesh, material: 0 };
     let s = Scene::new(vec![obj], vec![material()], vec![], [0.0; 3], None).unwrap();
     let (t, _) = table(&s);
+    let tree = area_tree(&s, 0).unwrap();
     let probe = |o: [f64; 3], d: [f64; 3]| s.accel.intersect(o, d, f64::INFINITY, u32::MAX).unwrap();
     for (hit, saddle) in
         [(probe([50.0, 0.01, 0.02], [-1.0, 0.0, 0.0]), false), (probe([0.01, 0.02, 0.03], [1.0, 0.0, 0.0]), true)]
@@ -410,9 +391,11 @@ fn saddle_kernel_gathers_the_tube_total() {
         let k = Kernel::at(&s, &t, &hit);
         assert_eq!(k.target.is_some(), saddle, "κ = {:?}", k.k);
         let cyl: Rgb = std::array::from_fn(|c| cylinder_mass(k.profile(0, c), k.profile(1, c), 1.0 / k.k.0));
-        let plain = tree.exitance_with(&Plain(&k), hit.p, 0.05);
+        let plain = tree.exitance_with(&Unnormalised(&k), hit.p, 0.05);
         let got = tree.exitance_with(&k, hit.p, 0.05);
+        let f = k.normalisation(&tree, 0.05);
         for c in 0..3 {
+            assert!((f[c] * plain[c] / got[c] - 1.0).abs() < 1e-12, "{c}: {f:?} {plain:?} {got:?}");
             if saddle {
                 assert!(
                     (got[c] / cyl[c] - 1.0).abs() < 1e-9 && plain[c] > 1.02 * cyl[c],

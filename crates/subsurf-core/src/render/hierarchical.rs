@@ -348,17 +348,7 @@ impl Hierarchical {
         params.validate()?;
         let spots: Vec<Option<(Spots, f64)>> = (0..scene.objects.len())
             .map(|oi| {
-                let m = scene.material(oi).translucent()?;
-                // (Over every texel material of a textured one: the finest profile sets Δ.)
-                let median = match m.texture.as_ref().and_then(|t| t.radius_range(0.5)) {
-                    Some((lo, _)) => lo[0].min(lo[1]).min(lo[2]),
-                    None => (0..3).map(|k| m.profiles()[k].radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min),
-                };
-                let total = scene.objects[oi].mesh.total_area();
-                let mut delta = params.spacing * median;
-                if !(delta > 0.0 && delta.is_finite()) || total / (delta * delta) > params.max_samples as f64 {
-                    delta = (total / params.max_samples as f64).sqrt();
-                }
+                let delta = spacing(scene, oi, params)?;
                 Some((place_samples(scene, oi, delta), delta))
             })
             .collect();
@@ -378,6 +368,35 @@ impl Hierarchical {
         }
         Ok(Some(h))
     }
+}
+
+/// The sample spacing Δ (mm) of translucent object `oi`: `spacing` × the smallest median
+/// profile radius (over every texel material of a textured one), larger where the object would
+/// get more than `max_samples`; `None` for an opaque object.
+fn spacing(scene: &Scene, oi: usize, params: &HierarchicalParams) -> Option<f64> {
+    let m = scene.material(oi).translucent()?;
+    let median = match m.texture.as_ref().and_then(|t| t.radius_range(0.5)) {
+        Some((lo, _)) => lo[0].min(lo[1]).min(lo[2]),
+        None => (0..3).map(|k| m.profiles()[k].radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min),
+    };
+    let total = scene.objects[oi].mesh.total_area();
+    let delta = params.spacing * median;
+    if !(delta > 0.0 && delta.is_finite()) || total / (delta * delta) > params.max_samples as f64 {
+        return Some((total / params.max_samples as f64).sqrt());
+    }
+    Some(delta)
+}
+
+/// The hierarchical method's samples of translucent object `oi` with E_t = 1 and their octree
+/// (default settings): [`Tree::exitance_with`] then integrates a kernel over the object's
+/// surface (the `probe` method's normalisation of a tube's saddle, `render::adaptive`).
+pub fn area_tree(scene: &Scene, oi: usize) -> Option<Tree> {
+    let delta = spacing(scene, oi, &HierarchicalParams::default())?;
+    let samples = place_samples(scene, oi, delta)
+        .into_iter()
+        .map(|(h, area, _)| Sample { p: h.p, area, e: [1.0; 3], n: h.n, m: Default::default() })
+        .collect();
+    Some(Tree::build(samples, delta))
 }
 
 /// The fraction of the second gathering's rays that reach a translucent surface and are
