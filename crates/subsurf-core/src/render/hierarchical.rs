@@ -169,11 +169,12 @@ impl Tree {
             if nd.leaf {
                 for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
                     let (c, r) = pp.class(x, s.p);
-                    let v = mul(rd(c, r), s.e);
+                    let p = rd(c, r);
+                    let v = mul(p, s.e);
                     let v = if self.harm { mul(v, factors(&s.m[c], s.n, sub(x, s.p))) } else { v };
                     acc = add(acc, scale(v, s.area));
                     if target.is_some() {
-                        mass = madd(mass, rd(c, r), s.area);
+                        mass = madd(mass, p, s.area);
                     }
                     if r < rho0 {
                         near_e[c] = madd(near_e[c], s.e, s.area);
