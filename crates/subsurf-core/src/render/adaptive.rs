@@ -24,6 +24,12 @@
 //! d/(1 + dH) used before moved light into T, to the far side, where on a sphere the extra light
 //! leaves near where it entered; measured worse on spheres and the torus, see `docs/render.md`.)
 //!
+//! Saddles of a tube ([`is_tube_saddle`]: the inside of a torus' ring) take the tube's scales,
+//! but more of their surface lies near x than on the tube (the ring rises above the tangent
+//! plane along κ₂: +8 % of the kernel's integral at a marble torus' inner equator); there the
+//! gathered sum is normalised to the kernel's integral over the tangent cylinder
+//! ([`Kernel::target`]; `hierarchical` in its tree walk, `probe` by [`Kernel::normalisation`]).
+//!
 //! Direction: each pair is weighted by the azimuthal factor of the entry point's light
 //! ([`crate::bssrdf::harmonic`]; `hierarchical` and `probe` apply it, [`entry_amplitudes`]
 //! gives an entry point's amplitudes at its own probed curvature): light from a light source
@@ -201,8 +207,9 @@ impl Kernel {
     }
 }
 
-/// Largest |ln(d κ₁/2)| at which a saddle is normalised to its tube ([`is_tube_saddle`]).
-pub const TUBE_MATCH: f64 = 0.22; // ln 1.25
+/// Largest |ln(d κ₁/2)| at which a saddle is normalised to its tube ([`is_tube_saddle`]): a
+/// chosen tolerance (ln 1.25), not fitted; the torus of `docs/render.md` has d κ₁/2 = 1.00.
+pub const TUBE_MATCH: f64 = 0.22;
 
 /// A tube's saddle: κ₁ > 0 > κ₂ with mean curvature > 0, and a thickness d within 25 % of the
 /// tube's diameter 2/κ₁ (the inside of a torus' ring). The scales there are the tube's, but the
