@@ -179,7 +179,9 @@ fn curvature_scales_reproduce_the_sphere_escapes() {
 /// the sphere's.
 #[test]
 fn cylinder_scales_reproduce_the_cylinder_escapes() {
-    use crate::bssrdf::curvature::{bin_edges, cylinder_far_area, cylinder_gather, cylinder_near_area};
+    use crate::bssrdf::curvature::{
+        bin_edges, cylinder_far_area, cylinder_gather, cylinder_mass, cylinder_near_area, Binned,
+    };
     use crate::bssrdf::curved::NEAR_BINS;
     use std::f64::consts::PI;
     let rho = 2.0;
@@ -222,6 +224,10 @@ fn cylinder_scales_reproduce_the_cylinder_escapes() {
         });
         assert!((near[b] / want - 1.0).abs() < 0.01, "bin {b}: {} vs {want}", near[b]);
     }
+    // the coarse whole integral (a kernel per shading point) against the fine one
+    let fine = near.iter().sum::<f64>() + far;
+    let coarse = cylinder_mass(&r, &tr, rho);
+    assert!((coarse / fine - 1.0).abs() < 1e-3, "coarse {coarse} vs {fine}");
     let s = one_layer(0.2, 2.0, 0.0);
     let t = AdaptiveTable::build(std::slice::from_ref(&s), &settings(800), &AtomicBool::new(false), &AtomicU64::new(0))
         .unwrap()
@@ -236,6 +242,10 @@ fn cylinder_scales_reproduce_the_cylinder_escapes() {
         let cy = &cd.cylinder[j];
         let got: f64 = (0..NEAR_BINS).map(|b| near[b] * sc.near[b]).sum::<f64>() + far * sc.far;
         assert!((got - cy.mean * unit).abs() < 1e-6 * cy.mean, "node {j}: {got} vs {}", cy.mean * unit);
+        // the scaled kernel's whole cylinder integral on the coarse steps: the escape (0.2 %)
+        let (rs, ts) = t.scaled(0, at, (1.0, sc.far));
+        let m = Binned::new(rs, &sc).cylinder_mass(&ts, rho);
+        assert!((m / (cy.mean * unit) - 1.0).abs() < 2e-3, "node {j}: coarse {m} vs {}", cy.mean * unit);
         let sp = t.curvature_scale_principal(0, 1.0 / rho, 1.0 / rho);
         assert_eq!(sp, t.curvature_scale(0, 1.0 / rho));
         let half = t.curvature_scale_principal(0, 1.0 / rho, 0.5 / rho);

@@ -24,6 +24,12 @@
 //! d/(1 + dH) used before moved light into T, to the far side, where on a sphere the extra light
 //! leaves near where it entered; measured worse on spheres and the torus, see `docs/render.md`.)
 //!
+//! Saddles of a tube ([`is_tube_saddle`]: the inside of a torus' ring) take the tube's scales,
+//! but more of their surface lies near x than on the tube (the ring rises above the tangent
+//! plane along κ₂: +8 % of the kernel's integral at a marble torus' inner equator); there the
+//! gathered sum is normalised to the kernel's integral over the tangent cylinder
+//! ([`Kernel::target`]; `hierarchical` in its tree walk, `probe` by [`Kernel::normalisation`]).
+//!
 //! Direction: each pair is weighted by the azimuthal factor of the entry point's light
 //! ([`crate::bssrdf::harmonic`]; `hierarchical` and `probe` apply it, [`entry_amplitudes`]
 //! gives an entry point's amplitudes at its own probed curvature): light from a light source
@@ -35,7 +41,7 @@
 //! for T, both per unit entering power.
 
 use super::accel::Hit;
-use super::hierarchical::PairProfiles;
+use super::hierarchical::{PairProfiles, Tree};
 use super::math::{dot, length, madd, neg, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use crate::bssrdf::adaptive::{AdaptiveTable, Mix};
@@ -105,13 +111,14 @@ fn sag(scene: &Scene, hit: &Hit, t: V3, s: f64) -> Option<f64> {
 /// both sides (the symmetric mean cancels a tilt of the facet normal n to first order, and uses
 /// positions, not the flat facets' normals). A side whose probe finds no surface within 3s has
 /// an edge within s (a box's flat face near its edge): it counts as a sag of [`EDGE_SAG`]·s.
-fn normal_curvature(scene: &Scene, hit: &Hit, t: V3, s: f64) -> f64 {
-    let d = match (sag(scene, hit, t, s), sag(scene, hit, neg(t), s)) {
-        (Some(a), Some(b)) => 0.5 * (a + b),
-        (Some(a), None) | (None, Some(a)) => 0.5 * (a + EDGE_SAG * s),
-        (None, None) => EDGE_SAG * s,
+/// Also whether a side did (an edge).
+fn normal_curvature(scene: &Scene, hit: &Hit, t: V3, s: f64) -> (f64, bool) {
+    let (d, edge) = match (sag(scene, hit, t, s), sag(scene, hit, neg(t), s)) {
+        (Some(a), Some(b)) => (0.5 * (a + b), false),
+        (Some(a), None) | (None, Some(a)) => (0.5 * (a + EDGE_SAG * s), true),
+        (None, None) => (EDGE_SAG * s, true),
     };
-    2.0 * d / (s * s + d * d)
+    (2.0 * d / (s * s + d * d), edge)
 }
 
 /// Principal curvatures κ₁ ≥ κ₂ (mm⁻¹, > 0 convex) of the object of `hit`: the normal
@@ -119,29 +126,36 @@ fn normal_curvature(scene: &Scene, hit: &Hit, t: V3, s: f64) -> f64 {
 /// give the symmetric shape operator [[κ_t, m], [m, κ_b]] with m = κ₄₅ − (κ_t + κ_b)/2 (Euler:
 /// κ(θ) = κ_t cos²θ + 2m sinθ cosθ + κ_b sin²θ), and κ₁,₂ are its eigenvalues.
 pub fn principal_curvatures(scene: &Scene, hit: &Hit, s: f64) -> (f64, f64) {
+    principal_curvatures_edge(scene, hit, s).0
+}
+
+/// [`principal_curvatures`], and whether a probe fell off an edge (then the curvatures are the
+/// edge's model, [`EDGE_SAG`], not a smooth surface's).
+fn principal_curvatures_edge(scene: &Scene, hit: &Hit, s: f64) -> ((f64, f64), bool) {
     let f = Frame::new(hit.n);
     let diag = madd(f.t, f.b, 1.0);
     let diag = [diag[0] * FRAC_1_SQRT_2, diag[1] * FRAC_1_SQRT_2, diag[2] * FRAC_1_SQRT_2];
-    let [kt, kb, kd] = [f.t, f.b, diag].map(|t| normal_curvature(scene, hit, t, s));
+    let [(kt, et), (kb, eb), (kd, ed)] = [f.t, f.b, diag].map(|t| normal_curvature(scene, hit, t, s));
     let mean = 0.5 * (kt + kb);
     let m = kd - mean;
     let root = (0.25 * (kt - kb).powi(2) + m * m).sqrt();
-    (mean + root, mean - root)
+    ((mean + root, mean - root), et || eb || ed)
 }
 
 /// The thickness and the principal curvatures at `hit` as [`Kernel::at`] probes them: d (mm)
-/// and (κ₁, κ₂) (mm⁻¹).
-fn local_geometry(scene: &Scene, table: &AdaptiveTable, hit: &Hit) -> (f64, (f64, f64)) {
+/// and (κ₁, κ₂) (mm⁻¹), and whether a curvature probe fell off an edge.
+fn local_geometry(scene: &Scene, table: &AdaptiveTable, hit: &Hit) -> (f64, (f64, f64), bool) {
     let d = thickness(scene, hit);
     let s = table.median_radius.min(0.25 * d);
-    (d, if s > 0.0 { principal_curvatures(scene, hit, s) } else { (0.0, 0.0) })
+    let (k, edge) = if s > 0.0 { principal_curvatures_edge(scene, hit, s) } else { ((0.0, 0.0), false) };
+    (d, k, edge)
 }
 
 /// The azimuthal-harmonic amplitudes of an entry point `hit` per channel, at its principal
 /// curvatures probed as [`Kernel::at`] does ([`crate::bssrdf::harmonic`]); `None` when they are
 /// all 0 (no factor to apply).
 pub fn entry_amplitudes(scene: &Scene, table: &AdaptiveTable, hit: &Hit) -> Option<[AtRho; 3]> {
-    let (_, (k1, k2)) = local_geometry(scene, table, hit);
+    let (_, (k1, k2), _) = local_geometry(scene, table, hit);
     let a: [AtRho; 3] = std::array::from_fn(|k| table.harmonic(k.min(table.channels() - 1)).at_principal(k1, k2));
     (!a.iter().all(AtRho::is_zero)).then_some(a)
 }
@@ -158,12 +172,16 @@ pub struct Kernel {
     pub k: (f64, f64),
     r: [Binned; 3],
     t: [Mix; 3],
+    /// At a tube's saddle ([`is_tube_saddle`], no edge): per channel the kernel's integral over the
+    /// tangent cylinder of radius 1/κ₁, which [`Tree::exitance_with`] makes its integral over the mesh
+    /// ([`PairProfiles::target`]; `probe`: [`Kernel::normalisation`]); `None` elsewhere.
+    pub target: Option<Rgb>,
 }
 
 impl Kernel {
     /// The kernel at `hit` with the material's table.
     pub fn at(scene: &Scene, table: &AdaptiveTable, hit: &Hit) -> Kernel {
-        let (d, (k1, k2)) = local_geometry(scene, table, hit);
+        let (d, (k1, k2), edge) = local_geometry(scene, table, hit);
         let pair = |k: usize| {
             let c = k.min(table.channels() - 1);
             let sc = table.curvature_scale_principal(c, k1, k2);
@@ -171,7 +189,10 @@ impl Kernel {
             (Binned::new(r, &sc), t)
         };
         let [a, b, c] = [pair(0), pair(1), pair(2)];
-        Kernel { p: hit.p, n: hit.n, d, h: 0.5 * (k1 + k2), k: (k1, k2), r: [a.0, b.0, c.0], t: [a.1, b.1, c.1] }
+        let (r, t) = ([a.0, b.0, c.0], [a.1, b.1, c.1]);
+        let target =
+            (!edge && is_tube_saddle(d, k1, k2)).then(|| std::array::from_fn(|k| r[k].cylinder_mass(&t[k], 1.0 / k1)));
+        Kernel { p: hit.p, n: hit.n, d, h: 0.5 * (k1 + k2), k: (k1, k2), r, t, target }
     }
 
     /// The profile value per channel (mm⁻²) for light entering at `q`.
@@ -183,6 +204,42 @@ impl Kernel {
     pub fn value_class(&self, q: V3) -> (usize, Rgb) {
         let (c, r) = self.class(self.p, q);
         (c, std::array::from_fn(|k| self.profile(c, k).rd(r)))
+    }
+}
+
+/// Largest |ln(d κ₁/2)| at which a saddle is normalised to its tube ([`is_tube_saddle`]): a
+/// chosen tolerance (ln 1.25), not fitted; the torus of `docs/render.md` has d κ₁/2 = 1.00.
+pub const TUBE_MATCH: f64 = 0.22;
+
+/// A tube's saddle: κ₁ > 0 > κ₂ with mean curvature > 0, and a thickness d within 25 % of the
+/// tube's diameter 2/κ₁ (the inside of a torus' ring). The scales there are the tube's, but the
+/// surface rises above the tangent plane along κ₂, so more of it lies within a given distance
+/// of x than on the tube. Where d is not the diameter (a thin wall) the point is not on a tube,
+/// and where a curvature probe fell off an edge (a box's edge: [`Kernel::at`] asks) the
+/// curvatures are the edge's model: nothing is normalised there.
+pub fn is_tube_saddle(d: f64, k1: f64, k2: f64) -> bool {
+    k1 > 0.0 && k2 < 0.0 && k1 + k2 > 0.0 && (0.5 * d * k1).ln().abs() < TUBE_MATCH
+}
+
+impl Kernel {
+    /// The factor per channel that makes this kernel's integral over the object's surface (the
+    /// samples of `tree`, E_t = 1) its [`Kernel::target`]; 1 without a target.
+    pub fn normalisation(&self, tree: &Tree, epsilon: f64) -> Rgb {
+        let Some(t) = self.target else { return [1.0; 3] };
+        let mass = tree.exitance_with(&Unnormalised(self), self.p, epsilon);
+        std::array::from_fn(|k| if mass[k] > 0.0 { t[k] / mass[k] } else { 1.0 })
+    }
+}
+
+/// A kernel without its [`Kernel::target`]: the plain sum.
+pub struct Unnormalised<'a>(pub &'a Kernel);
+
+impl PairProfiles for Unnormalised<'_> {
+    fn class(&self, x: V3, q: V3) -> (usize, f64) {
+        self.0.class(x, q)
+    }
+    fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile {
+        self.0.profile(c, k)
     }
 }
 
@@ -205,6 +262,9 @@ impl PairProfiles for Kernel {
         } else {
             &self.t[k]
         }
+    }
+    fn target(&self) -> Option<Rgb> {
+        self.target
     }
 }
 

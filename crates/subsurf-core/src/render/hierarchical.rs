@@ -125,7 +125,7 @@ const LEAF_SIZE: usize = 8;
 pub const NEAR_FIELD: f64 = 2.0;
 
 impl Tree {
-    fn build(mut samples: Vec<Sample>, delta: f64) -> Tree {
+    pub(crate) fn build(mut samples: Vec<Sample>, delta: f64) -> Tree {
         let mut nodes = vec![];
         let n = samples.len();
         build_node(&mut samples, 0, n, &mut nodes, 0);
@@ -168,15 +168,21 @@ impl Tree {
             std::array::from_fn(|k| pp.profile(c, k).rd(r).min(if r < rho0 { cap[c][k] } else { f64::INFINITY }))
         };
         let (mut acc, mut near_e, mut near_a) = ([[0.0; 3]; 2], [[0.0; 3]; 2], [0.0; 2]);
+        let target = pp.target();
+        let mut mass = [0.0; 3]; // Σ profile × area (for `target`)
         let mut stack = vec![0u32];
         while let Some(i) = stack.pop() {
             let nd = &self.nodes[i as usize];
             if nd.leaf {
                 for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
                     let (c, r) = pp.class(x, s.p);
-                    let v = mul(rd(c, r), s.e);
+                    let p = rd(c, r);
+                    let v = mul(p, s.e);
                     let v = if self.harm { mul(v, factors(&s.m[c], s.n, sub(x, s.p))) } else { v };
                     acc[c] = add(acc[c], scale(v, s.area));
+                    if target.is_some() {
+                        mass = madd(mass, p, s.area);
+                    }
                     if r < rho0 {
                         near_e[c] = madd(near_e[c], s.e, s.area);
                         near_a[c] += s.area;
@@ -192,7 +198,11 @@ impl Tree {
                 // A far-class node that may hold samples within ρ₀ of r⊥ = 0 is opened (every
                 // member is within the box's diagonal of the centroid, and r⊥ is 1-Lipschitz).
                 if c == 0 || r >= rho0 + length(sub(nd.hi, nd.lo)) {
-                    let v = mul(rd(c, r), nd.power);
+                    let p = rd(c, r);
+                    if target.is_some() {
+                        mass = madd(mass, p, nd.area);
+                    }
+                    let v = mul(p, nd.power);
                     let v = if self.harm { mul(v, factors(&nd.m[c], nd.n, sub(x, nd.centroid))) } else { v };
                     acc[c] = add(acc[c], v);
                     continue;
@@ -202,14 +212,18 @@ impl Tree {
         }
         for c in 0..2 {
             if near_a[c] > 0.0 {
-                let near: Rgb = std::array::from_fn(|k| {
+                let peak: Rgb = std::array::from_fn(|k| {
                     let p = pp.profile(c, k);
-                    (p.total() * p.cdf(rho0) - PI * rho0 * rho0 * cap[c][k]).max(0.0) * near_e[c][k] / near_a[c]
+                    (p.total() * p.cdf(rho0) - PI * rho0 * rho0 * cap[c][k]).max(0.0)
                 });
-                acc[c] = add(acc[c], near);
+                acc[c] = add(acc[c], std::array::from_fn(|k| peak[k] * near_e[c][k] / near_a[c]));
+                mass = add(mass, peak);
             }
         }
-        acc
+        match target {
+            Some(t) => acc.map(|a| std::array::from_fn(|k| if mass[k] > 0.0 { a[k] * t[k] / mass[k] } else { a[k] })),
+            None => acc,
+        }
     }
 }
 
@@ -220,6 +234,13 @@ pub trait PairProfiles {
     fn class(&self, x: V3, q: V3) -> (usize, f64);
     /// The profile of class `c` (0 or 1) for channel `k`.
     fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile;
+    /// The profiles' integral over the surface (per channel) that [`Tree::exitance_with`]
+    /// normalises the gathered sum to, if any: the sum is then scaled by this over the same
+    /// profiles' integral over the tree's samples (their areas, with the same clusters and near
+    /// field), so only how the light is distributed over the surface comes from the mesh.
+    fn target(&self) -> Option<Rgb> {
+        None
+    }
 }
 
 /// One class, the material's profiles at the straight distance (every model but `adaptive`).
@@ -335,17 +356,7 @@ impl Hierarchical {
         params.validate()?;
         let spots: Vec<Option<(Spots, f64)>> = (0..scene.objects.len())
             .map(|oi| {
-                let m = scene.material(oi).translucent()?;
-                // (Over every texel material of a textured one: the finest profile sets Δ.)
-                let median = match m.texture.as_ref().and_then(|t| t.radius_range(0.5)) {
-                    Some((lo, _)) => lo[0].min(lo[1]).min(lo[2]),
-                    None => (0..3).map(|k| m.profiles()[k].radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min),
-                };
-                let total = scene.objects[oi].mesh.total_area();
-                let mut delta = params.spacing * median;
-                if !(delta > 0.0 && delta.is_finite()) || total / (delta * delta) > params.max_samples as f64 {
-                    delta = (total / params.max_samples as f64).sqrt();
-                }
+                let delta = spacing(scene, oi, params)?;
                 Some((place_samples(scene, oi, delta), delta))
             })
             .collect();
@@ -365,6 +376,35 @@ impl Hierarchical {
         }
         Ok(Some(h))
     }
+}
+
+/// The sample spacing Δ (mm) of translucent object `oi`: `spacing` × the smallest median
+/// profile radius (over every texel material of a textured one), larger where the object would
+/// get more than `max_samples`; `None` for an opaque object.
+fn spacing(scene: &Scene, oi: usize, params: &HierarchicalParams) -> Option<f64> {
+    let m = scene.material(oi).translucent()?;
+    let median = match m.texture.as_ref().and_then(|t| t.radius_range(0.5)) {
+        Some((lo, _)) => lo[0].min(lo[1]).min(lo[2]),
+        None => (0..3).map(|k| m.profiles()[k].radius_for_fraction(0.5)).fold(f64::INFINITY, f64::min),
+    };
+    let total = scene.objects[oi].mesh.total_area();
+    let delta = params.spacing * median;
+    if !(delta > 0.0 && delta.is_finite()) || total / (delta * delta) > params.max_samples as f64 {
+        return Some((total / params.max_samples as f64).sqrt());
+    }
+    Some(delta)
+}
+
+/// The hierarchical method's samples of translucent object `oi` with E_t = 1 and their octree
+/// (default settings): [`Tree::exitance_with`] then integrates a kernel over the object's
+/// surface (the `probe` method's normalisation of a tube's saddle, `render::adaptive`).
+pub fn area_tree(scene: &Scene, oi: usize) -> Option<Tree> {
+    let delta = spacing(scene, oi, &HierarchicalParams::default())?;
+    let samples = place_samples(scene, oi, delta)
+        .into_iter()
+        .map(|(h, area, _)| Sample { p: h.p, area, e: [1.0; 3], n: h.n, m: Default::default() })
+        .collect();
+    Some(Tree::build(samples, delta))
 }
 
 /// The fraction of the second gathering's rays that reach a translucent surface and are

@@ -26,6 +26,7 @@
 
 use super::accel::Hit;
 use super::adaptive::entry_amplitudes;
+use super::hierarchical::{area_tree, HierarchicalParams, Tree};
 use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Entry};
 use super::math::{add, dot, length, madd, max3, mul, scale, sub, Frame, Rgb, V3};
 use super::scene::Scene;
@@ -34,6 +35,7 @@ use super::texture::shading_medium;
 use crate::bssrdf::harmonic::{factors, Lobe};
 use crate::rng::PhotonRng;
 use std::f64::consts::PI;
+use std::sync::OnceLock;
 
 /// Fraction of each profile's energy inside the probe sphere (pbrt-v4 uses 0.999 likewise).
 pub const R_MAX_FRACTION: f64 = 0.9999;
@@ -41,6 +43,9 @@ pub const R_MAX_FRACTION: f64 = 0.9999;
 /// The probe method (per object: the probe radius of each channel).
 pub struct Probe {
     r_max: Vec<Rgb>,
+    /// Per object, built when first needed: the hierarchical method's samples with E_t = 1
+    /// (`adaptive` at a tube's saddle normalises its kernel by its integral over them).
+    areas: Vec<OnceLock<Option<Tree>>>,
 }
 
 impl Probe {
@@ -62,7 +67,7 @@ impl Probe {
                 None => [0.0; 3],
             })
             .collect();
-        Probe { r_max }
+        Probe { r_max, areas: (0..scene.objects.len()).map(|_| OnceLock::new()).collect() }
     }
 
     /// All hits with `object` on the segment from `a` along unit `d` of length `len`.
@@ -153,7 +158,13 @@ impl Translucency for Probe {
         let mu_o = dot(wo, hit.n);
         let (rd, e) = match &m.adaptive {
             Some(t) => {
-                let (c, rd) = super::adaptive::Kernel::at(scene, t, hit).value_class(hi.p);
+                let kernel = super::adaptive::Kernel::at(scene, t, hit);
+                let (c, rd) = kernel.value_class(hi.p);
+                let tree = || self.areas[hit.object].get_or_init(|| area_tree(scene, hit.object)).as_ref();
+                let rd = match kernel.target.and_then(|_| tree()) {
+                    Some(tree) => mul(rd, kernel.normalisation(tree, HierarchicalParams::default().epsilon)),
+                    None => rd,
+                };
                 // the exit term's angular shape on the near class (`bssrdf::exit`); across a part, none
                 let rd = if c == 0 { mul(rd, t.exit_factors(mu_o)) } else { rd };
                 let amps = if scene.lights.is_empty() { None } else { entry_amplitudes(scene, t, &hi) };
