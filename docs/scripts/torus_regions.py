@@ -22,21 +22,17 @@ import subsurf.render as R
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import adaptive_validation as V  # noqa: E402
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "benches"))
+import render_compare as C  # noqa: E402
+
 MAJOR, MINOR = 7.0, 2.5  # the matrix's torus (mm)
 EDGES = (0, 30, 60, 90, 120, 150, 180.1)
 
 
 def tube_angle(objs, camera, size):
     """Per pixel the tube angle (degrees) of the camera ray's hit on the analytic torus."""
-    pos, look, up = (np.array(v, float) for v in (camera.position, camera.look_at, camera.up))
-    f = (look - pos) / np.linalg.norm(look - pos)
-    r = np.cross(f, up)
-    r /= np.linalg.norm(r)
-    u = np.cross(r, f)
-    th = np.tan(np.radians(camera.fov) / 2)
-    ys, xs = np.mgrid[0:size, 0:size] + 0.5
-    d = f + ((2 * xs / size - 1) * th)[..., None] * r + ((1 - 2 * ys / size) * th)[..., None] * u
-    d = (d / np.linalg.norm(d, axis=-1, keepdims=True)).reshape(-1, 3)
+    pos = np.array(camera.position, float)
+    d = C.camera_rays(camera).reshape(-1, 3)  # the renderer's pixel-centre rays
     p = objs[0].positions
     c = p.mean(0)
     axis = np.linalg.eigh(np.cov((p - c).T))[1][:, 0]  # the torus' flat direction
