@@ -79,8 +79,7 @@ pub fn build_exit(
 ) -> Result<Option<ExitBins>> {
     let seed = s.seed.wrapping_add(SEED_STRIDE * channel as u64 + SEED_EXIT);
     let eta = stack.layers[0].n / stack.n_above;
-    let round = |n: u64| n.div_ceil(CHUNK_PHOTONS).max(1).saturating_mul(CHUNK_PHOTONS);
-    let (first, last) = (round(s.photons.saturating_mul(FIRST)), round(s.photons.saturating_mul(LAST)));
+    let (first, last) = (exit_photons(s.photons), whole_chunks(s.photons.saturating_mul(LAST)));
     let mut layout = vec![];
     ExitTally::default().channels(&mut layout);
     let mut state = TallyState::new(layout, 0, 0)?;
@@ -103,7 +102,12 @@ pub fn build_exit(
 
 /// Photons counted by [`build_exit`]'s progress.
 pub fn exit_photons(photons: u64) -> u64 {
-    photons.saturating_mul(FIRST).div_ceil(CHUNK_PHOTONS).max(1).saturating_mul(CHUNK_PHOTONS)
+    whole_chunks(photons.saturating_mul(FIRST))
+}
+
+/// `n` rounded up to whole engine chunks (at least one): the photons a run of `n` traces.
+fn whole_chunks(n: u64) -> u64 {
+    n.div_ceil(CHUNK_PHOTONS).max(1).saturating_mul(CHUNK_PHOTONS)
 }
 
 /// Weight leaving through the top face by exit cosine ([`EXIT_BINS`] bins; a photon escapes
