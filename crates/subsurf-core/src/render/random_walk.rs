@@ -11,7 +11,10 @@
 //!   s ~ σt,c e^{−σt,c s}; at a collision β_k ← β_k σs,k T_k(s) / p̄(s), p̄ = Σ_j w_j σt,j T_j(s);
 //!   reaching the boundary at t, β_k ← β_k T_k(t) / Σ_j w_j T_j(t). Unbiased in every channel,
 //!   and Σβ never grows (for albedo ≤ 1), so colour-dependent σt gives no fireflies (a
-//!   uniform channel choice makes β a product of many mean-one factors: heavy-tailed);
+//!   uniform channel choice makes β a product of many mean-one factors: heavy-tailed). In
+//!   scenes lit by the environment alone w mixes in the carried channel of least σt
+//!   (w ← mix·w + (1 − mix)·e_l, `flight_mix`): the same weights with that w, unbiased; Σβ may
+//!   then grow at a collision, by at most 1/mix;
 //! - in a heterogeneous medium (a voxel grid, [`super::grid`]) the free paths are those of the
 //!   majorant σ̄ (the same spectral MIS with σ̄ for σt), and at a tentative collision x the
 //!   path is real with probability P = Σ_k ŵ_k σt,k(x)/σ̄_k (ŵ ∝ β), β_k ← β_k σs,k(x)/(σ̄_k P),
@@ -22,7 +25,7 @@
 //! - Russian roulette on max_k β_k below a threshold θ (survive with q = max β/θ, β ← β/q; a
 //!   radiance estimator books no energy, so nothing is tallied for it); in scenes lit by the
 //!   environment alone one walk per colour channel and θ = 0.1, else one walk and θ = 1
-//!   (`split_channels`, `rr_threshold`: chosen by measurement).
+//!   (`split_channels`, `rr_threshold`, `flight_mix`: chosen by measurement).
 //!
 //! Light reaches the interior in two ways: the path leaves the objects and the ray continues
 //! outside ([`super::shade::trace`]: environment, area lights, Lambertian surfaces with
@@ -94,6 +97,16 @@ pub struct RandomWalk {
     /// (β = albedo < 1 at once), so a walk's score is all or nothing; θ = [`RR_THRESHOLD`] (the
     /// default in an environment alone) lets β decay continuously first.
     pub rr_threshold: f64,
+    /// The share of the throughput-proportional channel choice in the free path's channel
+    /// probabilities w (1: spectral MIS alone, the default under lights); the rest, 1 − mix, goes
+    /// to the channel of least σt, in media where that pays (`least_sigma_t`; walks that carry
+    /// every channel) ([`FLIGHT_MIX`] in an environment alone). The weights
+    /// are those of the one-sample balance heuristic with this w (p̄ = Σ_j w_j σt,j T_j): unbiased
+    /// for any mix in (0, 1]; since p̄ ≥ mix Σ_j β_j σt,j T_j/Σβ, a collision multiplies Σβ by at
+    /// most 1/mix (and since p̄ ≥ (1 − mix) σt,l T_l with σt,l the least σt and T_k ≤ T_l, a
+    /// channel's factor σs,k T_k/p̄ is at most σs,k/((1 − mix) σt,l)). See [`FLIGHT_MIX`] for
+    /// what it gains.
+    pub flight_mix: f64,
     /// Next-flight estimation of the area lights, combined with the facet connections by
     /// multiple importance sampling (see `RandomWalk::light_next_flight`): on by default with
     /// `nee` in scenes with an area light; classic (unguided) walks only.
@@ -145,17 +158,31 @@ struct Radiance<'a> {
     /// The direction the path arrived along at the last real collision (the phase function's
     /// incident direction, for the next flight's and the connections' MIS weights).
     arrive: V3,
+    /// The medium of the last free path (by address) and its channel of least σt where
+    /// `least_sigma_t` takes it (`RandomWalk::flight_mix`).
+    least: (*const Translucent, Option<usize>),
 }
 
 impl Carrier for Radiance<'_> {
     #[inline(always)]
-    fn channel(&mut self, rng: &mut PhotonRng) -> Option<usize> {
-        // Channel chosen with probability ∝ β_k (throughput-weighted spectral MIS).
+    fn channel(&mut self, m: &Translucent, rng: &mut PhotonRng) -> Option<usize> {
+        // Channel chosen with probability ∝ β_k (throughput-weighted spectral MIS), mixed with
+        // the carried channel of least σt (`RandomWalk::flight_mix`).
         let bsum = self.beta[0] + self.beta[1] + self.beta[2];
         if !(bsum > 0.0) {
             return None;
         }
         self.w = scale(self.beta, 1.0 / bsum);
+        let mix = self.rw.flight_mix;
+        if mix < 1.0 {
+            if !std::ptr::eq(self.least.0, m) {
+                self.least = (m, least_sigma_t(m, self.beta));
+            }
+            if let Some(l) = self.least.1 {
+                self.w = scale(self.w, mix);
+                self.w[l] += 1.0 - mix;
+            }
+        }
         // Without branches (their outcome is random): u < w₀ ≤ w₀ + w₁ gives 0.
         let u = rng.uniform();
         self.k = usize::from(u >= self.w[0]) + usize::from(u >= self.w[0] + self.w[1]);
@@ -186,7 +213,7 @@ impl Carrier for Radiance<'_> {
             let (c, shift) = (self.k, m.sigma_t[self.k]);
             let (a, b) = ([1, 2, 0][c], [2, 0, 1][c]);
             let mut tr = [1.0; 3];
-            if self.w[a] != 0.0 || self.w[b] != 0.0 {
+            if self.beta[a] != 0.0 || self.beta[b] != 0.0 {
                 tr[a] = exp((shift - m.sigma_t[a]) * s);
                 tr[b] = exp((shift - m.sigma_t[b]) * s);
             }
@@ -406,6 +433,7 @@ impl RandomWalk {
             split_channels: env_only,
             split_albedo: SPLIT_ALBEDO,
             rr_threshold: if env_only { RR_THRESHOLD } else { 1.0 },
+            flight_mix: if env_only { FLIGHT_MIX } else { 1.0 },
             light_flight: nee && reach.any() && scene.accel.convex.is_none(),
             reflected: true,
             nee_walk: if scene.accel.convex.is_some() { 1 } else { NEE_WALK },
@@ -634,6 +662,42 @@ pub const NEE_WALK: usize = 3;
 /// ([`RandomWalk::flight_scale`]; any c_f > 0 is unbiased).
 pub const FLIGHT_SCALE: f64 = 1.0;
 
+/// The share of spectral MIS in the free paths' channel choice in scenes lit by the environment
+/// alone ([`RandomWalk::flight_mix`]; the rest to the carried channel of least σt). Measured
+/// (docs/render.md, "The free paths of the least σt"): on the skin scene of the Mitsuba comparison
+/// (skin1, one walk for all channels: its blue reduced albedo is below [`SPLIT_ALBEDO`]) the
+/// channel with the least σt (red) is also the one whose walks run longest, and its MIS weights
+/// over those walks were most of the error (red's variance 1.9× the mean of the channels'); with
+/// its flights sampled by its own σt its variance falls 6×, green's and blue's rise 1.2–1.5×:
+/// mix 0 0.61× the variance, 0.25 0.59×, 0.5 0.64×, at the same cost. Under the rect light the
+/// least-σt flights (mix 0) cost efficiency (ear 0.7×, marble 0.12×: the connections of the
+/// other channels), so lights keep spectral MIS.
+pub const FLIGHT_MIX: f64 = 0.25;
+
+/// The channel l towards which a walk carrying every channel mixes its free paths in `m`
+/// ([`RandomWalk::flight_mix`]), where that pays: l has the least σt (or majorant σ̄ of a grid)
+/// and the largest reduced albedo σs'/(σs' + σa), so its walks run longest and its MIS weights
+/// are most of the error, and every other channel's reduced albedo is below [`SPLIT_ALBEDO`], so
+/// their walks are short and the bounded factors σs,k T_k/p̄ of their long flights do not pile
+/// up. None elsewhere (spectral MIS alone). Measured (64 spp in a white environment, the
+/// variance's efficiency ratio of mix 0.25 against spectral MIS): where it takes a channel, skin1
+/// spheres of 3 and 10 mm 1.8× and 1.2×, ketchup 2.5×, chicken1 1.8×, the two-layer skin 1.1×,
+/// the benchmark's skin torus 1.8×; where it does not, potato (least σt blue, the shortest walks)
+/// 0.97× and a medium of reduced albedo 0.993 / 0.955 / 0.875 (green's walks long too) 0.73×.
+pub(super) fn least_sigma_t(m: &Translucent, beta: Rgb) -> Option<usize> {
+    if beta.iter().any(|&b| b <= 0.0) {
+        return None; // a walk of fewer channels keeps spectral MIS
+    }
+    let reduced = |k: usize| {
+        let sp = m.sigma_s[k] * (1.0 - m.g);
+        sp / (sp + m.sigma_a[k])
+    };
+    let l = (0..3).min_by(|&a, &b| m.sigma_bar[a].total_cmp(&m.sigma_bar[b]))?;
+    let longest = (0..3).all(|k| reduced(k) <= reduced(l));
+    let others_short = (0..3).all(|k| k == l || reduced(k) < SPLIT_ALBEDO);
+    (longest && others_short).then_some(l)
+}
+
 /// The Russian roulette threshold θ on max_k β_k (see [`RandomWalk::rr_threshold`]).
 pub const RR_THRESHOLD: f64 = 0.1;
 
@@ -689,6 +753,7 @@ impl Translucency for RandomWalk {
                 last: (hit.p, Media::empty()),
                 flight: Flight::CLASSIC,
                 arrive: t,
+                least: (std::ptr::null(), None),
             };
             walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);
             l = add(l, c.l);

@@ -189,8 +189,9 @@ pub fn cross_boundary(scene: &Scene, media: &mut Media, hit: &Hit, d: V3, rng: &
 /// What a walk carries and scores (the renderer's RGB throughput or the simulation's weight).
 /// Each method returns false when the path ends there.
 pub trait Carrier {
-    /// The colour channel whose σt samples the next free path (may draw; spectral MIS).
-    fn channel(&mut self, rng: &mut PhotonRng) -> Option<usize>;
+    /// The colour channel whose σt (of `m`, the medium the free path starts in) samples the
+    /// next free path (may draw; spectral MIS).
+    fn channel(&mut self, m: &Translucent, rng: &mut PhotonRng) -> Option<usize>;
     /// The path moved `s` through `m` to a collision at `p` (arriving along `d`, inside
     /// `media`): weight the throughput and score what the collision scores.
     #[allow(clippy::too_many_arguments)]
@@ -275,7 +276,7 @@ pub fn walk<C: Carrier>(
     let mut held = false;
     for _ in 0..MAX_EVENTS {
         let Some(m) = media.medium(scene) else { return c.lost(p, false) };
-        let Some(k) = c.channel(rng) else { return };
+        let Some(k) = c.channel(m, rng) else { return };
         // σt, or a grid's majorant (delta tracking); stretched on a guided flight.
         let st = m.sigma_bar[k] * flight.sample_factor();
         // −ln(1 − ξ) (1 − ξ is exact for the stream's 33-bit uniforms), by the inlined ln.

@@ -211,7 +211,7 @@ struct Packet<'a> {
 }
 
 impl Carrier for Packet<'_> {
-    fn channel(&mut self, _rng: &mut PhotonRng) -> Option<usize> {
+    fn channel(&mut self, _: &Translucent, _rng: &mut PhotonRng) -> Option<usize> {
         Some(self.cfg.channel)
     }
 

@@ -209,10 +209,41 @@ fn channel_walks_and_roulette_threshold_match_one_walk() {
     assert!(split.split_channels && split.rr_threshold < 1.0);
     split.split_albedo = 0.0; // every walk split (this medium's blue reduced albedo is 0.875)
     let mut one = RandomWalk::new(&s);
-    (one.split_channels, one.rr_threshold) = (false, 1.0);
+    (one.split_channels, one.rr_threshold, one.flight_mix) = (false, 1.0, 1.0);
     let a = Renderer::from_parts(s.clone(), Box::new(split), 31);
     let b = Renderer::from_parts(s.clone(), Box::new(one), 32);
     assert_images_agree("channel walks", ("per channel, θ 0.1", &a), ("one walk, θ 1", &b), 300, 0.05);
+}
+
+/// Free paths mixed towards the channel of least σt (the environment's default for walks that
+/// carry every channel, in media where it pays) give the image of spectral MIS alone, within 4σ,
+/// on the nested spheres of two media whose least-σt channels differ (red outside, green
+/// inside), with the roulette threshold of the environment; and so does the pure least-σt
+/// choice (mix 0).
+#[test]
+fn least_sigma_t_flights_match_spectral_mis() {
+    let mats =
+        vec![medium([0.05, 0.2, 0.5], [1.0, 1.2, 1.4], 0.0, 1.4), medium([0.3, 0.02, 0.4], [2.0, 1.5, 2.5], 0.0, 1.3)];
+    for (m, least) in mats.iter().zip([0, 1]) {
+        assert_eq!(super::random_walk::least_sigma_t(m.translucent().unwrap(), [1.0; 3]), Some(least));
+    }
+    let objects = vec![
+        Object { name: "outer".into(), mesh: icosphere([0.0; 3], 2.0, 3).unwrap(), material: 0 },
+        Object { name: "inner".into(), mesh: icosphere([0.0, 0.0, -0.3], 1.2, 2).unwrap(), material: 1 },
+    ];
+    let cam = Camera::new([0.0, -12.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 12.0, 8, 8).unwrap();
+    let s = Arc::new(Scene::new(objects, mats, vec![], [1.0, 0.9, 0.8], Some(cam)).unwrap());
+    let plain = |mix: f64| {
+        let mut rw = RandomWalk::new(&s);
+        assert!(rw.rr_threshold < 1.0 && rw.flight_mix == super::random_walk::FLIGHT_MIX);
+        (rw.split_channels, rw.flight_mix) = (false, mix);
+        rw
+    };
+    let b = Renderer::from_parts(s.clone(), Box::new(plain(1.0)), 42);
+    for (mix, seed) in [(super::random_walk::FLIGHT_MIX, 41), (0.0, 43)] {
+        let a = Renderer::from_parts(s.clone(), Box::new(plain(mix)), seed);
+        assert_images_agree(&format!("mix {mix}"), ("least σt", &a), ("spectral MIS", &b), 300, 0.05);
+    }
 }
 
 /// Two nested layers against the layered Monte Carlo engine: a pencil beam on a large box
