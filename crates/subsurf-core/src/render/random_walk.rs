@@ -24,8 +24,9 @@
 //!   is the homogeneous walk. Connections attenuate by the grid's exact optical depth;
 //! - Russian roulette on max_k β_k below a threshold θ (survive with q = max β/θ, β ← β/q; a
 //!   radiance estimator books no energy, so nothing is tallied for it); in scenes lit by the
-//!   environment alone one walk per colour channel and θ = 0.1, else one walk and θ = 1
-//!   (`split_channels`, `rr_threshold`, `flight_mix`: chosen by measurement).
+//!   environment alone a walk per colour channel (or per pair, `walk_starts`) and θ = 0.1,
+//!   else one walk and θ = 1 (`split_channels`, `rr_threshold`, `flight_mix`: chosen by
+//!   measurement).
 //!
 //! Light reaches the interior in two ways: the path leaves the objects and the ray continues
 //! outside ([`super::shade::trace`]: environment, area lights, Lambertian surfaces with
@@ -85,8 +86,9 @@ pub struct RandomWalk {
     /// single-channel implicit-capture weight) instead of one walk carrying all three with
     /// spectral MIS, whose per-channel weights of long, high-albedo walks are heavy-tailed (95 %
     /// of the marble sphere's per-channel variance in an environment was that chromatic noise:
-    /// the variance of the channels' mean was 5 % of theirs). On by default in scenes lit by
-    /// the environment alone.
+    /// the variance of the channels' mean was 5 % of theirs), where it pays; a channel of short
+    /// walks shares its neighbour's (`walk_starts`). On by default in scenes lit by the
+    /// environment alone.
     pub split_channels: bool,
     /// With `split_channels`: split only the walks entering a material whose every channel's
     /// reduced albedo σs'/(σs' + σa) is at least this ([`SPLIT_ALBEDO`]; 0 splits every walk).
@@ -669,33 +671,69 @@ pub const FLIGHT_SCALE: f64 = 1.0;
 /// channel with the least σt (red) is also the one whose walks run longest, and its MIS weights
 /// over those walks were most of the error (red's variance 1.9× the mean of the channels'); with
 /// its flights sampled by its own σt its variance falls 6×, green's and blue's rise 1.2–1.5×:
-/// mix 0 0.61× the variance, 0.25 0.59×, 0.5 0.64×, at the same cost. Under the rect light the
+/// mix 0 0.61× the variance, 0.25 0.59×, 0.5 0.64×, at the same cost. Where it applies is
+/// `least_sigma_t`'s rule. Under the rect light the
 /// least-σt flights (mix 0) cost efficiency (ear 0.7×, marble 0.12×: the connections of the
 /// other channels), so lights keep spectral MIS.
 pub const FLIGHT_MIX: f64 = 0.25;
 
-/// The channel l towards which a walk carrying every channel mixes its free paths in `m`
-/// ([`RandomWalk::flight_mix`]), where that pays: l has the least σt (or majorant σ̄ of a grid)
-/// and the largest reduced albedo σs'/(σs' + σa), so its walks run longest and its MIS weights
-/// are most of the error, and every other channel's reduced albedo is below [`SPLIT_ALBEDO`], so
-/// their walks are short and the bounded factors σs,k T_k/p̄ of their long flights do not pile
-/// up. None elsewhere (spectral MIS alone). Measured (64 spp in a white environment, the
-/// variance's efficiency ratio of mix 0.25 against spectral MIS): where it takes a channel, skin1
-/// spheres of 3 and 10 mm 1.8× and 1.2×, ketchup 2.5×, chicken1 1.8×, the two-layer skin 1.1×,
-/// the benchmark's skin torus 1.8×; where it does not, potato (least σt blue, the shortest walks)
-/// 0.97× and a medium of reduced albedo 0.993 / 0.955 / 0.875 (green's walks long too) 0.73×.
+/// The channel l towards which a walk mixes its free paths in `m` ([`RandomWalk::flight_mix`]),
+/// where that pays: among the channels the walk carries (β_k > 0, at least two), l has the least
+/// σt (or majorant σ̄ of a grid) and the largest single-scattering albedo σs/σt, so its walks
+/// run longest and its MIS weights are most of the error, and every other carried channel's
+/// albedo is at most [`MIX_ALBEDO`], so their walks are short and the bounded factors
+/// σs,k T_k/p̄ of l's long flights do not pile up over many collisions. None elsewhere (spectral
+/// MIS alone). Measured (docs/render.md, "The free paths of the least σt"; the efficiency of mix
+/// 0.25 against spectral MIS in a white environment): where it takes a channel, skin1 spheres of
+/// 3 and 10 mm 1.8× and 1.2×, ketchup 2.5×, chicken1 1.8×, the benchmark's skin torus 1.7×,
+/// the ear's green–blue walk 1.4× (against a walk each); where it does not, potato (least σt
+/// blue, the shortest walks) 0.97×, a medium of albedo 0.995 / 0.968 / 0.909 (green's walks long
+/// too) 0.73×, and marble's green–blue walk (albedo 0.998) 0.04×.
 pub(super) fn least_sigma_t(m: &Translucent, beta: Rgb) -> Option<usize> {
-    if beta.iter().any(|&b| b <= 0.0) {
-        return None; // a walk of fewer channels keeps spectral MIS
+    let carried = |k: &usize| beta[*k] > 0.0;
+    if (0..3).filter(carried).count() < 2 {
+        return None;
     }
-    let reduced = |k: usize| {
-        let sp = m.sigma_s[k] * (1.0 - m.g);
-        sp / (sp + m.sigma_a[k])
-    };
-    let l = (0..3).min_by(|&a, &b| m.sigma_bar[a].total_cmp(&m.sigma_bar[b]))?;
-    let longest = (0..3).all(|k| reduced(k) <= reduced(l));
-    let others_short = (0..3).all(|k| k == l || reduced(k) < SPLIT_ALBEDO);
-    (longest && others_short).then_some(l)
+    let l = (0..3).filter(carried).min_by(|&a, &b| m.sigma_bar[a].total_cmp(&m.sigma_bar[b]))?;
+    let (al, ok) = (albedo(m, l), |k: usize| k == l || albedo(m, k) <= MIX_ALBEDO.min(albedo(m, l)));
+    (al.is_finite() && (0..3).filter(carried).all(ok)).then_some(l)
+}
+
+/// The single-scattering albedo σs/σt of channel `k` of `m` (NaN where σt = 0).
+fn albedo(m: &Translucent, k: usize) -> f64 {
+    m.sigma_s[k] / m.sigma_t[k]
+}
+
+/// The largest single-scattering albedo of a channel that shares the free paths of a walk's
+/// channel of least σt (see `least_sigma_t`): between the albedos measured to gain (≤ 0.925) and
+/// to lose (≥ 0.968).
+pub const MIX_ALBEDO: f64 = 0.95;
+
+/// The walks of one camera path into `m` in a scene lit by the environment alone (with
+/// `split_channels`), as start vectors β₀ (the first `n` of the array): one walk carrying every
+/// channel where some channel's reduced albedo is below `split_albedo` (`split_pays`);
+/// elsewhere a walk per channel, except that a channel whose albedo is at most [`MIX_ALBEDO`]
+/// (a short walk) shares the walk of the channel next below it in σt when that one's albedo is
+/// at least its own (skin2's blue joins its green: `least_sigma_t` then mixes that walk's free
+/// paths towards green).
+pub(super) fn walk_starts(m: &Translucent, split_albedo: f64) -> ([Rgb; 3], usize) {
+    if !split_pays(m, split_albedo) {
+        return ([[1.0; 3]; 3], 1);
+    }
+    let mut order = [0, 1, 2];
+    order.sort_by(|&a, &b| m.sigma_t[a].total_cmp(&m.sigma_t[b]));
+    let (mut starts, mut n) = ([[0.0; 3]; 3], 0);
+    for (i, &k) in order.iter().enumerate() {
+        let joins = i > 0 && {
+            let below = order[i - 1];
+            albedo(m, k) <= MIX_ALBEDO.min(albedo(m, below))
+        };
+        if !joins {
+            n += 1;
+        }
+        starts[n - 1][k] = 1.0;
+    }
+    (starts, n)
 }
 
 /// The Russian roulette threshold θ on max_k β_k (see [`RandomWalk::rr_threshold`]).
@@ -734,12 +772,10 @@ impl Translucency for RandomWalk {
         let d = neg(wo);
         let f = fr_dielectric(dot(wo, hit.n), 1.0, m.eta);
         let Some(t) = refract(d, hit.n, 1.0, m.eta) else { return [0.0; 3] };
-        // One walk carrying every channel (spectral MIS), or one walk per channel.
-        const ALL: [Rgb; 1] = [[1.0; 3]];
-        const EACH: [Rgb; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        let starts: &[Rgb] = if self.split_channels && split_pays(m, self.split_albedo) { &EACH } else { &ALL };
+        // One walk carrying every channel (spectral MIS), or walks of one or two channels.
+        let (starts, n) = if self.split_channels { walk_starts(m, self.split_albedo) } else { ([[1.0; 3]; 3], 1) };
         let mut l = [0.0; 3];
-        for &beta in starts {
+        for &beta in &starts[..n] {
             let mut c = Radiance {
                 rw: self,
                 depth,

@@ -207,7 +207,7 @@ fn channel_walks_and_roulette_threshold_match_one_walk() {
     let s = Arc::new(Scene::new(objects, mats, vec![], [1.0, 0.9, 0.8], Some(cam)).unwrap());
     let mut split = RandomWalk::new(&s);
     assert!(split.split_channels && split.rr_threshold < 1.0);
-    split.split_albedo = 0.0; // every walk split (this medium's blue reduced albedo is 0.875)
+    split.split_albedo = 0.0; // walks split (this medium's blue reduced albedo is 0.875): red, green-blue
     let mut one = RandomWalk::new(&s);
     (one.split_channels, one.rr_threshold, one.flight_mix) = (false, 1.0, 1.0);
     let a = Renderer::from_parts(s.clone(), Box::new(split), 31);
@@ -244,6 +244,29 @@ fn least_sigma_t_flights_match_spectral_mis() {
         let a = Renderer::from_parts(s.clone(), Box::new(plain(mix)), seed);
         assert_images_agree(&format!("mix {mix}"), ("least σt", &a), ("spectral MIS", &b), 300, 0.05);
     }
+}
+
+/// The walks of a camera path in an environment: one for every channel where a channel's
+/// reduced albedo is below the split threshold (skin1); a walk each where every channel's albedo
+/// is high (marble); skin2's blue (albedo 0.925) shares its green's walk, whose free paths then
+/// mix towards green (the least σt of the two).
+#[test]
+fn environment_walks_group_the_short_channels() {
+    use super::random_walk::{least_sigma_t, walk_starts, SPLIT_ALBEDO};
+    let jensen = |sp: Rgb, sa: Rgb| medium(sa, sp, 0.0, 1.3);
+    let cases = [
+        (jensen([0.74, 0.88, 1.01], [0.032, 0.17, 0.48]), vec![[1.0; 3]]),
+        (jensen([2.19, 2.62, 3.0], [0.0021, 0.0041, 0.0071]), vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
+        (jensen([1.09, 1.59, 1.79], [0.013, 0.07, 0.145]), vec![[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]]),
+    ];
+    for (mat, want) in cases {
+        let m = mat.translucent().unwrap();
+        let (starts, n) = walk_starts(m, SPLIT_ALBEDO);
+        assert_eq!(starts[..n].to_vec(), want);
+    }
+    let skin2 = jensen([1.09, 1.59, 1.79], [0.013, 0.07, 0.145]);
+    assert_eq!(least_sigma_t(skin2.translucent().unwrap(), [0.0, 1.0, 1.0]), Some(1));
+    assert_eq!(least_sigma_t(skin2.translucent().unwrap(), [1.0, 0.0, 0.0]), None);
 }
 
 /// Two nested layers against the layered Monte Carlo engine: a pencil beam on a large box
