@@ -107,6 +107,9 @@ pub struct CurvatureData {
     pub harmonic: Vec<Vec<[f64; 2]>>,
     /// The engine's exit-angle histogram of the flat half-space under diffuse light ([`super::exit`]).
     pub exit: super::exit::ExitBins,
+    /// The engine's flat half-space under pencil beams at [`super::oblique::OBLIQUE_THETA_DEG`]:
+    /// exit weight and its cos Δφ moment per exit-cosine bin ([`super::coupling`]).
+    pub coupling: Vec<super::exit::ExitBins>,
 }
 
 /// The curvature nodes (mm) of a stack (see the module docs).
@@ -182,7 +185,10 @@ pub fn build_curvature(
     let Some(exit) = super::exit::build_exit(stack, channel, s, cancel, progress)? else {
         return Ok(None);
     };
-    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic, exit }))
+    let Some(coupling) = super::coupling::build_coupling(stack, channel, s, cancel, progress)? else {
+        return Ok(None);
+    };
+    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic, exit, coupling }))
 }
 
 /// Photons a channel's curvature data traces (with its oblique runs).
@@ -190,7 +196,9 @@ pub fn curvature_photons(stack: &Stack, photons: u64) -> u64 {
     let n_rho = curvature_nodes(stack).map_or(0, |v| v.len());
     let oblique = super::oblique::OBLIQUE_PHOTONS * super::oblique::OBLIQUE_THETA_DEG.len() as u64;
     let flat = photons.saturating_mul(1 + oblique);
-    let harmonic = super::harmonic::harmonic_photons(n_rho, photons).saturating_add(super::exit::exit_photons(photons));
+    let harmonic = super::harmonic::harmonic_photons(n_rho, photons)
+        .saturating_add(super::exit::exit_photons(photons))
+        .saturating_add(super::coupling::coupling_photons(photons));
     flat.saturating_add(curved_photons(photons).saturating_mul(3 * n_rho as u64)).saturating_add(harmonic)
 }
 
