@@ -23,7 +23,9 @@
 //!    plus the single-scattering term S⁽¹⁾ ([`super::shade::single_scattering`]). For
 //!    `adaptive` under lights every pair (sample or cluster) is also weighted by the entry's
 //!    azimuthal factor ([`crate::bssrdf::harmonic`]: the samples carry their lights' harmonic,
-//!    the nodes its power-weighted mean).
+//!    the nodes its power-weighted mean), and the near class' radiance carries the exit
+//!    direction's coupling to the light's ([`crate::bssrdf::coupling`]: the samples carry their
+//!    lights' vector D, the nodes its power-weighted mean, [`Tree::exitance_coupled`]).
 
 use super::accel::Hit;
 use super::driver::Control;

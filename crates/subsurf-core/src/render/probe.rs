@@ -22,7 +22,9 @@
 //! one shadow-ray sample of each light and one cosine-weighted gathering ray (environment, light
 //! reflected by other surfaces, translucent surfaces by this method at depth + 1;
 //! [`super::irradiance`]). For `adaptive` under lights, R_d is weighted by the entry point's
-//! azimuthal factor ([`crate::bssrdf::harmonic`], amplitudes at x_i's probed curvature).
+//! azimuthal factor ([`crate::bssrdf::harmonic`], amplitudes at x_i's probed curvature), and
+//! on the near class by 1 + D·ω_o,t, the exit direction's coupling to x_i's lights
+//! ([`crate::bssrdf::coupling`]).
 
 use super::accel::Hit;
 use super::adaptive::entry_amplitudes;
