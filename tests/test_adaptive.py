@@ -107,7 +107,8 @@ def test_profiles_and_bad_input(cache):
     assert all(len(r) == 10 for r in cd["coupling"])
     for r, total in zip(cd["coupling"], cd["oblique"]):
         assert sum(r[:5]) == pytest.approx(total, rel=0.1) and all(abs(c) <= w for w, c in zip(r[:5], r[5:]))
-    assert len(cd["coupling_a"]) == len(cd["coupling_a_stderr"]) == len(cd["coupling_chi2"]) == 4
+    assert len(cd["coupling_a_theta"]) == len(cd["coupling_a_theta_stderr"]) == len(cd["coupling_chi2"]) == 4
+    assert -0.9 <= cd["coupling_a"] <= 0.9 and cd["coupling_a_stderr"] > 0
     # the curved transport: a non-absorbing, index-matched sphere returns every photon
     clear = Stack([Layer(1.0, 0.0, 2.0, 0.0)])._to_core()
     assert _core.bssrdf_curved_escape(clear, "sphere", 1.0, 200, 1) == (1.0, 0.0)

@@ -103,8 +103,9 @@ class AdaptiveTable:
         incident photon on bins uniform in the exit cosine) and its fitted slope ``exit_beta``
         (``subsurf_core::bssrdf::exit``), the flat half-space's exit weight and its cos Δφ moment (Δφ
         the exit azimuth from the light's) per exit-cosine bin under pencil beams at those angles
-        (``coupling``, ``coupling_stderr``: per angle, the weights then the moments) with the fitted
-        amplitudes of the exit coupling ``coupling_a``, ``coupling_a_stderr``, ``coupling_chi2``
+        (``coupling``, ``coupling_stderr``: per angle, the weights then the moments) with the exit
+        coupling's amplitude ``coupling_a`` (± ``coupling_a_stderr``; pooled over the angles) and its
+        fit per angle ``coupling_a_theta``, ``coupling_a_theta_stderr``, ``coupling_chi2``
         (``subsurf_core::bssrdf::coupling``), and the
         kernel scales derived from them (``scale_convex``: the near side's per bin, ``scale_convex_far``,
         ``scale_concave``)."""

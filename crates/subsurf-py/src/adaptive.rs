@@ -95,8 +95,9 @@ impl PyAdaptiveTable {
     /// harmonic_far (the sphere's ⟨cos φ⟩ under pencil beams, per ρ node × oblique angle), exit,
     /// exit_stderr (the flat exit-angle histogram under diffuse light), exit_beta (its fitted slope),
     /// coupling, coupling_stderr (the flat pencil runs' exit weight and cos Δφ moment per exit-cosine
-    /// bin, per oblique angle), coupling_a, coupling_a_stderr, coupling_chi2 (the fitted
-    /// amplitudes A per angle, `bssrdf::coupling`), scale_convex,
+    /// bin, per oblique angle), coupling_a, coupling_a_stderr (the kept amplitude A, pooled over
+    /// the angles), coupling_a_theta, coupling_a_theta_stderr, coupling_chi2 (the fit per angle;
+    /// `bssrdf::coupling`), scale_convex,
     /// scale_convex_far, scale_cylinder, scale_cylinder_far, scale_concave} (lists over the
     /// curvature nodes; `scale_*`, `exit_beta` and `coupling_a*`/`coupling_chi2` derived, not read back).
     fn curvature<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
@@ -125,10 +126,12 @@ impl PyAdaptiveTable {
             o.set_item("exit_beta", self.inner.exit(c).beta)?;
             o.set_item("coupling", cd.coupling.iter().map(|b| b.weight.clone()).collect::<Vec<_>>())?;
             o.set_item("coupling_stderr", cd.coupling.iter().map(|b| b.stderr.clone()).collect::<Vec<_>>())?;
-            let fits = &self.inner.coupling(c).fits;
-            o.set_item("coupling_a", fits.iter().map(|f| f.a).collect::<Vec<_>>())?;
-            o.set_item("coupling_a_stderr", fits.iter().map(|f| f.stderr).collect::<Vec<_>>())?;
-            o.set_item("coupling_chi2", fits.iter().map(|f| f.chi2).collect::<Vec<_>>())?;
+            let cp = self.inner.coupling(c);
+            o.set_item("coupling_a", cp.a)?;
+            o.set_item("coupling_a_stderr", cp.stderr)?;
+            o.set_item("coupling_a_theta", cp.fits.iter().map(|f| f.a).collect::<Vec<_>>())?;
+            o.set_item("coupling_a_theta_stderr", cp.fits.iter().map(|f| f.stderr).collect::<Vec<_>>())?;
+            o.set_item("coupling_chi2", cp.fits.iter().map(|f| f.chi2).collect::<Vec<_>>())?;
             o.set_item("scale_convex", self.inner.scales(c).convex.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
             o.set_item("scale_convex_far", self.inner.scales(c).convex_far.clone())?;
             o.set_item("scale_cylinder", self.inner.scales(c).cylinder.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;

@@ -9,77 +9,42 @@
 //! *flat* two-layer skin). Here the radiance leaving a flat surface lit from the unit direction
 //! ω_i (towards the light) is
 //!
-//! L(ω_o) = L_sym(μ_o) · (1 + A(μ_i) · (ω_i,t · ω_o,t)),
+//! L(ω_o) = L_sym(μ_o) · (1 + A · (ω_i,t · ω_o,t)),
 //!
 //! ω_t the tangential part of a unit direction (|ω_t| = sin θ): a first harmonic in the azimuth
 //! between the exit and the incident direction, of amplitude A sin θi sin θo. Its mean over the
 //! exit azimuth is 0 at every μ_o, so every hemispherical total (the exitance, the polar exit
 //! shape) is unchanged; A < 0 sends less back towards the light and more on, to the mirror side.
 //!
-//! A per channel at the oblique runs' angles [`OBLIQUE_THETA_DEG`] is the weighted least-squares
+//! A per channel, at each of the oblique runs' angles [`OBLIQUE_THETA_DEG`], is the weighted least-squares
 //! fit of the engine's tally ([`CouplingTally`]: the weight leaving the flat semi-infinite stack
 //! through the top under a pencil beam at θi, and the same weight × cos Δφ, Δφ the exit direction's
 //! azimuth from the light's, on [`COUPLING_BINS`] bins uniform in μ_o): in bin j the model's
-//! ⟨cos Δφ⟩ is A sin θi ⟨sin θo⟩_j / 2 (⟨·⟩_j over the bin with the weight F_t(μ) μ). The runs:
-//! [`COUPLING_PHOTONS`] × the table's photons each, seed + 64c + [`SEED_COUPLING`]\[i\] (the free
-//! offsets of the channel's stride). Between the angles A is linear in μ_i, held beyond them
-//! (at μ_i → 1 the factor vanishes with sin θi), and held in ±[`MAX_AMPLITUDE`] (the radiance stays
-//! positive). The renderer carries, per irradiance sample, the vector D = ⟨A(μ_i) ω_i,t⟩ over its
+//! ⟨cos Δφ⟩ is A sin θi ⟨sin θo⟩_j / 2 (⟨·⟩_j over the bin with the weight F_t(μ) μ). The runs
+//! are the oblique gain's own ([`super::oblique::build_oblique`]: 4 × the table's photons each,
+//! seed + 64c + 30 + i), which tally this beside their totals at no extra tracing (and the same
+//! totals, bit for bit). A depends little on θi (the two-layer skin, 10 000-photon tables: green
+//! −0.17, −0.22, −0.18, −0.19 at 30, 50, 65, 80°, each ± 0.02–0.04), so the kept A is one per
+//! channel, the inverse-variance mean of the four angles' fits (half their noise), held in
+//! ±[`MAX_AMPLITUDE`] (the radiance stays positive).
+//! The renderer carries, per irradiance sample, the vector D = ⟨A ω_i,t⟩ over its
 //! lights weighted by their share of E_t (gathered light counts with none), the octree the
 //! power-weighted sums, and multiplies the near class' exitance by 1 + ⟨D⟩·ω_o,t (`render::hierarchical`,
 //! `render::probe`).
 
-use super::adaptive::{AdaptiveSettings, SEED_STRIDE};
 use super::exit::ExitBins;
 use super::oblique::OBLIQUE_THETA_DEG;
 use crate::diffusion::bssrdf::ft;
 use crate::error::{Error, Result};
 use crate::mc::tally::accum::Accum;
 use crate::mc::tally::{Channel, ChannelState};
-use crate::mc::{run, Packet, RunConfig, Side, Source, Tally};
-use crate::medium::Stack;
-use std::sync::atomic::{AtomicBool, AtomicU64};
+use crate::mc::{Packet, Side, Tally};
 
 /// Number of exit-cosine bins of the tally (uniform in μ_o outside the medium).
 pub const COUPLING_BINS: usize = 5;
-/// Seed offsets of the runs at [`OBLIQUE_THETA_DEG`] within a channel's stride.
-pub const SEED_COUPLING: [u64; 4] = [38, 39, 62, 63];
-/// Photons of each run, in the table's photons per node.
-pub const COUPLING_PHOTONS: u64 = 8;
 /// |A| is held at most this (1 + A sin θi sin θo > 0).
 pub const MAX_AMPLITUDE: f64 = 0.9;
 const STEPS: usize = 400;
-
-/// The tally of one run of channel `channel` at each angle of [`OBLIQUE_THETA_DEG`] (2 ×
-/// [`COUPLING_BINS`] values each: the weight per bin, then weight × cos Δφ per bin, per incident
-/// photon); `None` when cancelled.
-pub fn build_coupling(
-    stack: &Stack,
-    channel: usize,
-    s: &AdaptiveSettings,
-    cancel: &AtomicBool,
-    progress: &AtomicU64,
-) -> Result<Option<Vec<ExitBins>>> {
-    let base = s.seed.wrapping_add(SEED_STRIDE * channel as u64);
-    let mut out = vec![];
-    for (i, deg) in OBLIQUE_THETA_DEG.iter().enumerate() {
-        let source = Source::Pencil { theta: deg.to_radians(), phi: 0.0 };
-        let photons = s.photons.saturating_mul(COUPLING_PHOTONS);
-        let cfg = RunConfig { photons, seed: base + SEED_COUPLING[i], threads: s.threads, source, isa: None };
-        let o = run(stack, &cfg, CouplingTally::default, cancel, progress)?;
-        if o.cancelled {
-            return Ok(None);
-        }
-        let (weight, stderr) = o.tally.data();
-        out.push(ExitBins { weight, stderr });
-    }
-    Ok(Some(out))
-}
-
-/// Photons of a channel's coupling runs.
-pub fn coupling_photons(photons: u64) -> u64 {
-    photons.saturating_mul(COUPLING_PHOTONS * OBLIQUE_THETA_DEG.len() as u64)
-}
 
 /// Weight leaving through the top per exit-cosine bin, and weight × cos Δφ (Δφ from the azimuth
 /// of the light: the source is `Source::Pencil` at φ = 0, propagating along +x, so the light
@@ -192,22 +157,26 @@ pub fn fit(eta: f64, theta: f64, bins: &ExitBins) -> Fit {
     Fit { a, stderr: 1.0 / sxx.sqrt(), chi2, bins: pts.len() }
 }
 
-/// One channel's amplitudes A at [`OBLIQUE_THETA_DEG`] (see the module docs).
+/// One channel's amplitude A: the joint weighted least-squares fit of the runs at every angle of
+/// [`OBLIQUE_THETA_DEG`] (the inverse-variance mean of the per-angle fits, which are kept: A
+/// depends little on θi, measured, and pooling halves its noise; see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Coupling {
-    mu: [f64; 4],
-    a: [f64; 4],
+    /// A, held in ±[`MAX_AMPLITUDE`].
+    pub a: f64,
+    /// Its standard error (0 when nothing was fitted).
+    pub stderr: f64,
     /// The fits, per angle.
     pub fits: Vec<Fit>,
 }
 
 impl Coupling {
-    /// No coupling (A ≡ 0).
+    /// No coupling (A = 0).
     pub fn none() -> Coupling {
-        Coupling { mu: OBLIQUE_THETA_DEG.map(|d| d.to_radians().cos()), a: [0.0; 4], fits: vec![] }
+        Coupling { a: 0.0, stderr: 0.0, fits: vec![] }
     }
 
-    /// The amplitudes fitted to the runs `runs` (one per angle of [`OBLIQUE_THETA_DEG`]).
+    /// The amplitude fitted to the runs `runs` (one per angle of [`OBLIQUE_THETA_DEG`]).
     pub fn new(eta: f64, runs: &[ExitBins]) -> Result<Coupling> {
         let n = OBLIQUE_THETA_DEG.len();
         if runs.len() != n
@@ -219,32 +188,19 @@ impl Coupling {
             )));
         }
         let fits: Vec<Fit> = runs.iter().zip(OBLIQUE_THETA_DEG).map(|(r, d)| fit(eta, d.to_radians(), r)).collect();
-        let mut c = Coupling::none();
-        for (i, f) in fits.iter().enumerate() {
-            c.a[i] = f.a.clamp(-MAX_AMPLITUDE, MAX_AMPLITUDE);
+        let (sw, swa) = fits
+            .iter()
+            .filter(|f| f.bins > 0 && f.stderr > 0.0)
+            .fold((0.0, 0.0), |(w, wa), f| (w + 1.0 / (f.stderr * f.stderr), wa + f.a / (f.stderr * f.stderr)));
+        if !(sw > 0.0) {
+            return Ok(Coupling { fits, ..Coupling::none() });
         }
-        c.fits = fits;
-        Ok(c)
+        Ok(Coupling { a: (swa / sw).clamp(-MAX_AMPLITUDE, MAX_AMPLITUDE), stderr: 1.0 / sw.sqrt(), fits })
     }
 
-    /// A at μ_i = cos θi: linear in μ between the angles, held beyond the first and the last.
-    #[inline]
-    pub fn at(&self, mu: f64) -> f64 {
-        let (m, a) = (&self.mu, &self.a);
-        if mu >= m[0] {
-            return a[0];
-        }
-        if mu <= m[3] {
-            return a[3];
-        }
-        let i = m.partition_point(|&x| x > mu); // m[i-1] > mu ≥ m[i]
-        let t = (m[i - 1] - mu) / (m[i - 1] - m[i]);
-        (1.0 - t) * a[i - 1] + t * a[i]
-    }
-
-    /// Whether A ≡ 0.
+    /// Whether A = 0.
     pub fn is_zero(&self) -> bool {
-        self.a.iter().all(|&x| x == 0.0)
+        self.a == 0.0
     }
 }
 
@@ -260,28 +216,36 @@ mod tests {
     }
 
     /// The fit recovers A from its own model's bins (10⁻¹², χ² 0), with an error proportional to
-    /// the bins'; interpolation: the nodes' values at the nodes, linear between, held beyond;
-    /// clamped to ±0.9; empty runs give A = 0.
+    /// the bins'; the pooled A is the inverse-variance mean of the angles' (an angle with 4× the
+    /// error counts 1/16), held in ±0.9; empty runs give A = 0; a wrong number of runs is refused.
     #[test]
-    fn fit_recovers_the_amplitude_and_interpolates() {
+    fn fit_recovers_the_amplitude_and_pools_the_angles() {
         let eta = 1.4;
-        let a = [-0.3, -0.2, -0.12, 2.0];
+        let a = [-0.3, -0.2, -0.12, -0.25];
+        let se = [0.04, 0.01, 0.01, 0.01];
         let runs: Vec<ExitBins> =
-            OBLIQUE_THETA_DEG.iter().zip(a).map(|(d, a)| model_bins(eta, d.to_radians(), a, 0.01)).collect();
+            (0..4).map(|i| model_bins(eta, OBLIQUE_THETA_DEG[i].to_radians(), a[i], se[i])).collect();
         let c = Coupling::new(eta, &runs).unwrap();
         for (f, want) in c.fits.iter().zip(a) {
             assert!((f.a - want).abs() < 1e-12 && f.chi2 < 1e-20 && f.bins == COUPLING_BINS, "{f:?}");
         }
-        let half = fit(eta, 0.5, &ExitBins { stderr: vec![0.005; 2 * COUPLING_BINS], ..runs[0].clone() });
-        assert!((half.stderr / fit(eta, 0.5, &runs[0]).stderr - 0.5).abs() < 1e-9);
-        let mu = OBLIQUE_THETA_DEG.map(|d| d.to_radians().cos());
-        assert_eq!(c.at(mu[1]), -0.2);
-        assert_eq!(c.at(1.0), -0.3);
-        assert_eq!(c.at(0.0), MAX_AMPLITUDE);
-        let mid = 0.5 * (mu[1] + mu[2]);
-        assert!((c.at(mid) - (-0.16)).abs() < 1e-12);
+        let w: Vec<f64> = c.fits.iter().map(|f| 1.0 / (f.stderr * f.stderr)).collect();
+        let want = (0..4).map(|i| w[i] * a[i]).sum::<f64>() / w.iter().sum::<f64>();
+        assert!((c.a - want).abs() < 1e-12 && (c.stderr - 1.0 / w.iter().sum::<f64>().sqrt()).abs() < 1e-15);
+        assert!(
+            (w[0] / w[1] * 16.0
+                - (OBLIQUE_THETA_DEG[0].to_radians().sin() / OBLIQUE_THETA_DEG[1].to_radians().sin()).powi(2))
+            .abs()
+                < 1e-9
+        );
+        let half = fit(eta, 0.5, &ExitBins { stderr: vec![0.005; 2 * COUPLING_BINS], ..runs[1].clone() });
+        assert!((half.stderr / fit(eta, 0.5, &runs[1]).stderr - 0.5).abs() < 1e-9);
+        let big: Vec<ExitBins> =
+            (0..4).map(|i| model_bins(eta, OBLIQUE_THETA_DEG[i].to_radians(), 2.0, 0.01)).collect();
+        assert_eq!(Coupling::new(eta, &big).unwrap().a, MAX_AMPLITUDE);
         let empty = ExitBins { weight: vec![0.0; 2 * COUPLING_BINS], stderr: vec![0.0; 2 * COUPLING_BINS] };
         assert_eq!(fit(eta, 0.5, &empty).a, 0.0);
+        assert!(Coupling::new(eta, &vec![empty; 4]).unwrap().is_zero());
         assert!(Coupling::new(eta, &runs[..3]).is_err());
     }
 }

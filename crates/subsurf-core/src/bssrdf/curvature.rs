@@ -107,8 +107,9 @@ pub struct CurvatureData {
     pub harmonic: Vec<Vec<[f64; 2]>>,
     /// The engine's exit-angle histogram of the flat half-space under diffuse light ([`super::exit`]).
     pub exit: super::exit::ExitBins,
-    /// The engine's flat half-space under pencil beams at [`super::oblique::OBLIQUE_THETA_DEG`]:
-    /// exit weight and its cos Δφ moment per exit-cosine bin ([`super::coupling`]).
+    /// The engine's flat half-space under pencil beams at [`super::oblique::OBLIQUE_THETA_DEG`]
+    /// (the oblique runs themselves): exit weight and its cos Δφ moment per exit-cosine bin
+    /// ([`super::coupling`]).
     pub coupling: Vec<super::exit::ExitBins>,
 }
 
@@ -159,7 +160,7 @@ pub fn build_curvature(
     let Some(flat) = flat_escape(stack, s.photons, base + SEED_FLAT, s.threads, cancel, progress)? else {
         return Ok(None);
     };
-    let Some(oblique) = super::oblique::build_oblique(stack, channel, s, cancel, progress)? else {
+    let Some((oblique, coupling)) = super::oblique::build_oblique(stack, channel, s, cancel, progress)? else {
         return Ok(None);
     };
     let rho = curvature_nodes(stack)?;
@@ -185,9 +186,6 @@ pub fn build_curvature(
     let Some(exit) = super::exit::build_exit(stack, channel, s, cancel, progress)? else {
         return Ok(None);
     };
-    let Some(coupling) = super::coupling::build_coupling(stack, channel, s, cancel, progress)? else {
-        return Ok(None);
-    };
     Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic, exit, coupling }))
 }
 
@@ -196,9 +194,7 @@ pub fn curvature_photons(stack: &Stack, photons: u64) -> u64 {
     let n_rho = curvature_nodes(stack).map_or(0, |v| v.len());
     let oblique = super::oblique::OBLIQUE_PHOTONS * super::oblique::OBLIQUE_THETA_DEG.len() as u64;
     let flat = photons.saturating_mul(1 + oblique);
-    let harmonic = super::harmonic::harmonic_photons(n_rho, photons)
-        .saturating_add(super::exit::exit_photons(photons))
-        .saturating_add(super::coupling::coupling_photons(photons));
+    let harmonic = super::harmonic::harmonic_photons(n_rho, photons).saturating_add(super::exit::exit_photons(photons));
     flat.saturating_add(curved_photons(photons).saturating_mul(3 * n_rho as u64)).saturating_add(harmonic)
 }
 

@@ -104,9 +104,9 @@ pub fn transmitted_irradiance(
 /// direction, counts with none). |m| is the pair factor's amplitude, m/|m| its forward direction.
 pub type Harm = [[V3; 3]; 2];
 
-/// Per channel, an entry point's exit-coupling vector D = ⟨A(μ)·ω_t⟩ over its transmitted
+/// Per channel, an entry point's exit-coupling vector D = ⟨A·ω_t⟩ over its transmitted
 /// irradiance ([`crate::bssrdf::coupling`]): ω_t the tangential part of each light's direction
-/// (towards the light; |ω_t| = sin θi), A the table's amplitude at the light's μ, the mean
+/// (towards the light; |ω_t| = sin θi), A the table's amplitude, the mean
 /// weighted by the light's share of E_t,k (the gathered light counts with none). The radiance
 /// of the near class leaving towards ω_o is × (1 + D·ω_o,t).
 pub type Coupled = [V3; 3];
@@ -150,7 +150,7 @@ pub fn irradiance_and_harmonic(
             }
             if let Some(t) = table {
                 for (k, dk) in d.iter_mut().enumerate() {
-                    *dk = madd(*dk, tan, -de[k] * t.coupling(k.min(t.channels() - 1)).at(c));
+                    *dk = madd(*dk, tan, -de[k] * t.coupling(k.min(t.channels() - 1)).a);
                 }
             }
         });
