@@ -20,7 +20,7 @@ import subsurf.render as R
 sys.path.insert(0, os.path.dirname(__file__))
 import adaptive_validation  # noqa: E402
 
-THETA = 50.0  # an angle of the table's runs: the amplitude there is the node's own
+THETA = 50.0
 
 
 def slab(m, method):
@@ -65,9 +65,9 @@ def main():
     else:
         m = R.Translucent.library(a.material, model="adaptive", mc_photons=10000, mc_seed=3)
         table = m.adaptive_table()
-    amp = np.array([cd["coupling_a"][1] for cd in table.curvature()])
+    amp = np.array([cd["coupling_a"] for cd in table.curvature()])
     s2 = np.sin(np.radians(THETA)) ** 2
-    print(f"{a.material}: A(50°) = " + ", ".join(f"{x:+.3f}" for x in amp))
+    print(f"{a.material}: A = " + ", ".join(f"{x:+.3f}" for x in amp))
     for view, sign in (("sun side", 1.0), ("mirror", -1.0), ("90° azimuth", 0.0)):
         ref = image(m, view, "random_walk", a.spp_ref, a.size, 5)
         got = image(m, view, "hierarchical", a.spp, a.size, 5)
