@@ -101,6 +101,14 @@ def test_profiles_and_bad_input(cache):
     assert -0.95 <= cd["exit_beta"] <= 20 and (s[-1] > 1) == (cd["exit_beta"] > 0)
     with pytest.raises(ParameterError, match="mu"):
         t.exit_factor(0, -0.1)
+    # the exit coupling: per oblique angle the flat pencil run's exit weight, then its cos Δφ moment,
+    # on 5 exit-cosine bins (the weights: that run's diffuse reflectance), and the fitted amplitudes
+    assert len(cd["coupling"]) == len(cd["coupling_stderr"]) == 4
+    assert all(len(r) == 10 for r in cd["coupling"])
+    for r, total in zip(cd["coupling"], cd["oblique"]):
+        assert sum(r[:5]) == pytest.approx(total, rel=0.1) and all(abs(c) <= w for w, c in zip(r[:5], r[5:]))
+    assert len(cd["coupling_a_theta"]) == len(cd["coupling_a_theta_stderr"]) == len(cd["coupling_chi2"]) == 4
+    assert -0.9 <= cd["coupling_a"] <= 0.9 and cd["coupling_a_stderr"] > 0
     # the curved transport: a non-absorbing, index-matched sphere returns every photon
     clear = Stack([Layer(1.0, 0.0, 2.0, 0.0)])._to_core()
     assert _core.bssrdf_curved_escape(clear, "sphere", 1.0, 200, 1) == (1.0, 0.0)

@@ -33,10 +33,11 @@ from . import _core
 from .medium import Stack
 
 FORMAT = "subsurf-adaptive-table"
-FORMAT_VERSION = 6  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
+FORMAT_VERSION = 7  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
 # 4: and the flat oblique pencil runs of the oblique-incidence gain (``oblique``, ``oblique_stderr``);
 # 5: and the sphere's azimuthal harmonic under pencil beams (``harmonic_near``, ``harmonic_far``);
-# 6: and the flat exit-angle histogram of the exit term (``exit``, ``exit_stderr``)
+# 6: and the flat exit-angle histogram of the exit term (``exit``, ``exit_stderr``);
+# 7: and the flat pencil runs of the exit direction's coupling to the light's (``coupling``, ``coupling_stderr``)
 _ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
 
 
@@ -100,7 +101,12 @@ class AdaptiveTable:
         ``harmonic_far``: per curvature node, per angle; ``subsurf_core::bssrdf::harmonic``), the flat
         half-space's exit-angle histogram under diffuse light (``exit``, ``exit_stderr``: weight per
         incident photon on bins uniform in the exit cosine) and its fitted slope ``exit_beta``
-        (``subsurf_core::bssrdf::exit``), and the
+        (``subsurf_core::bssrdf::exit``), the flat half-space's exit weight and its cos Δφ moment (Δφ
+        the exit azimuth from the light's) per exit-cosine bin under pencil beams at those angles
+        (``coupling``, ``coupling_stderr``: per angle, the weights then the moments) with the exit
+        coupling's amplitude ``coupling_a`` (± ``coupling_a_stderr``; pooled over the angles) and its
+        fit per angle ``coupling_a_theta``, ``coupling_a_theta_stderr``, ``coupling_chi2``
+        (``subsurf_core::bssrdf::coupling``), and the
         kernel scales derived from them (``scale_convex``: the near side's per bin, ``scale_convex_far``,
         ``scale_concave``)."""
         return self._t.curvature()
@@ -155,7 +161,7 @@ class AdaptiveTable:
                 # The core's curvature data as it gives it (lists: datasets; numbers: attributes);
                 # the scales (`scale_*`) are derived from it when the table is assembled.
                 for k, v in cd.items():
-                    if k.startswith("scale_") or k == "exit_beta":
+                    if k.startswith(("scale_", "coupling_a")) or k in ("exit_beta", "coupling_chi2"):
                         continue
                     if isinstance(v, float):
                         g.attrs[k] = v

@@ -93,9 +93,13 @@ impl PyAdaptiveTable {
     /// cavity and cylinder, sphere_bins, cylinder_bins, flat, flat_stderr, oblique_theta (deg),
     /// oblique, oblique_stderr (the flat pencil runs of the oblique gain), harmonic_near,
     /// harmonic_far (the sphere's ⟨cos φ⟩ under pencil beams, per ρ node × oblique angle), exit,
-    /// exit_stderr (the flat exit-angle histogram under diffuse light), exit_beta (its fitted slope), scale_convex,
+    /// exit_stderr (the flat exit-angle histogram under diffuse light), exit_beta (its fitted slope),
+    /// coupling, coupling_stderr (the flat pencil runs' exit weight and cos Δφ moment per exit-cosine
+    /// bin, per oblique angle), coupling_a, coupling_a_stderr (the kept amplitude A, pooled over
+    /// the angles), coupling_a_theta, coupling_a_theta_stderr, coupling_chi2 (the fit per angle;
+    /// `bssrdf::coupling`), scale_convex,
     /// scale_convex_far, scale_cylinder, scale_cylinder_far, scale_concave} (lists over the
-    /// curvature nodes; `scale_*` and `exit_beta` derived, not read back).
+    /// curvature nodes; `scale_*`, `exit_beta` and `coupling_a*`/`coupling_chi2` derived, not read back).
     fn curvature<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         let mut out = vec![];
         for (c, cd) in self.inner.curvature().iter().enumerate() {
@@ -120,6 +124,14 @@ impl PyAdaptiveTable {
             o.set_item("exit", cd.exit.weight.clone())?;
             o.set_item("exit_stderr", cd.exit.stderr.clone())?;
             o.set_item("exit_beta", self.inner.exit(c).beta)?;
+            o.set_item("coupling", cd.coupling.iter().map(|b| b.weight.clone()).collect::<Vec<_>>())?;
+            o.set_item("coupling_stderr", cd.coupling.iter().map(|b| b.stderr.clone()).collect::<Vec<_>>())?;
+            let cp = self.inner.coupling(c);
+            o.set_item("coupling_a", cp.a)?;
+            o.set_item("coupling_a_stderr", cp.stderr)?;
+            o.set_item("coupling_a_theta", cp.fits.iter().map(|f| f.a).collect::<Vec<_>>())?;
+            o.set_item("coupling_a_theta_stderr", cp.fits.iter().map(|f| f.stderr).collect::<Vec<_>>())?;
+            o.set_item("coupling_chi2", cp.fits.iter().map(|f| f.chi2).collect::<Vec<_>>())?;
             o.set_item("scale_convex", self.inner.scales(c).convex.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
             o.set_item("scale_convex_far", self.inner.scales(c).convex_far.clone())?;
             o.set_item("scale_cylinder", self.inner.scales(c).cylinder.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
@@ -265,8 +277,14 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
     }
     let harmonic = hn.iter().zip(&hf).map(|(a, b)| a.iter().zip(b).map(|(&x, &y)| [x, y]).collect()).collect();
     let exit = ExitBins { weight: list("exit")?, stderr: list("exit_stderr")? };
+    let (cw, cs): (Vec<Vec<f64>>, Vec<Vec<f64>>) =
+        (item(d, "coupling")?.extract()?, item(d, "coupling_stderr")?.extract()?);
+    if cw.len() != cs.len() {
+        return Err(to_py(Error::Invalid("adaptive table curvature: coupling_stderr has another length".into())));
+    }
+    let coupling = cw.into_iter().zip(cs).map(|(weight, stderr)| ExitBins { weight, stderr }).collect();
     let cavity = pairs("cavity")?;
-    Ok(CurvatureData { rho: list("rho")?, sphere, cavity, cylinder, flat, oblique, harmonic, exit })
+    Ok(CurvatureData { rho: list("rho")?, sphere, cavity, cylinder, flat, oblique, harmonic, exit, coupling })
 }
 
 /// The curvature nodes (mm) of a stack's adaptive table.

@@ -31,6 +31,7 @@
 //! keyed by the stacks, the settings and the engine's version holds exactly what a rebuild makes
 //! (`subsurf.bssrdf.AdaptiveTable`, HDF5).
 
+use super::coupling::Coupling;
 use super::curvature::{
     build_curvature, curvature_photons, cylinder_gather, sphere_gather, CurvatureData, Gathers, LocalScale, Scales,
 };
@@ -234,6 +235,8 @@ struct ChannelTable {
     harmonic: Harmonic,
     /// The exit term's angular shape ([`super::exit`]).
     exit: Exit,
+    /// The exit direction's coupling to the light's ([`super::coupling`]).
+    coupling: Coupling,
 }
 
 /// The per-channel tables (see the module docs).
@@ -324,8 +327,9 @@ impl AdaptiveTable {
                 )));
             }
             let exit = Exit::fit(top.n / stack.n_above, &ex.weight, &ex.stderr);
+            let coupling = Coupling::new(top.n / stack.n_above, &curvature[c].coupling)?;
             let d = nodes.iter().map(|n| n.d).collect();
-            channels.push(ChannelTable { d, r, t, entering, gain, harmonic, exit });
+            channels.push(ChannelTable { d, r, t, entering, gain, harmonic, exit, coupling });
         }
         let median_radius = channels
             .iter()
@@ -440,6 +444,14 @@ impl AdaptiveTable {
     /// (the first three; [`super::exit`]).
     pub fn exit_factors(&self, mu: f64) -> [f64; 3] {
         std::array::from_fn(|c| self.channels[c.min(self.channels.len() - 1)].exit.factor(mu))
+    }
+    /// Channel `c`'s exit coupling ([`super::coupling`]).
+    pub fn coupling(&self, c: usize) -> &Coupling {
+        &self.channels[c].coupling
+    }
+    /// Whether any channel has an exit coupling.
+    pub fn has_coupling(&self) -> bool {
+        self.channels.iter().any(|c| !c.coupling.is_zero())
     }
     /// Number of channels.
     pub fn channels(&self) -> usize {

@@ -107,6 +107,10 @@ pub struct CurvatureData {
     pub harmonic: Vec<Vec<[f64; 2]>>,
     /// The engine's exit-angle histogram of the flat half-space under diffuse light ([`super::exit`]).
     pub exit: super::exit::ExitBins,
+    /// The engine's flat half-space under pencil beams at [`super::oblique::OBLIQUE_THETA_DEG`]
+    /// (the oblique runs themselves): exit weight and its cos Δφ moment per exit-cosine bin
+    /// ([`super::coupling`]).
+    pub coupling: Vec<super::exit::ExitBins>,
 }
 
 /// The curvature nodes (mm) of a stack (see the module docs).
@@ -156,7 +160,7 @@ pub fn build_curvature(
     let Some(flat) = flat_escape(stack, s.photons, base + SEED_FLAT, s.threads, cancel, progress)? else {
         return Ok(None);
     };
-    let Some(oblique) = super::oblique::build_oblique(stack, channel, s, cancel, progress)? else {
+    let Some((oblique, coupling)) = super::oblique::build_oblique(stack, channel, s, cancel, progress)? else {
         return Ok(None);
     };
     let rho = curvature_nodes(stack)?;
@@ -182,7 +186,7 @@ pub fn build_curvature(
     let Some(exit) = super::exit::build_exit(stack, channel, s, cancel, progress)? else {
         return Ok(None);
     };
-    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic, exit }))
+    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic, exit, coupling }))
 }
 
 /// Photons a channel's curvature data traces (with its oblique runs).

@@ -21,6 +21,7 @@ pub mod adaptive;
 pub mod better_dipole;
 pub mod cdf;
 pub mod chandrasekhar;
+pub mod coupling;
 pub mod curvature;
 pub mod curved;
 pub mod dipole;

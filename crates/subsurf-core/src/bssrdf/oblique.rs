@@ -33,7 +33,9 @@
 //! assume every class of entry point receives the same E_t).
 
 use super::adaptive::{AdaptiveSettings, SEED_STRIDE};
+use super::coupling::CouplingTally;
 use super::curved::Escape;
+use super::exit::ExitBins;
 use crate::error::Result;
 use crate::mc::tally::totals::{Total, Totals};
 use crate::mc::{run, RunConfig, Source};
@@ -52,28 +54,33 @@ pub const SEED_OBLIQUE: u64 = 30;
 pub const OBLIQUE_PHOTONS: u64 = 4;
 
 /// The engine's diffuse reflectance (per unit incident power, specular excluded) of `stack`
-/// under pencil beams at [`OBLIQUE_THETA_DEG`] (channel `channel`'s seeds); `None` when cancelled.
+/// under pencil beams at [`OBLIQUE_THETA_DEG`] (channel `channel`'s seeds), and the same runs'
+/// exit-coupling tallies ([`CouplingTally`], [`super::coupling`]: the tally draws no random
+/// numbers, so the totals are the same bits with it); `None` when cancelled.
 pub fn build_oblique(
     stack: &Stack,
     channel: usize,
     s: &AdaptiveSettings,
     cancel: &AtomicBool,
     progress: &AtomicU64,
-) -> Result<Option<Vec<Escape>>> {
+) -> Result<Option<(Vec<Escape>, Vec<ExitBins>)>> {
     let base = s.seed.wrapping_add(SEED_STRIDE * channel as u64 + SEED_OBLIQUE);
-    let mut out = vec![];
+    let (mut out, mut coupling) = (vec![], vec![]);
     for (i, deg) in OBLIQUE_THETA_DEG.iter().enumerate() {
         let source = Source::Pencil { theta: deg.to_radians(), phi: 0.0 };
         let photons = s.photons.saturating_mul(OBLIQUE_PHOTONS);
         let cfg = RunConfig { photons, seed: base + i as u64, threads: s.threads, source, isa: None };
-        let o = run(stack, &cfg, || Totals::new(stack.layers.len()), cancel, progress)?;
+        let tallies = || (Totals::new(stack.layers.len()), CouplingTally::default());
+        let o = run(stack, &cfg, tallies, cancel, progress)?;
         if o.cancelled {
             return Ok(None);
         }
-        let (mean, stderr) = o.tally.get(Total::Diffuse);
+        let (mean, stderr) = o.tally.0.get(Total::Diffuse);
         out.push(Escape { mean, stderr, near: mean, near_stderr: stderr, bins: vec![], shift: 0.0, harmonic: vec![] });
+        let (weight, stderr) = o.tally.1.data();
+        coupling.push(ExitBins { weight, stderr });
     }
-    Ok(Some(out))
+    Ok(Some((out, coupling)))
 }
 
 /// One channel's gain g(μ) at its nodes (see the module docs).

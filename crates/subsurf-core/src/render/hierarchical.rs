@@ -23,11 +23,13 @@
 //!    plus the single-scattering term S⁽¹⁾ ([`super::shade::single_scattering`]). For
 //!    `adaptive` under lights every pair (sample or cluster) is also weighted by the entry's
 //!    azimuthal factor ([`crate::bssrdf::harmonic`]: the samples carry their lights' harmonic,
-//!    the nodes its power-weighted mean).
+//!    the nodes its power-weighted mean), and the near class' radiance carries the exit
+//!    direction's coupling to the light's ([`crate::bssrdf::coupling`]: the samples carry their
+//!    lights' vector D, the nodes its power-weighted mean, [`Tree::exitance_coupled`]).
 
 use super::accel::Hit;
 use super::driver::Control;
-use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Entry, Unlit};
+use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Coupled, Entry, Unlit};
 use super::material::Translucent;
 use super::math::{add, dot, length, madd, mul, scale, sub, Rgb, V3};
 use super::scene::Scene;
@@ -90,6 +92,8 @@ pub struct Sample {
     /// The azimuthal harmonic of its light per class and channel (`adaptive` under lights; else
     /// none).
     pub m: [[Lobe; 3]; 2],
+    /// Its light's exit-coupling vector per channel ([`Coupled`]; `adaptive` under lights; else 0).
+    pub d: Coupled,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -103,6 +107,8 @@ struct Node {
     /// harmonic vector Σ m E_t A / Σ E_t A.
     n: V3,
     m: [[Lobe; 3]; 2],
+    /// Per channel the power-weighted mean exit-coupling vector Σ d E_t A / Σ E_t A.
+    d: Coupled,
     /// Children `first .. first + count` (nodes) or samples (leaf).
     first: u32,
     count: u32,
@@ -117,6 +123,8 @@ pub struct Tree {
     pub rho0: f64,
     /// Whether any sample has a harmonic (then every pair is weighted by its factor).
     harm: bool,
+    /// Whether any sample has an exit-coupling vector ([`Tree::exitance_coupled`]).
+    pub coupled: bool,
 }
 
 const LEAF_SIZE: usize = 8;
@@ -130,7 +138,8 @@ impl Tree {
         let n = samples.len();
         build_node(&mut samples, 0, n, &mut nodes, 0);
         let harm = samples.iter().any(|s| s.m.iter().flatten().any(|l| l.a != 0.0));
-        Tree { samples, nodes, rho0: NEAR_FIELD * delta, harm }
+        let coupled = samples.iter().any(|s| s.d.iter().flatten().any(|&x| x != 0.0));
+        Tree { samples, nodes, rho0: NEAR_FIELD * delta, harm, coupled }
     }
 
     /// Σ R_d(‖x − x_j‖) E_j A_j with clusters under `epsilon` (0: exact all-pairs sum), with the
@@ -162,12 +171,25 @@ impl Tree {
     /// [`exitance_with`](Self::exitance_with) per class of `pp` (0: the near side, 1: across):
     /// the adaptive model gives each class its own exit term.
     pub fn exitance_classes(&self, pp: &dyn PairProfiles, x: V3, epsilon: f64) -> [Rgb; 2] {
+        self.sums(pp, x, epsilon, false).0
+    }
+
+    /// [`exitance_classes`](Self::exitance_classes) and, per channel, the near class' sum of
+    /// each pair's contribution × its entry's exit-coupling vector ([`Coupled`]; the clusters'
+    /// power-weighted mean, the near field's area-weighted): the near class' radiance leaving
+    /// towards ω_o is then (near + V·ω_o,t) × its exit term ([`crate::bssrdf::coupling`]).
+    pub fn exitance_coupled(&self, pp: &dyn PairProfiles, x: V3, epsilon: f64) -> ([Rgb; 2], Coupled) {
+        self.sums(pp, x, epsilon, true)
+    }
+
+    fn sums(&self, pp: &dyn PairProfiles, x: V3, epsilon: f64, coupled: bool) -> ([Rgb; 2], Coupled) {
         let rho0 = self.rho0;
         let cap: [Rgb; 2] = std::array::from_fn(|c| std::array::from_fn(|k| pp.profile(c, k).rd(rho0)));
         let rd = |c: usize, r: f64| -> Rgb {
             std::array::from_fn(|k| pp.profile(c, k).rd(r).min(if r < rho0 { cap[c][k] } else { f64::INFINITY }))
         };
         let (mut acc, mut near_e, mut near_a) = ([[0.0; 3]; 2], [[0.0; 3]; 2], [0.0; 2]);
+        let (mut vd, mut near_d) = ([[0.0; 3]; 3], [[0.0; 3]; 3]);
         let target = pp.target();
         let mut mass = [0.0; 3]; // Σ profile × area (for `target`)
         let mut stack = vec![0u32];
@@ -183,9 +205,19 @@ impl Tree {
                     if target.is_some() {
                         mass = madd(mass, p, s.area);
                     }
+                    if coupled && c == 0 {
+                        for k in 0..3 {
+                            vd[k] = madd(vd[k], s.d[k], v[k] * s.area);
+                        }
+                    }
                     if r < rho0 {
                         near_e[c] = madd(near_e[c], s.e, s.area);
                         near_a[c] += s.area;
+                        if coupled && c == 0 {
+                            for k in 0..3 {
+                                near_d[k] = madd(near_d[k], s.d[k], s.e[k] * s.area);
+                            }
+                        }
                     }
                 }
                 continue;
@@ -205,6 +237,11 @@ impl Tree {
                     let v = mul(p, nd.power);
                     let v = if self.harm { mul(v, factors(&nd.m[c], nd.n, sub(x, nd.centroid))) } else { v };
                     acc[c] = add(acc[c], v);
+                    if coupled && c == 0 {
+                        for k in 0..3 {
+                            vd[k] = madd(vd[k], nd.d[k], v[k]);
+                        }
+                    }
                     continue;
                 }
             }
@@ -218,11 +255,22 @@ impl Tree {
                 });
                 acc[c] = add(acc[c], std::array::from_fn(|k| peak[k] * near_e[c][k] / near_a[c]));
                 mass = add(mass, peak);
+                if coupled && c == 0 {
+                    for k in 0..3 {
+                        vd[k] = madd(vd[k], near_d[k], peak[k] / near_a[c]);
+                    }
+                }
             }
         }
         match target {
-            Some(t) => acc.map(|a| std::array::from_fn(|k| if mass[k] > 0.0 { a[k] * t[k] / mass[k] } else { a[k] })),
-            None => acc,
+            Some(t) => {
+                let norm = |a: Rgb| -> Rgb {
+                    std::array::from_fn(|k| if mass[k] > 0.0 { a[k] * t[k] / mass[k] } else { a[k] })
+                };
+                let vd = std::array::from_fn(|k| if mass[k] > 0.0 { scale(vd[k], t[k] / mass[k]) } else { vd[k] });
+                (acc.map(norm), vd)
+            }
+            None => (acc, vd),
         }
     }
 }
@@ -259,9 +307,12 @@ fn build_node(s: &mut [Sample], a: usize, b: usize, nodes: &mut Vec<Node>, depth
     let idx = nodes.len() as u32;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     let (mut area, mut power, mut wsum, mut c, mut ca) = (0.0, [0.0; 3], 0.0, [0.0; 3], [0.0; 3]);
-    let (mut nsum, mut msum) = ([0.0; 3], [[[0.0; 3]; 3]; 2]);
+    let (mut nsum, mut msum, mut dsum) = ([0.0; 3], [[[0.0; 3]; 3]; 2], [[0.0; 3]; 3]);
     for x in &s[a..b] {
         nsum = madd(nsum, x.n, x.area);
+        for k in 0..3 {
+            dsum[k] = madd(dsum[k], x.d[k], x.e[k] * x.area);
+        }
         for (mc, xc) in msum.iter_mut().zip(&x.m) {
             for k in 0..3 {
                 mc[k] = madd(mc[k], xc[k].vector(), x.e[k] * x.area);
@@ -284,7 +335,8 @@ fn build_node(s: &mut [Sample], a: usize, b: usize, nodes: &mut Vec<Node>, depth
     let m = msum.map(|mc| {
         std::array::from_fn(|k| if power[k] > 0.0 { Lobe::new(scale(mc[k], 1.0 / power[k])) } else { Lobe::default() })
     });
-    nodes.push(Node { lo, hi, area, power, centroid, n, m, first: a as u32, count: (b - a) as u32, leaf: true });
+    let d = std::array::from_fn(|k| if power[k] > 0.0 { scale(dsum[k], 1.0 / power[k]) } else { [0.0; 3] });
+    nodes.push(Node { lo, hi, area, power, centroid, n, m, d, first: a as u32, count: (b - a) as u32, leaf: true });
     if b - a <= LEAF_SIZE || depth > 40 || (0..3).all(|k| hi[k] - lo[k] <= 0.0) {
         return idx;
     }
@@ -402,7 +454,7 @@ pub fn area_tree(scene: &Scene, oi: usize) -> Option<Tree> {
     let delta = spacing(scene, oi, &HierarchicalParams::default())?;
     let samples = place_samples(scene, oi, delta)
         .into_iter()
-        .map(|(h, area, _)| Sample { p: h.p, area, e: [1.0; 3], n: h.n, m: Default::default() })
+        .map(|(h, area, _)| Sample { p: h.p, area, e: [1.0; 3], n: h.n, m: Default::default(), d: Default::default() })
         .collect();
     Some(Tree::build(samples, delta))
 }
@@ -449,6 +501,8 @@ fn gather(
             trees.push(None);
             continue;
         };
+        // the exit coupling needs the lights' directions (`bssrdf::coupling`)
+        let coupled = !scene.lights.is_empty() && m.adaptive.as_deref().is_some_and(|t| t.has_coupling());
         let samples: Option<Vec<Sample>> = spots
             .par_iter()
             .enumerate()
@@ -459,18 +513,16 @@ fn gather(
                 }
                 let mut rng = PhotonRng::new(key, base + j as u64);
                 let (nl, nr) = (params.light_samples, params.env_samples);
-                let (e, hm) = match amps {
-                    Some(a) => {
-                        let (e, hm) = irradiance_and_harmonic(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr, a);
-                        (e, hm.map(|mc| mc.map(Lobe::new)))
-                    }
-                    None => {
-                        let e = transmitted_irradiance(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr);
-                        (e, [[Lobe::default(); 3]; 2])
-                    }
+                let (e, hm, d) = if amps.is_some() || coupled {
+                    let (e, hm, d) =
+                        irradiance_and_harmonic(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr, amps.as_ref());
+                    (e, hm.map(|mc| mc.map(Lobe::new)), d)
+                } else {
+                    let e = transmitted_irradiance(scene, h, Entry::of(m), nl, nr, 0, &mut rng, tr);
+                    (e, [[Lobe::default(); 3]; 2], [[0.0; 3]; 3])
                 };
                 ctl.done.fetch_add(1, Ordering::Relaxed);
-                Some(Sample { p: h.p, area: *area, e, n: h.n, m: hm })
+                Some(Sample { p: h.p, area: *area, e, n: h.n, m: hm, d })
             })
             .collect();
         base += spots.len() as u64;
@@ -603,8 +655,16 @@ impl Translucency for Hierarchical {
             Some(t) => {
                 // the exit term's angular shape on the near class (`bssrdf::exit`); across a part, none
                 let k = super::adaptive::Kernel::at(scene, t, hit);
-                let [near, far] = tree.exitance_classes(&k, hit.p, self.params.epsilon);
-                add(mul(near, t.exit_factors(mu_o)), far)
+                if tree.coupled {
+                    // and its coupling to the light's direction (`bssrdf::coupling`)
+                    let ([near, far], v) = tree.exitance_coupled(&k, hit.p, self.params.epsilon);
+                    let ot = sub(wo, scale(hit.n, mu_o));
+                    let near: Rgb = std::array::from_fn(|c| near[c] + dot(v[c], ot));
+                    add(mul(near, t.exit_factors(mu_o)), far)
+                } else {
+                    let [near, far] = tree.exitance_classes(&k, hit.p, self.params.epsilon);
+                    add(mul(near, t.exit_factors(mu_o)), far)
+                }
             }
             None => tree.exitance(m, hit.p, self.params.epsilon),
         };

@@ -104,10 +104,18 @@ pub fn transmitted_irradiance(
 /// direction, counts with none). |m| is the pair factor's amplitude, m/|m| its forward direction.
 pub type Harm = [[V3; 3]; 2];
 
+/// Per channel, an entry point's exit-coupling vector D = ⟨A·ω_t⟩ over its transmitted
+/// irradiance ([`crate::bssrdf::coupling`]): ω_t the tangential part of each light's direction
+/// (towards the light; |ω_t| = sin θi), A the table's amplitude, the mean
+/// weighted by the light's share of E_t,k (the gathered light counts with none). The radiance
+/// of the near class leaving towards ω_o is × (1 + D·ω_o,t).
+pub type Coupled = [V3; 3];
+
 /// [`transmitted_irradiance`] and the harmonic vectors of its lights (see [`Harm`]) for the
-/// amplitudes `amps` (per channel, at the entry point's curvature). The same draws, in the same
-/// order, and the same E_t to the last bit: the lights are sampled as
-/// [`direct_irradiance`]'s, then the gathering rays are [`transmitted_irradiance`]'s.
+/// amplitudes `amps` (per channel, at the entry point's curvature; `None`: no harmonic), and
+/// their exit-coupling vectors ([`Coupled`], from `into`'s adaptive table; zero without one).
+/// The same draws, in the same order, and the same E_t to the last bit: the lights are sampled
+/// as [`direct_irradiance`]'s, then the gathering rays are [`transmitted_irradiance`]'s.
 #[allow(clippy::too_many_arguments)]
 pub fn irradiance_and_harmonic(
     scene: &Scene,
@@ -118,22 +126,31 @@ pub fn irradiance_and_harmonic(
     depth: u32,
     rng: &mut PhotonRng,
     tr: &dyn Translucency,
-    amps: &[AtRho; 3],
-) -> (Rgb, Harm) {
+    amps: Option<&[AtRho; 3]>,
+) -> (Rgb, Harm, Coupled) {
     let n = hit.n;
-    let (mut e, mut m) = ([0.0; 3], [[[0.0; 3]; 3]; 2]);
+    let (mut e, mut m, mut d) = ([0.0; 3], [[[0.0; 3]; 3]; 2], [[0.0; 3]; 3]);
+    let table = into.gain.filter(|t| t.has_coupling());
     for _ in 0..light_samples {
         let mut one = [0.0; 3];
         super::shade::light_samples(scene, hit, Some(into), rng, |wi, c, de| {
             one = add(one, de);
             let tan = sub(scale(n, c), wi); // the propagation direction −ω_i, its tangential part
             let tl = length(tan);
-            if tl > 1e-12 {
+            if tl <= 1e-12 {
+                return;
+            }
+            if let Some(amps) = amps {
                 for k in 0..3 {
                     let a = amps[k].at(c);
                     for (cl, mc) in m.iter_mut().enumerate() {
                         mc[k] = madd(mc[k], tan, de[k] * a[cl] / tl);
                     }
+                }
+            }
+            if let Some(t) = table {
+                for (k, dk) in d.iter_mut().enumerate() {
+                    *dk = madd(*dk, tan, -de[k] * t.coupling(k.min(t.channels() - 1)).a);
                 }
             }
         });
@@ -142,10 +159,13 @@ pub fn irradiance_and_harmonic(
     if light_samples > 1 {
         e = scale(e, 1.0 / light_samples as f64);
         m = m.map(|mc| mc.map(|v| scale(v, 1.0 / light_samples as f64)));
+        d = d.map(|v| scale(v, 1.0 / light_samples as f64));
     }
     let e = add(e, transmitted_irradiance(scene, hit, into, 0, rays, depth, rng, tr));
-    let m = m.map(|mc| std::array::from_fn(|k| if e[k] > 0.0 { scale(mc[k], 1.0 / e[k]) } else { [0.0; 3] }));
-    (e, m)
+    let per_e = |v: V3, k: usize| if e[k] > 0.0 { scale(v, 1.0 / e[k]) } else { [0.0; 3] };
+    let m = m.map(|mc| std::array::from_fn(|k| per_e(mc[k], k)));
+    let d = std::array::from_fn(|k| per_e(d[k], k));
+    (e, m, d)
 }
 
 /// A stand-in for the translucent objects while their own irradiance is being computed: black,

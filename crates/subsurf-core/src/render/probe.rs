@@ -22,7 +22,9 @@
 //! one shadow-ray sample of each light and one cosine-weighted gathering ray (environment, light
 //! reflected by other surfaces, translucent surfaces by this method at depth + 1;
 //! [`super::irradiance`]). For `adaptive` under lights, R_d is weighted by the entry point's
-//! azimuthal factor ([`crate::bssrdf::harmonic`], amplitudes at x_i's probed curvature).
+//! azimuthal factor ([`crate::bssrdf::harmonic`], amplitudes at x_i's probed curvature), and
+//! on the near class by 1 + D·ω_o,t, the exit direction's coupling to x_i's lights
+//! ([`crate::bssrdf::coupling`]).
 
 use super::accel::Hit;
 use super::adaptive::entry_amplitudes;
@@ -168,12 +170,17 @@ impl Translucency for Probe {
                 // the exit term's angular shape on the near class (`bssrdf::exit`); across a part, none
                 let rd = if c == 0 { mul(rd, t.exit_factors(mu_o)) } else { rd };
                 let amps = if scene.lights.is_empty() { None } else { entry_amplitudes(scene, t, &hi) };
-                match amps {
-                    Some(a) => {
-                        let (e, hm) = irradiance_and_harmonic(scene, &hi, Entry::of(m), 1, 1, depth, rng, self, &a);
-                        (mul(rd, factors(&hm[c].map(Lobe::new), hi.n, sub(hit.p, hi.p))), e)
-                    }
-                    None => (rd, transmitted_irradiance(scene, &hi, Entry::of(m), 1, 1, depth, rng, self)),
+                let coupled = !scene.lights.is_empty() && t.has_coupling();
+                if amps.is_some() || coupled {
+                    let (e, hm, d) =
+                        irradiance_and_harmonic(scene, &hi, Entry::of(m), 1, 1, depth, rng, self, amps.as_ref());
+                    let rd = mul(rd, factors(&hm[c].map(Lobe::new), hi.n, sub(hit.p, hi.p)));
+                    // the near class' exit coupling to the light's direction (`bssrdf::coupling`)
+                    let ot = sub(wo, scale(hit.n, mu_o));
+                    let rd = if c == 0 { std::array::from_fn(|k| rd[k] * (1.0 + dot(d[k], ot))) } else { rd };
+                    (rd, e)
+                } else {
+                    (rd, transmitted_irradiance(scene, &hi, Entry::of(m), 1, 1, depth, rng, self))
                 }
             }
             None => {
