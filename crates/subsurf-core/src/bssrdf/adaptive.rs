@@ -516,6 +516,9 @@ impl RadialProfile for Mix {
     fn rd(&self, r: f64) -> f64 {
         self.each(|q| q.rd(r))
     }
+    fn rd_ln(&self, r: f64, ln_r: f64) -> f64 {
+        self.each(|q| q.rd_ln(r, ln_r))
+    }
     fn total(&self) -> f64 {
         self.total
     }
