@@ -64,6 +64,11 @@ pub trait RadialProfile: Send + Sync {
         let _ = ln_r;
         self.rd(r)
     }
+    /// A radius (mm) beyond which the profile holds at most about 10⁻⁶ of its energy, where one
+    /// is known (∞ otherwise): the hierarchical method's tree walk skips what lies beyond it.
+    fn reach(&self) -> f64 {
+        f64::INFINITY
+    }
     /// ∫₀^∞ R_d(r) 2πr dr, dimensionless.
     fn total(&self) -> f64;
     /// Fraction of [`total`](Self::total) inside radius `r` (mm).
