@@ -13,12 +13,14 @@
 //!    any ray reached one, the samples are gathered again with the first trees as their
 //!    radiance (one bounce of light between translucent surfaces; a quarter of the rays that
 //!    reach a translucent surface evaluate it, weighted 4×: Russian roulette, the same
-//!    expectation at a quarter of the tree walks).
+//!    expectation at a quarter of the tree walks; those walks use coarser clusters evaluated at
+//!    their sigma points, [`Cut`]).
 //! 3. An octree over the samples; each node keeps its area, its power Σ E_t A per channel and
 //!    the power-weighted centroid (§3.2).
 //! 4. At a shading point x_o the tree is walked: a node is used as a whole when its solid
 //!    angle ΔΩ = A_node/‖x_o − centroid‖² is below `epsilon` and x_o is outside its box
 //!    (the paper's error criterion, §3.3); otherwise its children (or samples) are visited.
+//!    Nodes wholly beyond the kernel's reach (10⁻⁶ of its energy) are skipped.
 //!    M_o = Σ R_d(‖x_o − x_j‖) P_j, and L_o = F_t(η, ω_o) M_o /(π c(η)) (see `material`),
 //!    plus the single-scattering term S⁽¹⁾ ([`super::shade::single_scattering`]). For
 //!    `adaptive` under lights every pair (sample or cluster) is also weighted by the entry's
