@@ -272,7 +272,7 @@ impl PairProfiles for Kernel {
     fn target(&self) -> Option<Rgb> {
         self.target
     }
-    /// Beyond R's reach from x, and beyond T's ([`Kernel::t_reach`]): an entry point across the
+    /// Beyond R's reach from x, and beyond T's (`Kernel::t_reach`): an entry point across the
     /// part (d/2 < h ≤ [`BEYOND`]·d) with r⊥ within it is within √(reach² + (d/2)²) of x − d·n.
     fn beyond(&self, x: V3, lo: V3, hi: V3, near: f64) -> bool {
         let r = self.r.iter().map(|p| p.reach()).fold(near, f64::max);

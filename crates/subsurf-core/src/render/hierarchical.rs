@@ -288,7 +288,7 @@ pub struct Cut {
     /// A node of area A whose centroid is at distance ρ from x (outside its box) is a cluster
     /// when A < `epsilon` ρ² (its solid angle, sr).
     pub epsilon: f64,
-    /// Evaluate a cluster's kernel at its sigma points (centroid ± [`Node::axes`], weight 1/6
+    /// Evaluate a cluster's kernel at its sigma points (centroid ± the node's `axes`, weight 1/6
     /// each: the members' mean to second order in the cluster's extent) rather than at its
     /// centroid alone: a coarser `epsilon` at the same accuracy.
     pub sigma: bool,
