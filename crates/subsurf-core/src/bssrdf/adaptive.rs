@@ -528,6 +528,12 @@ impl RadialProfile for Mix {
     fn rd(&self, r: f64) -> f64 {
         self.each(|q| q.rd(r))
     }
+    fn rd_ln(&self, r: f64, ln_r: f64) -> f64 {
+        self.each(|q| q.rd_ln(r, ln_r))
+    }
+    fn reach(&self) -> f64 {
+        (0..2).filter(|&i| self.w[i] != 0.0).filter_map(|i| self.p[i].as_ref()).map(|q| q.reach()).fold(0.0, f64::max)
+    }
     fn total(&self) -> f64 {
         self.total
     }

@@ -570,6 +570,12 @@ impl RadialProfile for Binned {
     fn rd(&self, r: f64) -> f64 {
         self.s[self.bin(r)] * self.base.rd(r)
     }
+    fn rd_ln(&self, r: f64, ln_r: f64) -> f64 {
+        self.s[self.bin(r)] * self.base.rd_ln(r, ln_r)
+    }
+    fn reach(&self) -> f64 {
+        self.base.reach()
+    }
     fn total(&self) -> f64 {
         self.cum[NEAR_BINS]
     }

@@ -58,6 +58,18 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 pub trait RadialProfile: Send + Sync {
     /// R_d(r), mm⁻², at radius `r` ≥ 0 (mm).
     fn rd(&self, r: f64) -> f64;
+    /// [`rd`](Self::rd) at `r` given `ln_r` = ln r: a caller that evaluates several profiles at
+    /// one radius (the hierarchical method's tree walk) takes the logarithm once, and profiles
+    /// tabulated in ln r use it.
+    fn rd_ln(&self, r: f64, ln_r: f64) -> f64 {
+        let _ = ln_r;
+        self.rd(r)
+    }
+    /// A radius (mm) beyond which the profile holds at most about 10⁻⁶ of its energy, where one
+    /// is known (∞ otherwise): the hierarchical method's tree walk skips what lies beyond it.
+    fn reach(&self) -> f64 {
+        f64::INFINITY
+    }
     /// ∫₀^∞ R_d(r) 2πr dr, dimensionless.
     fn total(&self) -> f64;
     /// Fraction of [`total`](Self::total) inside radius `r` (mm).

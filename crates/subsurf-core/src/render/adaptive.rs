@@ -41,7 +41,7 @@
 //! for T, both per unit entering power.
 
 use super::accel::Hit;
-use super::hierarchical::{PairProfiles, Tree};
+use super::hierarchical::{box_distance2, PairProfiles, Tree};
 use super::math::{dot, length, madd, neg, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use crate::bssrdf::adaptive::{AdaptiveTable, Mix};
@@ -176,6 +176,8 @@ pub struct Kernel {
     /// tangent cylinder of radius 1/κ₁, which [`Tree::exitance_with`] makes its integral over the mesh
     /// ([`PairProfiles::target`]; `probe`: [`Kernel::normalisation`]); `None` elsewhere.
     pub target: Option<Rgb>,
+    /// [`Kernel::t_reach`].
+    t_reach: f64,
 }
 
 impl Kernel {
@@ -192,7 +194,8 @@ impl Kernel {
         let (r, t) = ([a.0, b.0, c.0], [a.1, b.1, c.1]);
         let target =
             (!edge && is_tube_saddle(d, k1, k2)).then(|| std::array::from_fn(|k| r[k].cylinder_mass(&t[k], 1.0 / k1)));
-        Kernel { p: hit.p, n: hit.n, d, h: 0.5 * (k1 + k2), k: (k1, k2), r, t, target }
+        let t_reach = Kernel::t_reach(&r, &t);
+        Kernel { p: hit.p, n: hit.n, d, h: 0.5 * (k1 + k2), k: (k1, k2), r, t, target, t_reach }
     }
 
     /// The profile value per channel (mm⁻²) for light entering at `q`.
@@ -241,6 +244,9 @@ impl PairProfiles for Unnormalised<'_> {
     fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile {
         self.0.profile(c, k)
     }
+    fn beyond(&self, x: V3, lo: V3, hi: V3, near: f64) -> bool {
+        self.0.beyond(x, lo, hi, near)
+    }
 }
 
 impl PairProfiles for Kernel {
@@ -265,6 +271,39 @@ impl PairProfiles for Kernel {
     }
     fn target(&self) -> Option<Rgb> {
         self.target
+    }
+    /// Beyond R's reach from x, and beyond T's (`Kernel::t_reach`): an entry point across the
+    /// part (d/2 < h ≤ [`BEYOND`]·d) with r⊥ within it is within √(reach² + (d/2)²) of x − d·n.
+    fn beyond(&self, x: V3, lo: V3, hi: V3, near: f64) -> bool {
+        let r = self.r.iter().map(|p| p.reach()).fold(near, f64::max);
+        if box_distance2(x, lo, hi) <= r * r {
+            return false;
+        }
+        let t = self.t_reach;
+        if t == 0.0 || !self.d.is_finite() {
+            return true;
+        }
+        let t = t.max(near);
+        box_distance2(madd(x, self.n, -self.d), lo, hi) > t * t + 0.25 * self.d * self.d
+    }
+}
+
+impl Kernel {
+    /// The lateral offset (mm) beyond which T holds at most 10⁻⁶ of R's energy, per channel the
+    /// largest (0 when T holds less than that in all): a thick part's T (a sphere of 100
+    /// diffusion lengths: 10⁻⁵ of R) is a noisy table whose own 1 − 10⁻⁶ radius is meaningless.
+    fn t_reach(r: &[Binned; 3], t: &[Mix; 3]) -> f64 {
+        (0..3)
+            .map(|k| {
+                let (rt, tt) = (r[k].total(), t[k].total());
+                let q = 1.0 - 1e-6 * rt / tt.max(1e-300);
+                if tt <= 0.0 || q <= 0.0 {
+                    0.0
+                } else {
+                    t[k].sample_r(q).min(t[k].reach())
+                }
+            })
+            .fold(0.0, f64::max)
     }
 }
 
