@@ -21,26 +21,37 @@ const SA: f64 = 0.05;
 const SS: f64 = 2.0;
 const ETA: f64 = 1.4;
 
-/// The test material (the same stack in every channel), its table traced once for all the
-/// tests of this file (each channel's nodes, curvature and oblique runs at 20 000 photons).
-fn material() -> Material {
-    static TABLE: std::sync::OnceLock<Arc<AdaptiveTable>> = std::sync::OnceLock::new();
-    let stack = Stack::new(vec![Layer::new(ETA, SA, SS, 0.0, f64::INFINITY).unwrap()], 1.0, 1.0).unwrap();
-    let spec = |adaptive: Option<Arc<AdaptiveTable>>| TranslucentSpec {
-        field: "materials.m".into(),
-        sigma_a: [SA; 3],
-        sigma_s: [SS; 3],
-        g: 0.0,
-        eta: ETA,
+/// An `adaptive` material of one semi-infinite layer (the same in every channel), its table
+/// traced at `photons` per run unless given.
+fn one_layer(
+    field: &str,
+    (sa, ss, g, eta): (f64, f64, f64, f64),
+    photons: u64,
+    adaptive: Option<Arc<AdaptiveTable>>,
+) -> TranslucentSpec {
+    let stack = Stack::new(vec![Layer::new(eta, sa, ss, g, f64::INFINITY).unwrap()], 1.0, 1.0).unwrap();
+    TranslucentSpec {
+        field: field.into(),
+        sigma_a: [sa; 3],
+        sigma_s: [ss; 3],
+        g,
+        eta,
         model: "adaptive".into(),
-        stacks: [stack.clone(), stack.clone(), stack.clone()],
-        mc: McSettings { photons: 20_000, seed: 1, threads: Some(2), ..McSettings::default() },
+        stacks: [stack.clone(), stack.clone(), stack],
+        mc: McSettings { photons, seed: 1, threads: Some(2), ..McSettings::default() },
         reflectance: None,
         single_scattering: None,
         grid: None,
         texture: None,
         adaptive,
-    };
+    }
+}
+
+/// The test material (the same stack in every channel), its table traced once for all the
+/// tests of this file (each channel's nodes, curvature and oblique runs at 20 000 photons).
+fn material() -> Material {
+    static TABLE: std::sync::OnceLock<Arc<AdaptiveTable>> = std::sync::OnceLock::new();
+    let spec = |adaptive| one_layer("materials.m", (SA, SS, 0.0, ETA), 20_000, adaptive);
     let build = |s: TranslucentSpec| s.build(true, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();
     let table = TABLE.get_or_init(|| build(spec(None)).adaptive.clone().unwrap());
     Material::Translucent(Box::new(build(spec(Some(table.clone())))))
@@ -507,21 +518,7 @@ fn forward_slab_exit_coupling_matches_the_engine_slow() {
     use crate::rng::PhotonRng;
     let (sa, ss, g, eta, theta) = (0.5, 10.0, 0.8, 1.4, 65f64.to_radians());
     let stack = Stack::new(vec![Layer::new(eta, sa, ss, g, f64::INFINITY).unwrap()], 1.0, 1.0).unwrap();
-    let spec = TranslucentSpec {
-        field: "materials.forward".into(),
-        sigma_a: [sa; 3],
-        sigma_s: [ss; 3],
-        g,
-        eta,
-        model: "adaptive".into(),
-        stacks: [stack.clone(), stack.clone(), stack.clone()],
-        mc: McSettings { photons: 10_000, seed: 1, threads: Some(2), ..McSettings::default() },
-        reflectance: None,
-        single_scattering: None,
-        grid: None,
-        texture: None,
-        adaptive: None,
-    };
+    let spec = one_layer("materials.forward", (sa, ss, g, eta), 10_000, None);
     let m = spec.build(true, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();
     let table = m.adaptive.clone().unwrap();
     let slab = cuboid([-4.0, -4.0, -4.0], [4.0, 4.0, 0.0]).unwrap();
