@@ -32,13 +32,10 @@
 //! power-weighted sums, and multiplies the near class' exitance by 1 + ⟨D⟩·ω_o,t (`render::hierarchical`,
 //! `render::probe`).
 
-use super::exit::ExitBins;
+use super::exit::{ExitBins, TopExitTally};
 use super::oblique::OBLIQUE_THETA_DEG;
 use crate::diffusion::bssrdf::ft;
 use crate::error::{Error, Result};
-use crate::mc::tally::accum::Accum;
-use crate::mc::tally::{Channel, ChannelState};
-use crate::mc::{Packet, Side, Tally};
 
 /// Number of exit-cosine bins of the tally (uniform in μ_o outside the medium).
 pub const COUPLING_BINS: usize = 5;
@@ -48,66 +45,8 @@ const STEPS: usize = 400;
 
 /// Weight leaving through the top per exit-cosine bin, and weight × cos Δφ (Δφ from the azimuth
 /// of the light: the source is `Source::Pencil` at φ = 0, propagating along +x, so the light
-/// lies towards −x). A photon escapes once: per-photon moments.
-#[derive(Clone, Debug)]
-pub struct CouplingTally {
-    all: Accum,
-    photons: u64,
-}
-
-impl Default for CouplingTally {
-    fn default() -> Self {
-        CouplingTally { all: Accum::per_photon(2 * COUPLING_BINS, true), photons: 0 }
-    }
-}
-
-impl CouplingTally {
-    /// Mean per photon and standard error of each value.
-    pub fn data(&self) -> (Vec<f64>, Vec<f64>) {
-        (0..2 * COUPLING_BINS).map(|i| self.all.mean_stderr(i, self.photons)).unzip()
-    }
-}
-
-impl Tally for CouplingTally {
-    const POSITIONS: bool = false;
-    const TRACKS: bool = false;
-    #[inline]
-    fn begin_photon(&mut self, _lane: usize, _photon: u64) {}
-    #[inline]
-    fn specular(&mut self, _lane: usize, _w: f64) {}
-    #[inline]
-    fn absorb(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
-    #[inline]
-    fn roulette(&mut self, _lane: usize, _p: &Packet, _dw: f64) {}
-    #[inline]
-    fn escape(&mut self, _lane: usize, _p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
-        if side == Side::Top {
-            let b = ((dir_out[2].abs().min(1.0) * COUPLING_BINS as f64) as usize).min(COUPLING_BINS - 1);
-            let t = dir_out[0].hypot(dir_out[1]);
-            self.all.add(b, w);
-            if t > 0.0 {
-                self.all.add(COUPLING_BINS + b, -w * dir_out[0] / t);
-            }
-        }
-    }
-    #[inline]
-    fn end_photon(&mut self, _lane: usize) {
-        self.photons += 1;
-    }
-    fn channels(&self, out: &mut Vec<Channel>) {
-        out.push(Channel { name: "exit_azimuth".into(), len: 2 * COUPLING_BINS, extremes: false });
-    }
-    fn drain_into(&mut self, state: &mut [ChannelState]) -> Option<usize> {
-        let ok = self.all.drain_into(&mut state[0]);
-        self.photons = 0;
-        ok.then_some(1)
-    }
-    fn load_from(&mut self, state: &[ChannelState], photons: u64) -> usize {
-        self.all.load_from(&state[0]);
-        self.photons = photons;
-        1
-    }
-}
+/// lies towards −x; [`TopExitTally`]).
+pub type CouplingTally = TopExitTally<COUPLING_BINS, true>;
 
 /// ⟨sin θo⟩ over exit-cosine bin `j` weighted by F_t(η, μ) μ.
 fn mean_sine(eta: f64, j: usize) -> f64 {

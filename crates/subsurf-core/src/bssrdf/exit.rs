@@ -110,28 +110,37 @@ fn whole_chunks(n: u64) -> u64 {
     n.div_ceil(CHUNK_PHOTONS).max(1).saturating_mul(CHUNK_PHOTONS)
 }
 
-/// Weight leaving through the top face by exit cosine ([`EXIT_BINS`] bins; a photon escapes
-/// once, so per-photon moments).
+/// Weight leaving through the top face by exit cosine (`BINS` bins uniform in μ_o; a photon
+/// escapes once, so per-photon moments), and with `AZIMUTH` also weight × cos Δφ per bin (Δφ
+/// from the azimuth of a `Source::Pencil` light at φ = 0, propagating along +x, so the light
+/// lies towards −x): values `BINS ..` of [`TopExitTally::data`]. The exit run's [`ExitTally`]
+/// and the exit coupling's [`super::coupling::CouplingTally`].
 #[derive(Clone, Debug)]
-pub struct ExitTally {
+pub struct TopExitTally<const BINS: usize, const AZIMUTH: bool> {
     all: Accum,
     photons: u64,
 }
 
-impl Default for ExitTally {
-    fn default() -> Self {
-        ExitTally { all: Accum::per_photon(EXIT_BINS, true), photons: 0 }
-    }
-}
+/// The exit run's tally: weight per exit-cosine bin.
+pub type ExitTally = TopExitTally<EXIT_BINS, false>;
 
-impl ExitTally {
-    /// Mean weight per photon in each bin and its standard error.
+impl<const BINS: usize, const AZIMUTH: bool> TopExitTally<BINS, AZIMUTH> {
+    /// Values per photon: the bins' weights, then (with `AZIMUTH`) their weights × cos Δφ.
+    const LEN: usize = if AZIMUTH { 2 * BINS } else { BINS };
+
+    /// Mean per photon and standard error of each value.
     pub fn data(&self) -> (Vec<f64>, Vec<f64>) {
-        (0..EXIT_BINS).map(|i| self.all.mean_stderr(i, self.photons)).unzip()
+        (0..Self::LEN).map(|i| self.all.mean_stderr(i, self.photons)).unzip()
     }
 }
 
-impl Tally for ExitTally {
+impl<const BINS: usize, const AZIMUTH: bool> Default for TopExitTally<BINS, AZIMUTH> {
+    fn default() -> Self {
+        TopExitTally { all: Accum::per_photon(Self::LEN, true), photons: 0 }
+    }
+}
+
+impl<const BINS: usize, const AZIMUTH: bool> Tally for TopExitTally<BINS, AZIMUTH> {
     const POSITIONS: bool = false;
     const TRACKS: bool = false;
     #[inline]
@@ -145,8 +154,14 @@ impl Tally for ExitTally {
     #[inline]
     fn escape(&mut self, _lane: usize, _p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
         if side == Side::Top {
-            let b = ((dir_out[2].abs().min(1.0) * EXIT_BINS as f64) as usize).min(EXIT_BINS - 1);
+            let b = ((dir_out[2].abs().min(1.0) * BINS as f64) as usize).min(BINS - 1);
             self.all.add(b, w);
+            if AZIMUTH {
+                let t = dir_out[0].hypot(dir_out[1]);
+                if t > 0.0 {
+                    self.all.add(BINS + b, -w * dir_out[0] / t);
+                }
+            }
         }
     }
     #[inline]
@@ -154,7 +169,8 @@ impl Tally for ExitTally {
         self.photons += 1;
     }
     fn channels(&self, out: &mut Vec<Channel>) {
-        out.push(Channel { name: "exit_angle".into(), len: EXIT_BINS, extremes: false });
+        let name = if AZIMUTH { "exit_azimuth" } else { "exit_angle" };
+        out.push(Channel { name: name.into(), len: Self::LEN, extremes: false });
     }
     fn drain_into(&mut self, state: &mut [ChannelState]) -> Option<usize> {
         let ok = self.all.drain_into(&mut state[0]);
