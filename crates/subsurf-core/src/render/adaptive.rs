@@ -41,9 +41,9 @@
 //! for T, both per unit entering power.
 
 use super::accel::Hit;
-use super::hierarchical::{box_distance2, PairProfiles, Tree};
 use super::math::{dot, length, madd, neg, sub, Frame, Rgb, V3};
 use super::scene::Scene;
+use super::tree::{box_distance2, PairProfiles, Tree};
 use crate::bssrdf::adaptive::{AdaptiveTable, Mix};
 use crate::bssrdf::curvature::Binned;
 use crate::bssrdf::harmonic::AtRho;

@@ -187,7 +187,7 @@ fn thin_slab_lit_from_below_transmits() {
 /// the probed thickness scaled by the table's curvature scale (1 when flat).
 #[test]
 fn curvature_probe_and_kernel_scale() {
-    use super::super::hierarchical::PairProfiles;
+    use super::super::tree::PairProfiles;
     use super::{mean_curvature, thickness, Kernel};
     use crate::bssrdf::RadialProfile;
     use crate::render::accel::Hit;
@@ -268,8 +268,9 @@ fn edges_count_as_convex() {
 /// −38 % here (ρ₀ = 2 median radii, `spacing` 1).
 #[test]
 fn far_class_near_field_is_not_clustered_away() {
-    use super::super::hierarchical::{Hierarchical, PairProfiles};
+    use super::super::hierarchical::Hierarchical;
     use super::super::math::{dot, length, sub, V3};
+    use super::super::tree::PairProfiles;
     use crate::bssrdf::RadialProfile;
     use crate::render::accel::Hit;
     /// Both classes the material's profile; across (h > d/2) at r⊥, as `Kernel::class`.
@@ -467,8 +468,9 @@ fn ketchup_slab_exit_shape_matches_the_engine() {
 /// cylinder's within 2 %.
 #[test]
 fn saddle_kernel_gathers_the_tube_total() {
-    use super::super::hierarchical::{area_tree, PairProfiles};
+    use super::super::hierarchical::area_tree;
     use super::super::math::Rgb;
+    use super::super::tree::PairProfiles;
     use super::{Kernel, Unnormalised};
     use crate::bssrdf::curvature::cylinder_mass;
     let mesh = super::super::shapes::torus([0.0; 3], 7.0, 2.5, 384, 96).unwrap();

@@ -1,10 +1,13 @@
-//! Tests of the hierarchical method's tree (clusters, sigma points, the kernel's reach) and of
+//! Tests of the hierarchical method: its octree ([`super::super::tree`]: clusters, sigma points, the kernel's reach) and
 //! its second gathering.
 
 use super::*;
+use crate::bssrdf::RadialProfile;
 use crate::render::material::{Material, TestProfile};
+use crate::render::math::length;
 use crate::render::scene::Object;
 use crate::render::shapes::cuboid;
+use crate::render::tree::{box_distance2, sigma_axes, PairProfiles};
 
 /// A translucent surface of constant radiance.
 struct Constant(Rgb);

@@ -2,7 +2,7 @@
 //! L_o(x_o, ω_o) = ∫_A ∫_2π S(x_i, ω_i; x_o, ω_o) L_i(x_i, ω_i) (n·ω_i) dω_i dA(x_i),
 //! on triangle meshes, with three ways to compute the translucent term:
 //!
-//! - [`hierarchical`]: Jensen & Buhler (2002), irradiance samples and an octree;
+//! - [`hierarchical`]: Jensen & Buhler (2002), irradiance samples and an octree ([`tree`]);
 //! - [`probe`]: pbrt-v4's probe-ray importance sampling of the profile (unbiased);
 //! - [`random_walk`]: volumetric path tracing inside the closed mesh (no diffusion assumption).
 //!
@@ -39,6 +39,7 @@ pub mod scene;
 pub mod shade;
 pub mod shapes;
 pub mod texture;
+pub mod tree;
 pub mod walk;
 pub mod walk_sim;
 

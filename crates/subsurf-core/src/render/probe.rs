@@ -28,12 +28,13 @@
 
 use super::accel::Hit;
 use super::adaptive::entry_amplitudes;
-use super::hierarchical::{area_tree, HierarchicalParams, Tree};
+use super::hierarchical::{area_tree, HierarchicalParams};
 use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Entry};
 use super::math::{add, dot, length, madd, max3, mul, scale, sub, Frame, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
 use super::texture::shading_medium;
+use super::tree::Tree;
 use crate::bssrdf::harmonic::{factors, Lobe};
 use crate::rng::PhotonRng;
 use std::f64::consts::PI;
