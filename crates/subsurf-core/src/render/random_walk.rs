@@ -101,13 +101,13 @@ pub struct RandomWalk {
     pub rr_threshold: f64,
     /// The share of the throughput-proportional channel choice in the free path's channel
     /// probabilities w (1: spectral MIS alone, the default under lights); the rest, 1 − mix, goes
-    /// to the channel of least σt, in media where that pays (`least_sigma_t`; walks that carry
-    /// every channel) ([`FLIGHT_MIX`] in an environment alone). The weights
-    /// are those of the one-sample balance heuristic with this w (p̄ = Σ_j w_j σt,j T_j): unbiased
-    /// for any mix in (0, 1]; since p̄ ≥ mix Σ_j β_j σt,j T_j/Σβ, a collision multiplies Σβ by at
-    /// most 1/mix (and since p̄ ≥ (1 − mix) σt,l T_l with σt,l the least σt and T_k ≤ T_l, a
-    /// channel's factor σs,k T_k/p̄ is at most σs,k/((1 − mix) σt,l)). See [`FLIGHT_MIX`] for
-    /// what it gains.
+    /// to the carried channel of least σt, in media where that pays (`least_sigma_t`; walks that
+    /// carry two or three channels) ([`FLIGHT_MIX`] in an environment alone). The weights are
+    /// those of the one-sample balance heuristic (Veach 1997, §9.2.4) with this w
+    /// (p̄ = Σ_j w_j σt,j T_j): unbiased for any mix in (0, 1]; since p̄ ≥ mix Σ_j β_j σt,j T_j/Σβ,
+    /// a collision multiplies Σβ by at most 1/mix (and since p̄ ≥ (1 − mix) σt,l T_l with σt,l the
+    /// least σt and T_k ≤ T_l, a channel's factor σs,k T_k/p̄ is at most σs,k/((1 − mix) σt,l)).
+    /// See [`FLIGHT_MIX`] for what it gains.
     pub flight_mix: f64,
     /// Next-flight estimation of the area lights, combined with the facet connections by
     /// multiple importance sampling (see `RandomWalk::light_next_flight`): on by default with
