@@ -3,19 +3,20 @@
 ``adaptive``; ``probe`` on request) against ``random_walk`` (the reference, which agrees with
 Mitsuba 3), under a constant environment and an area light.
 
-Per case and model: the object-mean bias per channel against the reference, the per-pixel mean
-relative error next to the noise floor (a second random_walk image of the same spp against the
-reference), and the efficiency 1/(MSE × seconds) of hierarchical + adaptive against random_walk
-at a low spp (both errors against the truth: the model's squared error against the reference
-less the reference's own variance, from the second reference, `truth_mse`; random_walk's
-variance, scaled from the two references', `reference_variance`). Object pixels: those whose every sample hits the
-object (an image of the object as a black Lambertian surface in a white environment is 0 there).
+Per case and model: the object-mean bias per channel against the reference (the mean of four
+random_walk images of different seeds; the "floor" column: ±σ of that mean, and the per-pixel
+mean relative error of one of those images against it), and the efficiency 1/(MSE × seconds) of
+hierarchical + adaptive against random_walk at a low spp, both errors against the truth: the
+model's squared error against the reference less the reference's own variance (`truth_mse`),
+random_walk's variance scaled from the references' (`reference_variance`). Object pixels: those
+whose every sample hits the object (an image of the object as a black Lambertian surface in a
+white environment is 0 there).
 
 Cases are ``shape:material:scale``; the material's σa, σs are multiplied by ``scale`` (the mesh
 is not), so a sphere of 10 mm is 1.2 marble diffusion lengths (red) at scale 1 and 100 at 85.
 
-Usage: python docs/scripts/adaptive_validation.py [--size 64] [--spp-ref 128] [--cases a,b,…]
-[--models method:model,…] [--out DIR] [--figure PNG] [--table-only]. The random_walk images
+Usage: python docs/scripts/adaptive_validation.py [--size 64] [--spp-ref 128] [--ref-seeds 1,7,11,13]
+[--cases a,b,…] [--models method:model,…] [--out DIR] [--figure PNG] [--table-only]. The random_walk images
 (which do not depend on the BSSRDF code) are cached in ``DIR/refs``, so a rerun only renders the
 BSSRDF images; the numbers are merged into ``DIR/results.json`` (a rerun of some models replaces
 only their rows) and the images kept in ``DIR/images``; the matrix table is printed from there.
@@ -217,22 +218,30 @@ def row(stat, seconds, mse=None):
     return r if mse is None else {**r, "mse": mse}
 
 
-def truth_mse(arr, ref, again, mk):
+def truth_mse(arr, refs, mk):
     """The mean squared error against the truth, not against the reference, with its standard
-    error: per object pixel and channel q = (arr − ref)² − (again − ref)²/2, with `again` a second
-    reference of the same spp and seed of its own. An image independent of both references has
-    E(arr − ref)² = E(arr − truth)² + var ref and E(again − ref)² = 2 var ref, so E q is its error
-    against the truth. (The 128-spp reference's own variance is most of the raw RMSE of a
-    low-noise BSSRDF image, which made the raw efficiency a floor.)"""
-    q = ((arr[mk] - ref[mk]) ** 2 - 0.5 * (again[mk] - ref[mk]) ** 2).ravel()
+    error: per object pixel and channel q = (arr − ref)² − s²/N, with ref the mean of N
+    independent references `refs` of the same spp and s² their sample variance. An image
+    independent of them has E(arr − ref)² = E(arr − truth)² + var ref, and E s²/N = var ref, so
+    E q is its error against the truth. (The references' own variance is most of the raw RMSE of
+    a low-noise BSSRDF image, which made the raw efficiency a floor.)"""
+    r = np.stack([x[mk] for x in refs])
+    q = ((arr[mk] - r.mean(axis=0)) ** 2 - r.var(axis=0, ddof=1) / len(refs)).ravel()
     return [float(q.mean()), float(q.std(ddof=1) / np.sqrt(q.size))]
 
 
-def reference_variance(ref, again, mk):
-    """The references' per-pixel variance (mean over object pixels and channels) with its standard
-    error, from two independent references of the same spp: E(again − ref)² = 2 var ref."""
-    q = (0.5 * (again[mk] - ref[mk]) ** 2).ravel()
+def reference_variance(refs, mk):
+    """The per-pixel variance of one reference image (mean over object pixels and channels) with
+    its standard error: the sample variance of N ≥ 2 independent references of the same spp."""
+    q = np.stack([x[mk] for x in refs]).var(axis=0, ddof=1).ravel()
     return [float(q.mean()), float(q.std(ddof=1) / np.sqrt(q.size))]
+
+
+def reference_sigma(refs, mk):
+    """Per channel, the standard error of the reference's object mean relative to it (the
+    spread of the N references' object means / √N)."""
+    m = np.stack([x[mk].sum(axis=0) for x in refs])
+    return list(map(float, m.std(axis=0, ddof=1) / np.sqrt(len(refs)) / m.mean(axis=0)))
 
 
 def efficiency(res, hi):
@@ -285,12 +294,20 @@ def run_case(case, a):
         np.savez(path, img=img, s=dt)
         return img, dt
 
-    ref, t_ref = walk(a.spp_ref, 1)
+    # The reference: the mean of random_walk images of spp_ref with the seeds `ref_seeds`; the
+    # "floor" row is the second of them against it (an independent image of the same spp), with
+    # the reference's own object-mean error beside it ("sigma").
+    walks = [walk(a.spp_ref, seed) for seed in a.ref_seeds]
+    refs, t_ref, dt = [w[0] for w in walks], walks[0][1], walks[1][1]
+    ref = np.mean(refs, axis=0)
     rows, images = {}, {"reference": ref}
-    again, dt = walk(a.spp_ref, 7)
-    rows["floor"] = {**row(stats(again, ref, mk), dt), "var": reference_variance(ref, again, mk)}
+    rows["floor"] = {
+        **row(stats(refs[1], ref, mk), dt),
+        "var": reference_variance(refs, mk),
+        "sigma": reference_sigma(refs, mk),
+    }
     low, dt = walk(a.spp_low, 9)
-    rows["random_walk_low"] = row(stats(low, ref, mk), dt, truth_mse(low, ref, again, mk))
+    rows["random_walk_low"] = row(stats(low, ref, mk), dt, truth_mse(low, refs, mk))
     for spec in filter(None, a.models.split(",")):
         method, model = spec.split(":") if ":" in spec else ("hierarchical", spec)
         name = model if method == "hierarchical" else f"{method} {model}"
@@ -306,9 +323,10 @@ def run_case(case, a):
         except ValueError as e:  # a model that refuses the material (named in the table)
             rows[name] = {"refused": str(e).splitlines()[0][:120]}
             continue
-        rows[name] = row(stats(img, ref, mk), time.monotonic() - t0, truth_mse(img, ref, again, mk))
+        rows[name] = row(stats(img, ref, mk), time.monotonic() - t0, truth_mse(img, refs, mk))
         images[name] = img
     res = {"pixels": int(mk.sum()), "t_ref": t_ref, "spp_ref": a.spp_ref, "spp_low": a.spp_low, "rows": rows}
+    res["ref_seeds"] = list(a.ref_seeds)
     if "adaptive" in rows and "rmse" in rows["adaptive"]:
         rows["adaptive"].update(efficiency(res, rows["adaptive"]))
     return res, images
@@ -331,7 +349,10 @@ def label(case):
 def fmt_row(r, pixel=True):
     if "refused" in r:
         return "refused"
-    b = ", ".join(f"{100 * x:+.1f}".replace("-", "−") for x in r["bias"])
+    if "sigma" in r:  # the floor: the reference's own error (±σ of its object mean)
+        b = ", ".join(f"±{100 * x:.1f}" for x in r["sigma"])
+    else:
+        b = ", ".join(f"{100 * x:+.1f}".replace("-", "−") for x in r["bias"])
     return f"{b} % ({100 * np.mean(r['rel']):.0f} %)" if pixel else f"{b} %"
 
 
@@ -432,6 +453,12 @@ def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--size", type=int, default=64)
     ap.add_argument("--spp-ref", type=int, default=128)
+    ap.add_argument(
+        "--ref-seeds",
+        type=lambda x: [int(v) for v in x.split(",")],
+        default=[1, 7, 11, 13],
+        help="seeds of the random_walk references (at least 2), whose mean is the reference",
+    )
     ap.add_argument("--spp-low", type=int, default=16)
     ap.add_argument("--spp", type=int, default=4)
     ap.add_argument("--spp-probe", type=int, default=64)
@@ -451,6 +478,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if a.quick:
         a.size, a.spp_ref, a.spp_low, a.spp, a.table_photons = 16, 4, 2, 1, 2000
+        a.ref_seeds = a.ref_seeds[:2]
         a.cases = "sphere:marble:1" if a.cases == DEFAULT_CASES else a.cases
     path = os.path.join(a.out, "results.json")
     results = {}
