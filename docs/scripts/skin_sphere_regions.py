@@ -91,18 +91,23 @@ def main(argv=None):
     pct = lambda v: ", ".join(f"{100 * x:+.1f}" for x in v)  # noqa: E731
     k = len(refs)
     print(f"two-layer skin sphere, {a.light}: hierarchical adaptive {a.spp} spp vs random_walk {k} × {a.spp_ref} spp")
-    print("| band | pixels | adaptive / reference − 1 (%) | reference noise σ (%) |\n|---|---|---|---|")
-    bands = [(f"μ_o {MU_EDGES[i]:.1f}–{min(MU_EDGES[i + 1], 1):.1f}", (mu >= MU_EDGES[i]) & (mu < MU_EDGES[i + 1])) for i in range(5)]
-    bands += [
-        (f"cos to light {max(LIGHT_EDGES[i], -1):.2f}–{min(LIGHT_EDGES[i + 1], 1):.2f}", (cl >= LIGHT_EDGES[i]) & (cl < LIGHT_EDGES[i + 1]))
-        for i in range(5)
-    ]
+    print("| band | pixels | adaptive / reference − 1 (%) | share of the object's excess (%) | reference noise σ (%) |")
+    print("|---|---|---|---|---|")
+    excess = img[mask].sum(0) - ref[mask].sum(0)
+
+    def band(name, x, edges, i):
+        lo, hi = max(edges[i], -1), min(edges[i + 1], 1)
+        return f"{name} {lo:.2f}–{hi:.2f}", (x >= edges[i]) & (x < edges[i + 1])
+
+    bands = [band("μ_o", mu, MU_EDGES, i) for i in range(5)]
+    bands += [band("cos to light", cl, LIGHT_EDGES, i) for i in range(5)]
     for name, sel in [*bands, ("object", np.ones_like(mask))]:
         sel = sel & mask
         total = ref[sel].sum(0)
         var = np.var([r[sel].sum(0) for r in refs], axis=0, ddof=1) / k if k > 1 else np.zeros(3)
         noise = ", ".join(f"{100 * x:.2f}" for x in np.sqrt(var) / total)
-        print(f"| {name} | {sel.sum()} | {pct(img[sel].sum(0) / total - 1)} | {noise} |")
+        share = ", ".join(f"{100 * x:.0f}" for x in (img[sel].sum(0) - total) / excess)
+        print(f"| {name} | {sel.sum()} | {pct(img[sel].sum(0) / total - 1)} | {share} | {noise} |")
     return 0
 
 
