@@ -156,7 +156,7 @@ fn curvature_scales_reproduce_the_sphere_escapes() {
         let w = t.gain(0).diffuse_weight(&s);
         assert!((all * w / sph.mean - 1.0).abs() < 1e-6, "node {j}: {} vs {}", all * w, sph.mean);
         // the convex escapes are traced towards their relative error (the pilot's 200 photons:
-        // 1.5–6 %; 64 × the pilot's photons bring the worst to 1.5 × the target)
+        // 1.5–6 %; the doubling brings the worst to 1.5 × the target)
         for e in [sph, &cd.cylinder[j]] {
             assert!(e.stderr / e.mean < 2.0 * CURVED_REL_ERR, "node {j}: ± {:.4}", e.stderr / e.mean);
         }
@@ -181,16 +181,19 @@ fn curvature_scales_reproduce_the_sphere_escapes() {
     assert!(cav.near.iter().all(|&x| x == cav.far) && cav.far < 1.0);
 }
 
-/// The convex runs' photons: the pilot's doubled until the expected relative error is at most
-/// [`CURVED_REL_ERR`], at most [`CURVED_MAX_FACTOR`] × the pilot.
+/// The convex runs' photons: doubled until the expected relative error is at most
+/// [`CURVED_REL_ERR`], at most the cap.
 #[test]
 fn convex_runs_double_to_their_relative_error() {
-    use crate::bssrdf::curvature::{extended_photons, CURVED_MAX_FACTOR, CURVED_REL_ERR};
-    assert_eq!(extended_photons(2500, CURVED_REL_ERR), 2500);
-    assert_eq!(extended_photons(2500, 0.008), 10_000); // 0.008/√2 > 0.005 ≥ 0.008/2
-    assert_eq!(extended_photons(2500, 0.028), 80_000); // the skin's green at 2 500 photons
-    assert_eq!(extended_photons(2500, 0.5), 2500 * CURVED_MAX_FACTOR);
-    assert_eq!(extended_photons(2500, f64::NAN), 2500);
+    use crate::bssrdf::curvature::{extended_photons, CURVED_REL_ERR, MAX_PRECISE_PHOTONS};
+    let cap = MAX_PRECISE_PHOTONS;
+    assert_eq!(extended_photons(2500, CURVED_REL_ERR, cap), 2500);
+    assert_eq!(extended_photons(2500, 0.008, cap), 10_000); // 0.008/√2 > 0.005 ≥ 0.008/2
+    assert_eq!(extended_photons(2500, 0.028, cap), 80_000); // the skin's green at 2 500 photons
+    assert_eq!(extended_photons(2500, 0.5, cap), cap);
+    assert_eq!(extended_photons(5000, 0.5, cap), cap); // not a power-of-two multiple: capped
+    assert_eq!(extended_photons(2500, f64::NAN, cap), 2500);
+    assert_eq!(extended_photons(cap, 0.5, cap), cap);
 }
 
 /// The cylinder's areas against a direct count on a (φ, z) grid (the entry's half within chord

@@ -86,20 +86,21 @@ pub fn curved_photons(photons: u64) -> u64 {
 }
 
 /// Relative standard error to which the sphere's and the cylinder's escapes are traced (at most
-/// [`CURVED_MAX_FACTOR`] × the pilot's [`curved_photons`]): under uniform light a convex object's rendered
-/// escape *is* the table's, so its noise is the model's error there (at 2 500 photons, 10 000 per
-/// node: the two-layer skin's green and blue 2.5–3.8 %, ketchup's up to 19 %, marble 0.8 %).
+/// [`MAX_PRECISE_PHOTONS`] photons): under uniform light a convex object's rendered escape *is*
+/// the table's, so its noise is the model's error there (at 2 500 photons, 10 000 per node: the
+/// two-layer skin's green and blue 2.5–3.8 %, ketchup's up to 19 %, marble 0.7–0.8 %).
 pub const CURVED_REL_ERR: f64 = 0.005;
-/// See [`CURVED_REL_ERR`].
-pub const CURVED_MAX_FACTOR: u64 = 64;
+/// Most photons of one sphere or cylinder run traced on to [`CURVED_REL_ERR`]: the two-layer
+/// skin's green reaches it there from 2 500 (0.28 CPU s a run); the darkest channels (ketchup's
+/// green and blue) stop short of it, at 1.5–3.5 %.
+pub const MAX_PRECISE_PHOTONS: u64 = 80_000;
 
 /// Photons of a sphere or cylinder run after one of `n` photons with relative standard error
 /// `rel`: `n` doubled until the expected error (∝ 1/√n) is at most [`CURVED_REL_ERR`], at most
-/// [`CURVED_MAX_FACTOR`] × `n` (`n` itself where `rel` is not finite: nothing escaped). The
-/// builder repeats it on each run's own error, up to [`CURVED_MAX_FACTOR`] × the pilot's photons.
-pub fn extended_photons(n: u64, rel: f64) -> u64 {
+/// `cap` (`n` itself where `rel` is not finite, nothing escaped, or `n` ≥ `cap`). The builder
+/// repeats it on each run's own error, with `cap` = [`MAX_PRECISE_PHOTONS`].
+pub fn extended_photons(n: u64, rel: f64, cap: u64) -> u64 {
     let mut m = n;
-    let cap = n.saturating_mul(CURVED_MAX_FACTOR);
     while rel.is_finite() && m < cap && rel * (n as f64 / m as f64).sqrt() > CURVED_REL_ERR {
         m = m.saturating_mul(2).min(cap);
     }
@@ -193,11 +194,10 @@ pub fn build_curvature(
         // the sphere's and the cylinder's escapes are the convex scales themselves: traced on
         // to [`CURVED_REL_ERR`] (the same photons' streams, so the pilot is their first part)
         let precise = |kind, off| -> Result<Option<Escape>> {
-            let pilot = curved_photons(s.photons);
-            let (mut n, cap) = (pilot, pilot.saturating_mul(CURVED_MAX_FACTOR));
+            let mut n = curved_photons(s.photons);
             let Some(mut e) = one(kind, off)? else { return Ok(None) };
             loop {
-                let next = extended_photons(n, e.stderr / e.mean).min(cap);
+                let next = extended_photons(n, e.stderr / e.mean, MAX_PRECISE_PHOTONS);
                 if next == n {
                     return Ok(Some(e));
                 }
