@@ -348,6 +348,7 @@ impl AdaptiveTable {
             }
             let n = table.channels[c].d.len();
             let semi = table.reflection(c, Local { i: n - 2, t: 1.0 });
+            let flat = table.flat_diffuse(c, stack);
             let sphere = |rho: f64| {
                 let at = table.local(c, 2.0 * rho);
                 sphere_gather(&table.reflection(c, at), &table.transmission(c, at), rho)
@@ -356,7 +357,7 @@ impl AdaptiveTable {
                 let at = table.local(c, 2.0 * rho);
                 cylinder_gather(&table.reflection(c, at), &table.transmission(c, at), rho)
             };
-            let sc = Scales::new(cd, Gathers { sphere: &sphere, cylinder: &cylinder }, &semi)?;
+            let sc = Scales::new(cd, Gathers { sphere: &sphere, cylinder: &cylinder }, &semi, flat)?;
             table.scales.push(sc);
         }
         Ok(table)
@@ -431,6 +432,13 @@ impl AdaptiveTable {
     /// Channel `c`'s gain and its nodes.
     pub fn gain(&self, c: usize) -> &Gain {
         &self.channels[c].gain
+    }
+    /// The model's flat diffuse reflectance of channel `c` per unit incident power of uniform
+    /// diffuse light: the semi-infinite kernel's total through the gain (what the curvature
+    /// scales are relative to, [`super::curvature::Scales::new`]).
+    pub fn flat_diffuse(&self, c: usize, stack: &Stack) -> f64 {
+        let n = self.channels[c].d.len();
+        self.reflection(c, Local { i: n - 2, t: 1.0 }).total() * self.channels[c].gain.diffuse_weight(stack)
     }
     /// Channel `c`'s azimuthal-harmonic amplitudes ([`super::harmonic`]).
     pub fn harmonic(&self, c: usize) -> &Harmonic {

@@ -129,4 +129,21 @@ impl Gain {
     pub fn nodes(&self) -> (&[f64], &[f64]) {
         (&self.mu, &self.g)
     }
+
+    /// 2∫₀¹ F_t(μ) g(μ) μ dμ for `stack`'s top interface: the transmitted irradiance per unit
+    /// incident irradiance of uniform diffuse light as the renderer weights it, so the model's
+    /// flat diffuse reflectance is the kernel's total (per entering power) times this (midpoint
+    /// rule, [`DIFFUSE_STEPS`] steps; g is linear between its nodes and F_t smooth).
+    pub fn diffuse_weight(&self, stack: &Stack) -> f64 {
+        let n_top = stack.layers[0].n;
+        let h = 1.0 / DIFFUSE_STEPS as f64;
+        let f = |i: usize| {
+            let mu = (i as f64 + 0.5) * h;
+            (1.0 - fr_dielectric(mu, stack.n_above, n_top)) * self.at(mu) * mu
+        };
+        2.0 * h * (0..DIFFUSE_STEPS).map(f).sum::<f64>()
+    }
 }
+
+/// Midpoints of [`Gain::diffuse_weight`].
+pub const DIFFUSE_STEPS: usize = 4000;
