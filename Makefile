@@ -9,10 +9,12 @@ export PATH := $(abspath $(VENV))/bin:$(PATH)
 
 all: build
 
+# --no-compile: no bytecode for the whole of each package at install (15 CPU s); the modules
+# the tests import are compiled on their first import.
 $(VENV)/.ready: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q "maturin>=1.5,<2" "numpy>=1.22" "matplotlib>=3.5" "h5py>=3.6" "pytest>=7" "scipy>=1.8" \
+	$(PY) -m pip install -q --no-compile "maturin>=1.5,<2" "numpy>=1.22" "matplotlib>=3.5" "h5py>=3.6" "pytest>=7" "scipy>=1.8" \
 		"hypothesis>=6.100" "ruff==0.17.6" "trimesh>=4" "openexr>=3.3" "dask[distributed]>=2023.1" \
 		"sphinx>=7.2" "myst-parser>=3" "sphinx-gallery>=0.17" "furo>=2024.1"  # the test, render, cluster and docs extras
 	touch $@

@@ -200,7 +200,10 @@ mod tests {
                 for &eta in &[1.0, 1.3, 2.0] {
                     let m = Medium::new(1.0 - a, a, g, eta).unwrap();
                     let t = profile(&m).unwrap().total();
-                    above_before += usize::from(Tabulated::new(beam(&m, 1.0).unwrap()).total() > 1.0);
+                    // the unweighted total of before, until one is above 1 (the grid reaches the overshoot)
+                    if above_before == 0 {
+                        above_before += usize::from(Tabulated::new(beam(&m, 1.0).unwrap()).total() > 1.0);
+                    }
                     worst = worst.max(t);
                     assert!(t <= 1.0 + 1e-9, "{m:?}: {t}");
                     if a == 1.0 {
@@ -209,7 +212,7 @@ mod tests {
                 }
             }
         }
-        println!("largest total {worst:.12}; {above_before} of 36 above 1 unweighted");
+        println!("largest total {worst:.12}");
         assert!(above_before > 0, "the grid does not reach the overshoot: vacuous");
     }
 
