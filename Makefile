@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 export VIRTUAL_ENV := $(abspath $(VENV))
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: all venv build lint test test-rust-compile test-rust-then-docs test-docs-check test-pytest test-pytest-render test-pytest-rest test-fast test-rust test-rust-fast test-python test-python-fast demo figures bench clean docs docs-check dist dist-check
+.PHONY: all venv build lint test test-rust-compile test-rust-then-docs test-docs-check test-pytest test-pytest-render test-pytest-cli test-pytest-rest test-fast test-rust test-rust-fast test-python test-python-fast demo figures bench clean docs docs-check dist dist-check
 
 all: build
 
@@ -60,11 +60,13 @@ lint: venv
 
 # Two jobs at a time where they do not depend on each other: the venv's installs, clippy, the
 # release build of the core's tests and the extension's build overlap on 2 cores; then the core's
-# tests and the docs check beside pytest in two halves (each mostly one thread), so that the three
-# fill both cores: the renderer's tests (with the first-hour and docs-script runs) and the rest.
+# tests and the docs check beside pytest in three parts (each mostly one thread; the command-line
+# and cluster part waits on child processes, timeouts and signals much of its time), so that the
+# four fill both cores: the renderer's tests (with the first-hour and docs-script runs), the
+# command line and the cluster, and the rest.
 test:
 	$(MAKE) --no-print-directory -j2 lint test-rust-compile build
-	$(MAKE) --no-print-directory -j3 test-rust-then-docs test-pytest-render test-pytest-rest
+	$(MAKE) --no-print-directory -j4 test-rust-then-docs test-pytest-render test-pytest-cli test-pytest-rest
 
 # The core's tests compiled beside the lints and the build, run beside pytest (mostly one thread).
 test-rust-compile:
@@ -80,15 +82,19 @@ test-docs-check:
 test-pytest:
 	$(PY) -m pytest -q tests
 
-# The halves of `make test`'s pytest run: every file is in exactly one (the rest takes what the
-# render half does not name, so a new test file is never left out).
+# The parts of `make test`'s pytest run: every file is in exactly one (the rest takes what the
+# other parts do not name, so a new test file is never left out).
 PYTEST_RENDER := $(sort $(wildcard tests/test_render*.py)) tests/test_adaptive.py tests/test_first_hour.py \
 	tests/test_docs_scripts.py
+PYTEST_CLI := $(sort $(wildcard tests/test_cli*.py)) tests/test_cluster.py tests/test_properties.py
 test-pytest-render:
 	$(PY) -m pytest -q $(PYTEST_RENDER)
 
+test-pytest-cli:
+	$(PY) -m pytest -q $(PYTEST_CLI)
+
 test-pytest-rest:
-	$(PY) -m pytest -q tests $(PYTEST_RENDER:%=--ignore=%)
+	$(PY) -m pytest -q tests $(PYTEST_RENDER:%=--ignore=%) $(PYTEST_CLI:%=--ignore=%)
 
 # The two tiers side by side (the core's tests use both cores for 12 s, pytest mostly one for 40 s).
 test-fast:
