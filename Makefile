@@ -62,8 +62,8 @@ lint: venv
 # release build of the core's tests and the extension's build overlap on 2 cores; then the core's
 # tests and the docs check beside pytest in three parts (each mostly one thread; the command-line
 # and cluster part waits on child processes, timeouts and signals much of its time), so that the
-# four fill both cores: the renderer's tests (with the first-hour and docs-script runs), the
-# command line and the cluster, and the rest.
+# four fill both cores: the renderer's tests, the command line and the cluster, and the rest
+# (measured: each part then takes about two minutes beside the others).
 test:
 	$(MAKE) --no-print-directory -j2 lint test-rust-compile build
 	$(MAKE) --no-print-directory -j4 test-rust-then-docs test-pytest-render test-pytest-cli test-pytest-rest
@@ -84,9 +84,8 @@ test-pytest:
 
 # The parts of `make test`'s pytest run: every file is in exactly one (the rest takes what the
 # other parts do not name, so a new test file is never left out).
-PYTEST_RENDER := $(sort $(wildcard tests/test_render*.py)) tests/test_adaptive.py tests/test_first_hour.py \
-	tests/test_docs_scripts.py
-PYTEST_CLI := $(sort $(wildcard tests/test_cli*.py)) tests/test_cluster.py tests/test_properties.py
+PYTEST_RENDER := $(sort $(wildcard tests/test_render*.py)) tests/test_adaptive.py
+PYTEST_CLI := $(sort $(wildcard tests/test_cli*.py)) tests/test_cluster.py
 test-pytest-render:
 	$(PY) -m pytest -q $(PYTEST_RENDER)
 
