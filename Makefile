@@ -9,12 +9,10 @@ export PATH := $(abspath $(VENV))/bin:$(PATH)
 
 all: build
 
-# --no-compile: no bytecode for the whole of each package at install (15 CPU s); the modules
-# the tests import are compiled on their first import.
 $(VENV)/.ready: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q --no-compile "maturin>=1.5,<2" "numpy>=1.22" "matplotlib>=3.5" "h5py>=3.6" "pytest>=7" "scipy>=1.8" \
+	$(PY) -m pip install -q "maturin>=1.5,<2" "numpy>=1.22" "matplotlib>=3.5" "h5py>=3.6" "pytest>=7" "scipy>=1.8" \
 		"hypothesis>=6.100" "ruff==0.17.6" "trimesh>=4" "openexr>=3.3" "dask[distributed]>=2023.1" \
 		"sphinx>=7.2" "myst-parser>=3" "sphinx-gallery>=0.17" "furo>=2024.1"  # the test, render, cluster and docs extras
 	touch $@
@@ -62,8 +60,8 @@ lint: venv
 # release build of the core's tests and the extension's build overlap on 2 cores; then the core's
 # tests and the docs check beside pytest in three parts (each mostly one thread; the command-line
 # and cluster part waits on child processes, timeouts and signals much of its time), so that the
-# four fill both cores: the renderer's tests, the command line and the cluster, and the rest
-# (measured: each part then takes about two minutes beside the others).
+# four fill both cores: the renderer's tests (with the first-hour and docs-script runs), the
+# command line and the cluster, and the rest.
 test:
 	$(MAKE) --no-print-directory -j2 lint test-rust-compile build
 	$(MAKE) --no-print-directory -j4 test-rust-then-docs test-pytest-render test-pytest-cli test-pytest-rest
@@ -84,8 +82,9 @@ test-pytest:
 
 # The parts of `make test`'s pytest run: every file is in exactly one (the rest takes what the
 # other parts do not name, so a new test file is never left out).
-PYTEST_RENDER := $(sort $(wildcard tests/test_render*.py)) tests/test_adaptive.py
-PYTEST_CLI := $(sort $(wildcard tests/test_cli*.py)) tests/test_cluster.py
+PYTEST_RENDER := $(sort $(wildcard tests/test_render*.py)) tests/test_adaptive.py tests/test_first_hour.py \
+	tests/test_docs_scripts.py
+PYTEST_CLI := $(sort $(wildcard tests/test_cli*.py)) tests/test_cluster.py tests/test_properties.py
 test-pytest-render:
 	$(PY) -m pytest -q $(PYTEST_RENDER)
 
