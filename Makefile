@@ -56,18 +56,17 @@ lint: venv
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 
-# Two jobs at a time where they do not depend on each other: the venv's installs, clippy and the
-# extension's build (the core's library with it) overlap on 2 cores; then the release build of the
-# core's tests, the tests and the docs check beside pytest in three parts (each mostly one thread;
-# the command-line and cluster part waits on child processes, timeouts and signals much of its
-# time), so that the four fill both cores: the renderer's tests (with the first-hour and
-# docs-script runs), the command line and the cluster, and the rest. (The tests' build beside
-# pytest rather than before it: 185 s before the tests started, against the 160 s of work.)
+# Two jobs at a time where they do not depend on each other: the venv's installs, clippy, the
+# release build of the core's tests and the extension's build overlap on 2 cores; then the core's
+# tests and the docs check beside pytest in three parts (each mostly one thread; the command-line
+# and cluster part waits on child processes, timeouts and signals much of its time), so that the
+# four fill both cores: the renderer's tests (with the first-hour and docs-script runs), the
+# command line and the cluster, and the rest.
 test:
-	$(MAKE) --no-print-directory -j2 lint build
+	$(MAKE) --no-print-directory -j2 lint test-rust-compile build
 	$(MAKE) --no-print-directory -j4 test-rust-then-docs test-pytest-render test-pytest-cli test-pytest-rest
 
-# The core's tests compiled (`make test` compiles them in test-rust-then-docs, beside pytest).
+# The core's tests compiled beside the lints and the build, run beside pytest (mostly one thread).
 test-rust-compile:
 	$(CARGO_TEST) --no-run
 
