@@ -197,6 +197,20 @@ def stats(arr, ref, mk):
     return rel, rmse, bias
 
 
+def cached_walk(path, sc, spp, seed):
+    """A random_walk image of scene `sc` and its seconds, read from `path` (.npz) if it is there,
+    else rendered and saved there (the references do not depend on the BSSRDF code)."""
+    if os.path.exists(path):
+        z = np.load(path)
+        return z["img"], float(z["s"])
+    t0 = time.monotonic()
+    img = R.render(sc, "random_walk", spp=spp, seed=seed).array
+    dt = time.monotonic() - t0
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    np.savez(path, img=img, s=dt)
+    return img, dt
+
+
 def skin_walk(scale):
     def layer(p, name):
         sa, ss = [scale * x for x in p[0]], [scale * x / (1 - SKIN_G) for x in p[1]]
@@ -284,15 +298,7 @@ def run_case(case, a):
     def walk(spp, seed):
         """A random_walk image and its time, from the cache if it holds it."""
         path = f"{cache}/{shape}_{material}_{scale}_{a.size}_{spp}_{seed}.npz"
-        if os.path.exists(path):
-            z = np.load(path)
-            return z["img"], float(z["s"])
-        t0 = time.monotonic()
-        img = R.render(scene(walk_objs, extent, backlit, a.size), "random_walk", spp=spp, seed=seed).array
-        dt = time.monotonic() - t0
-        os.makedirs(cache, exist_ok=True)
-        np.savez(path, img=img, s=dt)
-        return img, dt
+        return cached_walk(path, scene(walk_objs, extent, backlit, a.size), spp, seed)
 
     # The reference: the mean of random_walk images of spp_ref with the seeds `ref_seeds`; the
     # "floor" row is the second of them against it (an independent image of the same spp), with

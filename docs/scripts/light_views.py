@@ -96,10 +96,8 @@ def main():
 
         refs = []
         for seed in (1, 7):
-            path = f"{a.out}/{a.case.replace(':', '_')}_{which}_{view}_{a.spp_ref}_{seed}.npy"
-            if not os.path.exists(path):
-                np.save(path, R.render(scene(walk), "random_walk", spp=a.spp_ref, seed=seed).array)
-            refs.append(np.load(path))
+            path = f"{a.out}/{a.case.replace(':', '_')}_{which}_{view}_{a.spp_ref}_{seed}.npz"
+            refs.append(V.cached_walk(path, scene(walk), a.spp_ref, seed)[0])
         img = R.render(scene(model), "hierarchical", spp=4, seed=2).array
         ref = 0.5 * (refs[0] + refs[1])
         hit, p, n = sphere_hits(cam, fov, a.size, 10.0)

@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 
 import numpy as np
 import subsurf.render as R
@@ -75,13 +74,7 @@ def main(argv=None):
     for seed in map(int, a.seeds.split(",")):
         name = f"sphere_skin_layered_1.0_{size}_{a.spp_ref}_{seed}.npz"
         sub = "refs" if a.light == "both" else f"refs_{a.light}"
-        path = os.path.join(a.out, sub, name)
-        if not os.path.exists(path):
-            t0 = time.monotonic()
-            img = R.render(scene(walk_objs), "random_walk", spp=a.spp_ref, seed=seed).array
-            os.makedirs(os.path.dirname(path), exist_ok=True)
-            np.savez(path, img=img, s=time.monotonic() - t0)
-        refs.append(np.load(path)["img"])
+        refs.append(V.cached_walk(os.path.join(a.out, sub, name), scene(walk_objs), a.spp_ref, seed)[0])
     ref = np.mean(refs, axis=0)
     m = V.skin_layered(1.0, "adaptive", 10000)
     m.adaptive_table()

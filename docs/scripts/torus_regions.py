@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 
 import numpy as np
 import subsurf.render as R
@@ -71,12 +70,7 @@ def main(argv=None):
     for seed in (1, 7):
         name = f"torus_marble_1.0_{size}_{a.spp_ref}_{seed}.npz"
         path = os.path.join(a.out, "refs" if a.light == "area" else "refs_uniform", name)
-        if not os.path.exists(path):
-            t0 = time.monotonic()
-            img = R.render(scene(objs), "random_walk", spp=a.spp_ref, seed=seed).array
-            os.makedirs(os.path.dirname(path), exist_ok=True)
-            np.savez(path, img=img, s=time.monotonic() - t0)
-        refs.append(np.load(path)["img"])
+        refs.append(V.cached_walk(path, scene(objs), a.spp_ref, seed)[0])
     ref, again = refs
     m = V.library("marble", 1.0, "adaptive", 10000)
     m.adaptive_table()
