@@ -48,27 +48,29 @@ impl PairProfiles for Plain {
     }
 }
 
+/// An n × n grid of samples of spacing `dx` (mm) on the plane z = 0, facing +z, sample i (row-major)
+/// with irradiance `e(i)`.
+fn flat_grid(n: usize, dx: f64, e: impl Fn(usize) -> [f64; 3]) -> Vec<Sample> {
+    (0..n * n)
+        .map(|i| Sample {
+            p: [(i % n) as f64 * dx, (i / n) as f64 * dx, 0.0],
+            area: dx * dx,
+            e: e(i),
+            n: [0.0, 0.0, 1.0],
+            m: Default::default(),
+            d: Default::default(),
+        })
+        .collect()
+}
+
 /// On a flat grid of samples under uniform irradiance, clusters evaluated at their sigma
 /// points at a coarse bound (1 sr) have at most a quarter of the error against the exact
 /// all-pairs sum of the same clusters evaluated at their centroids (which undercount a
 /// convex profile).
 #[test]
 fn sigma_clusters_follow_the_exact_sum() {
-    let (n, dx) = (160, 0.0625);
-    let samples: Vec<Sample> = (0..n * n)
-        .map(|i| {
-            let p = [(i % n) as f64 * dx, (i / n) as f64 * dx, 0.0];
-            Sample {
-                p,
-                area: dx * dx,
-                e: [1.0, 0.5, 0.25],
-                n: [0.0, 0.0, 1.0],
-                m: Default::default(),
-                d: Default::default(),
-            }
-        })
-        .collect();
-    let tree = Tree::build(samples, dx);
+    let dx = 0.0625;
+    let tree = Tree::build(flat_grid(160, dx, |_| [1.0, 0.5, 0.25]), dx);
     let pp = Plain(TestProfile { total: 0.6, s: 0.8 });
     let x = [3.03, 4.97, 0.0];
     let at = |epsilon, sigma| tree.exitance_cut(&pp, x, Cut { epsilon, sigma, coarse: 0.0 })[0][0];
@@ -98,13 +100,8 @@ impl PairProfiles for Reaching {
 /// of the total under uniform irradiance), with the same clusters elsewhere.
 #[test]
 fn nodes_beyond_the_reach_hold_no_energy() {
-    let (n, dx) = (200, 0.1);
-    let samples: Vec<Sample> = (0..n * n)
-        .map(|i| {
-            let p = [(i % n) as f64 * dx, (i / n) as f64 * dx, 0.0];
-            Sample { p, area: dx * dx, e: [1.0; 3], n: [0.0, 0.0, 1.0], m: Default::default(), d: Default::default() }
-        })
-        .collect();
+    let dx = 0.1;
+    let samples = flat_grid(200, dx, |_| [1.0; 3]);
     let tree = Tree::build(samples, dx);
     let p = TestProfile { total: 0.6, s: 4.0 };
     // (1 + s ρ) e^{−s ρ} = 10⁻⁶ at s ρ = 16.6884
@@ -123,22 +120,7 @@ fn nodes_beyond_the_reach_hold_no_energy() {
 #[test]
 fn coarse_clusters_only_where_the_irradiance_is_even() {
     let (n, dx) = (160, 0.0625);
-    let grid = |e: &dyn Fn(usize) -> f64| {
-        let samples: Vec<Sample> = (0..n * n)
-            .map(|i| {
-                let p = [(i % n) as f64 * dx, (i / n) as f64 * dx, 0.0];
-                Sample {
-                    p,
-                    area: dx * dx,
-                    e: [e(i); 3],
-                    n: [0.0, 0.0, 1.0],
-                    m: Default::default(),
-                    d: Default::default(),
-                }
-            })
-            .collect();
-        Tree::build(samples, dx)
-    };
+    let grid = |e: &dyn Fn(usize) -> f64| Tree::build(flat_grid(n, dx, |i| [e(i); 3]), dx);
     let pp = Plain(TestProfile { total: 0.6, s: 0.8 });
     let x = [3.03, 4.97, 0.0];
     let fine = Cut { epsilon: 0.05, sigma: false, coarse: 0.0 };
