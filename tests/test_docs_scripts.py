@@ -65,3 +65,17 @@ def test_validation_matrix_errors_are_against_the_truth(monkeypatch):
     (m, e), (var, e_var) = v.truth_mse(img, refs, mk), v.reference_variance(refs, mk)
     assert abs(m - (0.05**2 + 0.02**2)) < 4 * e and abs(var - 0.01) < 4 * e_var
     assert np.mean((img - 0.5 * (refs[0] + refs[1])) ** 2) > 2 * m
+
+
+def test_validation_matrix_averages_the_model_over_its_seeds(monkeypatch):
+    """A BSSRDF row is the mean over its seeds' images: images whose object means are off by
+    +1 % and +3 % give +2 % with σ of the mean 1 % (the spread / √2), and their mean MSE."""
+    monkeypatch.syspath_prepend(str(SCRIPTS))
+    import adaptive_validation as v
+
+    ref, mk = np.ones((8, 8, 3)), np.ones((8, 8), bool)
+    per_seed = [(v.stats(ref * (1 + b), ref, mk), s, [b * b, 0.0]) for b, s in ((0.01, 1.0), (0.03, 3.0))]
+    r = v.seeds_row(per_seed)
+    assert np.allclose(r["bias"], 0.02) and np.allclose(r["bias_sigma"], 0.01) and r["seeds"] == 2
+    assert np.isclose(r["s"], 2.0) and np.isclose(r["mse"][0], (0.01**2 + 0.03**2) / 2)
+    assert np.isclose(r["rmse"], 0.02)
