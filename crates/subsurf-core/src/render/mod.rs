@@ -22,6 +22,7 @@ pub mod cells;
 pub mod convex;
 pub mod distance;
 pub mod driver;
+pub mod env_walk;
 pub mod facet_nee;
 pub mod fastmath;
 pub mod flight;
