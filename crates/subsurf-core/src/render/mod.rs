@@ -26,6 +26,7 @@ pub mod env_walk;
 pub mod facet_nee;
 pub mod fastmath;
 pub mod flight;
+pub mod fresnel_control;
 pub mod grid;
 pub mod guide;
 pub mod hierarchical;

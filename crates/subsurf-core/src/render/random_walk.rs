@@ -26,7 +26,10 @@
 //!   radiance estimator books no energy, so nothing is tallied for it); in scenes lit by the
 //!   environment alone a walk per colour channel (or per pair, `walk_starts`) and θ = 0.1,
 //!   else one walk and θ = 1 (`split_channels`, `rr_threshold`, `flight_mix`: chosen by
-//!   measurement; the rules in [`super::env_walk`]).
+//!   measurement; the rules in [`super::env_walk`]);
+//! - in scenes lit by the environment alone, where a walk leaves every object along a ray that
+//!   escapes, the Fresnel coin's zero-mean control variate c β L_env (1[reflected] − F), c from a
+//!   pilot before the render ([`super::fresnel_control`]).
 //!
 //! Light reaches the interior in two ways: the path leaves the objects and the ray continues
 //! outside ([`super::shade::trace`]: environment, area lights, Lambertian surfaces with
@@ -66,7 +69,7 @@ use super::light::Light;
 use super::material::{Material, Translucent};
 use super::math::{add, dot, madd, max3, mul, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
-use super::shade::{tint, trace_seen, Seen, Translucency, MAX_DEPTH};
+use super::shade::{shade, tint, trace_seen, Seen, Translucency, MAX_DEPTH};
 use super::walk::{walk, Carrier, Crossing, Media};
 use crate::optics::{fr_dielectric, refract};
 use crate::rng::PhotonRng;
@@ -125,6 +128,10 @@ pub struct RandomWalk {
     /// The scale c_f of the next-flight probability q_f = min(1, c_f e^{−τ_lb})
     /// ([`FLIGHT_SCALE`]).
     pub flight_scale: f64,
+    /// Per object: the coefficients c (per channel) of the Fresnel coin's control variate where
+    /// a walk leaves every object through that object's boundary ([`super::fresnel_control`]);
+    /// empty (off) but in scenes lit by the environment alone.
+    pub fresnel_control: Vec<Rgb>,
     /// Per light: the cone of directions (unit axis, cosine of the half-angle) outside which no
     /// straight flight from inside the translucent objects can leave towards it (the light's
     /// directions from the objects' box, widened by the largest deviation of a refraction out of
@@ -165,6 +172,9 @@ struct Radiance<'a> {
     /// The medium of the last free path (by address) and its channel of least σt where
     /// `least_sigma_t` takes it (`RandomWalk::flight_mix`).
     least: (*const Translucent, Option<usize>),
+    /// The leaving crossing's Fresnel reflectance F and control coefficients c, where its exit
+    /// scores the control variate (`RandomWalk::coin_control`).
+    coin: Option<(f64, Rgb)>,
 }
 
 impl Carrier for Radiance<'_> {
@@ -348,6 +358,19 @@ impl Carrier for Radiance<'_> {
         }
     }
 
+    fn coin(&mut self, scene: &Scene, h: &Hit, t: V3, f: f64, reflected: bool) {
+        // The control variate c β L_env(t) (1[reflected] − F) (super::fresnel_control): a
+        // reflection adds c (1 − F) β L_env where the refracted ray escapes; an exit scores
+        // (1 − c F) β L_env in place of β L_env where it does (`Radiance::exit`).
+        let Some(c) = self.rw.coin_control(scene, h.object, self.depth) else { return };
+        if !reflected {
+            self.coin = Some((f, c));
+        } else if scene.accel.intersect(h.p, t, f64::INFINITY, h.tri).is_none() {
+            let w: Rgb = std::array::from_fn(|k| c[k] * (1.0 - f));
+            self.l = add(self.l, mul(self.beta, mul(scene.environment, w)));
+        }
+    }
+
     fn bounced(&mut self, crossing: &Crossing) {
         // An index-matched crossing keeps the path straight (and ends a mirrored one).
         self.mirrored = self.straight && self.pending && matches!(crossing, Crossing::Reflected(_));
@@ -363,6 +386,17 @@ impl Carrier for Radiance<'_> {
         let direct = self.straight;
         let lights_counted = (self.straight && self.rw.flights()) || self.mirrored;
         if self.rw.nee && direct && !lights_counted && self.rw.exit_counted_by_nee(scene, &self.last, h, d) {
+            return;
+        }
+        if let Some((f, c)) = self.coin.take() {
+            // The Fresnel coin's control variate (no lights, no next flights: what `trace_seen`
+            // would give, with the escape scored (1 − c F) β L_env).
+            let hit = scene.accel.intersect(h.p, d, f64::INFINITY, h.tri);
+            let li = match hit {
+                None => mul(scene.environment, std::array::from_fn(|k| 1.0 - c[k] * f)),
+                Some(_) => shade(scene, hit, d, self.depth + 1, rng, self.rw),
+            };
+            self.l = add(self.l, mul(self.beta, li));
             return;
         }
         if self.depth < MAX_DEPTH {
@@ -429,7 +463,7 @@ impl RandomWalk {
         // under lights it costs (three walks' light connections per camera path).
         let env_only = scene.lights.is_empty() && scene.environment != [0.0; 3];
         let reach = Reach::new(scene);
-        RandomWalk {
+        let mut rw = RandomWalk {
             nee,
             nee_scale,
             env_nee: false,
@@ -446,7 +480,52 @@ impl RandomWalk {
             facing,
             sigma_t_min,
             beams: scene.lights.iter().map(|l| if nee { Beams::new(scene, l) } else { None }).collect(),
+            fresnel_control: vec![],
+        };
+        if env_only {
+            rw.fresnel_control = super::fresnel_control::coefficients(scene, &rw);
         }
+        rw
+    }
+
+    /// The Fresnel coin's control coefficients for a walk leaving every object through the
+    /// boundary of `object` on a camera path at `depth` (None where off: lights in the scene,
+    /// the environment's next flights, the depth limit, or c = 0).
+    #[inline]
+    fn coin_control(&self, scene: &Scene, object: usize, depth: u32) -> Option<Rgb> {
+        let c = *self.fresnel_control.get(object)?;
+        (c != [0.0; 3] && !self.env_nee && scene.lights.is_empty() && depth < MAX_DEPTH).then_some(c)
+    }
+
+    /// The walks of one camera path (`walk_starts`) from `hit` into its object along `t` (the
+    /// refracted direction) at `depth`: their radiance per unit throughput, before the entry's
+    /// Fresnel transmittance and tint.
+    pub(super) fn walks(&self, scene: &Scene, hit: &Hit, t: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
+        let Some(m) = scene.material(hit.object).translucent() else { return [0.0; 3] };
+        // One walk carrying every channel (spectral MIS), or walks of one or two channels.
+        let (starts, n) = if self.split_channels { walk_starts(m, self.split_albedo) } else { ([[1.0; 3]; 3], 1) };
+        let mut l = [0.0; 3];
+        for &beta in &starts[..n] {
+            let mut c = Radiance {
+                rw: self,
+                depth,
+                beta,
+                w: [0.0; 3],
+                k: 0,
+                l: [0.0; 3],
+                straight: false,
+                mirrored: false,
+                pending: false,
+                last: (hit.p, Media::empty()),
+                flight: Flight::CLASSIC,
+                arrive: t,
+                least: (std::ptr::null(), None),
+                coin: None,
+            };
+            walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);
+            l = add(l, c.l);
+        }
+        l
     }
 
     /// Whether the walks estimate the area lights by their next flights (`light_flight` with
@@ -682,28 +761,6 @@ impl Translucency for RandomWalk {
         let d = neg(wo);
         let f = fr_dielectric(dot(wo, hit.n), 1.0, m.eta);
         let Some(t) = refract(d, hit.n, 1.0, m.eta) else { return [0.0; 3] };
-        // One walk carrying every channel (spectral MIS), or walks of one or two channels.
-        let (starts, n) = if self.split_channels { walk_starts(m, self.split_albedo) } else { ([[1.0; 3]; 3], 1) };
-        let mut l = [0.0; 3];
-        for &beta in &starts[..n] {
-            let mut c = Radiance {
-                rw: self,
-                depth,
-                beta,
-                w: [0.0; 3],
-                k: 0,
-                l: [0.0; 3],
-                straight: false,
-                mirrored: false,
-                pending: false,
-                last: (hit.p, Media::empty()),
-                flight: Flight::CLASSIC,
-                arrive: t,
-                least: (std::ptr::null(), None),
-            };
-            walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);
-            l = add(l, c.l);
-        }
-        scale(mul(l, tint(scene, hit)), 1.0 - f)
+        scale(mul(self.walks(scene, hit, t, depth, rng), tint(scene, hit)), 1.0 - f)
     }
 }
