@@ -17,13 +17,14 @@
 //! F (1 − F) ((1 − c) L − V)²: zero at c = 1 − V/L. The random numbers and the walks are those
 //! of the plain walk; the control changes only what a leaving contact scores.
 //!
-//! The coefficients come from a pilot before the render ([`coefficients`]): per object,
-//! [`PILOT_WALKS`] walks (fixed seed: the same c for any thread count and every render) start at
-//! area-sampled points of its surface in directions cosine-distributed inside the critical cone
-//! about the inward normal (where a sub-critical reflection sends a walk), and V_k is their mean
-//! score per unit L_env,k; c_k = 1 − V_k less two standard errors of the pilot, clamped to
-//! [0, 1] (an error δ in c costs F (1 − F) δ² L² per contact, so the pilot's error is shrunk
-//! towards no control: a furnace, V = 1, keeps c = 0 and its exact samples).
+//! The coefficients come from a pilot before the render ([`coefficients`]): per object, walks
+//! (the scene's [`PILOT_WALKS`] shared by its translucent objects, at least [`PILOT_MIN`] each;
+//! fixed seed: the same c for any thread count and every render) start at area-sampled points of
+//! its surface in directions cosine-distributed inside the critical cone about the inward normal
+//! (where a sub-critical reflection sends a walk), and V_k is their mean score per unit L_env,k;
+//! c_k = 1 − V_k less two standard errors of the pilot, clamped to [0, 1] (an error δ in c costs
+//! F (1 − F) δ² L² per contact, so the pilot's error is shrunk towards no control: a furnace,
+//! V = 1, keeps c = 0 and its exact samples).
 //!
 //! Measured (docs/render.md, "The Fresnel coin at a boundary that leaves every object"): the
 //! coin is about 5 % of the variance of the benchmark's skin and ear scenes in the environment
@@ -39,8 +40,13 @@ use super::scene::Scene;
 use crate::optics::sample_cosine_hemisphere;
 use crate::rng::PhotonRng;
 
-/// Pilot walks per object (their mean's standard error is about 0.02 for the benchmark's media).
+/// Pilot walks of a scene, shared by its translucent objects (one object's: a standard error of
+/// the mean of about 0.02 for the benchmark's media; 3–28 ms for skin, ear and marble).
 pub const PILOT_WALKS: u64 = 512;
+
+/// The least pilot walks per translucent object (a larger error, which the two-standard-error
+/// shrinkage turns into a smaller c).
+pub const PILOT_MIN: u64 = 64;
 
 /// The pilot's seed (a constant: the coefficients are part of the method, not of a render).
 const PILOT_SEED: u64 = 0x46_5245_534e_454c; // "FRESNEL"
@@ -48,10 +54,12 @@ const PILOT_SEED: u64 = 0x46_5245_534e_454c; // "FRESNEL"
 /// Per object (by index), the control coefficients c per channel ([0; 3] for an opaque object
 /// or where the environment's channel is dark); see the module's documentation.
 pub fn coefficients(scene: &Scene, rw: &RandomWalk) -> Vec<Rgb> {
-    (0..scene.objects.len()).map(|o| object_coefficients(scene, rw, o)).collect()
+    let translucent = (0..scene.objects.len()).filter(|&o| scene.material(o).translucent().is_some()).count();
+    let walks = (PILOT_WALKS / translucent.max(1) as u64).max(PILOT_MIN);
+    (0..scene.objects.len()).map(|o| object_coefficients(scene, rw, o, walks)).collect()
 }
 
-fn object_coefficients(scene: &Scene, rw: &RandomWalk, object: usize) -> Rgb {
+fn object_coefficients(scene: &Scene, rw: &RandomWalk, object: usize, walks: u64) -> Rgb {
     let Some(m) = scene.material(object).translucent() else { return [0.0; 3] };
     let acc = &scene.accel;
     let tris: Vec<usize> = (0..acc.tris.len()).filter(|&i| acc.tris[i].object as usize == object).collect();
@@ -68,7 +76,7 @@ fn object_coefficients(scene: &Scene, rw: &RandomWalk, object: usize) -> Rgb {
     let sin2_max = 1.0 / (m.eta * m.eta);
     let env = scene.environment;
     let (mut s, mut s2) = ([0.0; 3], [0.0; 3]);
-    for i in 0..PILOT_WALKS {
+    for i in 0..walks {
         let mut rng = PhotonRng::new(PILOT_SEED, i);
         let u = rng.uniform() * total;
         let j = cum.partition_point(|&a| a < u).min(tris.len() - 1);
@@ -85,7 +93,7 @@ fn object_coefficients(scene: &Scene, rw: &RandomWalk, object: usize) -> Rgb {
             s2[k] += v * v;
         }
     }
-    let n = PILOT_WALKS as f64;
+    let n = walks as f64;
     std::array::from_fn(|k| {
         if !(env[k] > 0.0) {
             return 0.0;
