@@ -26,7 +26,10 @@
 //!   radiance estimator books no energy, so nothing is tallied for it); in scenes lit by the
 //!   environment alone a walk per colour channel (or per pair, `walk_starts`) and θ = 0.1,
 //!   else one walk and θ = 1 (`split_channels`, `rr_threshold`, `flight_mix`: chosen by
-//!   measurement).
+//!   measurement; the rules in [`super::env_walk`]);
+//! - in scenes lit by the environment alone, where a walk leaves every object along a ray that
+//!   escapes, the Fresnel coin's zero-mean control variate c β L_env (1[reflected] − F), c from a
+//!   pilot before the render ([`super::fresnel_control`]).
 //!
 //! Light reaches the interior in two ways: the path leaves the objects and the ray continues
 //! outside ([`super::shade::trace`]: environment, area lights, Lambertian surfaces with
@@ -55,6 +58,8 @@
 use super::accel::{Hit, Tri};
 use super::beams::Beams;
 use super::distance::DistanceGrid;
+pub(super) use super::env_walk::{least_sigma_t, walk_starts};
+pub use super::env_walk::{FLIGHT_MIX, MIX_ALBEDO, RR_THRESHOLD, SPLIT_ALBEDO};
 use super::facet_nee::{self, Connection};
 use super::fastmath::exp;
 use super::flight::{light_next_flight, reflected_light, Reach};
@@ -64,7 +69,7 @@ use super::light::Light;
 use super::material::{Material, Translucent};
 use super::math::{add, dot, madd, max3, mul, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
-use super::shade::{tint, trace_seen, Seen, Translucency, MAX_DEPTH};
+use super::shade::{shade, tint, trace_seen, Seen, Translucency, MAX_DEPTH};
 use super::walk::{walk, Carrier, Crossing, Media};
 use crate::optics::{fr_dielectric, refract};
 use crate::rng::PhotonRng;
@@ -123,6 +128,10 @@ pub struct RandomWalk {
     /// The scale c_f of the next-flight probability q_f = min(1, c_f e^{−τ_lb})
     /// ([`FLIGHT_SCALE`]).
     pub flight_scale: f64,
+    /// Per object: the coefficients c (per channel) of the Fresnel coin's control variate where
+    /// a walk leaves every object through that object's boundary ([`super::fresnel_control`]);
+    /// empty (off) but in scenes lit by the environment alone.
+    pub fresnel_control: Vec<Rgb>,
     /// Per light: the cone of directions (unit axis, cosine of the half-angle) outside which no
     /// straight flight from inside the translucent objects can leave towards it (the light's
     /// directions from the objects' box, widened by the largest deviation of a refraction out of
@@ -163,6 +172,9 @@ struct Radiance<'a> {
     /// The medium of the last free path (by address) and its channel of least σt where
     /// `least_sigma_t` takes it (`RandomWalk::flight_mix`).
     least: (*const Translucent, Option<usize>),
+    /// The leaving crossing's Fresnel reflectance F and control coefficients c, where its exit
+    /// scores the control variate (`RandomWalk::coin_control`).
+    coin: Option<(f64, Rgb)>,
 }
 
 impl Carrier for Radiance<'_> {
@@ -346,6 +358,19 @@ impl Carrier for Radiance<'_> {
         }
     }
 
+    fn coin(&mut self, scene: &Scene, h: &Hit, t: V3, f: f64, reflected: bool) {
+        // The control variate c β L_env(t) (1[reflected] − F) (super::fresnel_control): a
+        // reflection adds c (1 − F) β L_env where the refracted ray escapes; an exit scores
+        // (1 − c F) β L_env in place of β L_env where it does (`Radiance::exit`).
+        let Some(c) = self.rw.coin_control(scene, h.object, self.depth) else { return };
+        if !reflected {
+            self.coin = Some((f, c));
+        } else if scene.accel.intersect(h.p, t, f64::INFINITY, h.tri).is_none() {
+            let w: Rgb = std::array::from_fn(|k| c[k] * (1.0 - f));
+            self.l = add(self.l, mul(self.beta, mul(scene.environment, w)));
+        }
+    }
+
     fn bounced(&mut self, crossing: &Crossing) {
         // An index-matched crossing keeps the path straight (and ends a mirrored one).
         self.mirrored = self.straight && self.pending && matches!(crossing, Crossing::Reflected(_));
@@ -361,6 +386,17 @@ impl Carrier for Radiance<'_> {
         let direct = self.straight;
         let lights_counted = (self.straight && self.rw.flights()) || self.mirrored;
         if self.rw.nee && direct && !lights_counted && self.rw.exit_counted_by_nee(scene, &self.last, h, d) {
+            return;
+        }
+        if let Some((f, c)) = self.coin.take() {
+            // The Fresnel coin's control variate (no lights, no next flights: what `trace_seen`
+            // would give, with the escape scored (1 − c F) β L_env).
+            let hit = scene.accel.intersect(h.p, d, f64::INFINITY, h.tri);
+            let li = match hit {
+                None => mul(scene.environment, std::array::from_fn(|k| 1.0 - c[k] * f)),
+                Some(_) => shade(scene, hit, d, self.depth + 1, rng, self.rw),
+            };
+            self.l = add(self.l, mul(self.beta, li));
             return;
         }
         if self.depth < MAX_DEPTH {
@@ -427,7 +463,7 @@ impl RandomWalk {
         // under lights it costs (three walks' light connections per camera path).
         let env_only = scene.lights.is_empty() && scene.environment != [0.0; 3];
         let reach = Reach::new(scene);
-        RandomWalk {
+        let mut rw = RandomWalk {
             nee,
             nee_scale,
             env_nee: false,
@@ -444,7 +480,52 @@ impl RandomWalk {
             facing,
             sigma_t_min,
             beams: scene.lights.iter().map(|l| if nee { Beams::new(scene, l) } else { None }).collect(),
+            fresnel_control: vec![],
+        };
+        if env_only {
+            rw.fresnel_control = super::fresnel_control::coefficients(scene, &rw);
         }
+        rw
+    }
+
+    /// The Fresnel coin's control coefficients for a walk leaving every object through the
+    /// boundary of `object` on a camera path at `depth` (None where off: lights in the scene,
+    /// the environment's next flights, the depth limit, or c = 0).
+    #[inline]
+    fn coin_control(&self, scene: &Scene, object: usize, depth: u32) -> Option<Rgb> {
+        let c = *self.fresnel_control.get(object)?;
+        (c != [0.0; 3] && !self.env_nee && scene.lights.is_empty() && depth < MAX_DEPTH).then_some(c)
+    }
+
+    /// The walks of one camera path (`walk_starts`) from `hit` into its object along `t` (the
+    /// refracted direction) at `depth`: their radiance per unit throughput, before the entry's
+    /// Fresnel transmittance and tint.
+    pub(super) fn walks(&self, scene: &Scene, hit: &Hit, t: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
+        let Some(m) = scene.material(hit.object).translucent() else { return [0.0; 3] };
+        // One walk carrying every channel (spectral MIS), or walks of one or two channels.
+        let (starts, n) = if self.split_channels { walk_starts(m, self.split_albedo) } else { ([[1.0; 3]; 3], 1) };
+        let mut l = [0.0; 3];
+        for &beta in &starts[..n] {
+            let mut c = Radiance {
+                rw: self,
+                depth,
+                beta,
+                w: [0.0; 3],
+                k: 0,
+                l: [0.0; 3],
+                straight: false,
+                mirrored: false,
+                pending: false,
+                last: (hit.p, Media::empty()),
+                flight: Flight::CLASSIC,
+                arrive: t,
+                least: (std::ptr::null(), None),
+                coin: None,
+            };
+            walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);
+            l = add(l, c.l);
+        }
+        l
     }
 
     /// Whether the walks estimate the area lights by their next flights (`light_flight` with
@@ -634,23 +715,6 @@ fn may_face(light: &Light, t: &Tri, tol: f64) -> bool {
     }
 }
 
-/// Whether one walk per channel pays for a walk entering `m` (with `split_channels` on): where
-/// every channel's reduced albedo σs'/(σs' + σa) is at least `least` ([`SPLIT_ALBEDO`]). Measured in the
-/// environment (docs/render.md): the split (with θ = 0.1) removes the chromatic noise of long
-/// walks, marble (reduced albedo ≥ 0.998) 5×, ear-like skin2 (≥ 0.925) 1.8× the efficiency; on
-/// skin1 (red 0.96, blue 0.68) the short blue and green walks gain nothing and the red one
-/// dominates the variance: θ = 0.1 alone 1.3× against 0.95× with the split. A rule of the
-/// material, fixed per walk: unbiased either way.
-fn split_pays(m: &Translucent, least: f64) -> bool {
-    (0..3).all(|k| {
-        let sp = m.sigma_s[k] * (1.0 - m.g);
-        sp >= least * (sp + m.sigma_a[k])
-    })
-}
-
-/// The least reduced albedo of every channel for one walk per channel (see `split_pays`).
-pub const SPLIT_ALBEDO: f64 = 0.9;
-
 /// The length of the facet search's walks from the neighbours of the facet found (see
 /// [`RandomWalk::nee_walk`]). Measured on the benchmark's skin torus under the rect light: the
 /// next-flight estimates through facets the search does not find were 97 % of that estimator's
@@ -663,81 +727,6 @@ pub const NEE_WALK: usize = 3;
 /// The scale c_f of the lights' next-flight probability q_f = min(1, c_f e^{−τ_lb})
 /// ([`RandomWalk::flight_scale`]; any c_f > 0 is unbiased).
 pub const FLIGHT_SCALE: f64 = 1.0;
-
-/// The share of spectral MIS in the free paths' channel choice in scenes lit by the environment
-/// alone ([`RandomWalk::flight_mix`]; the rest to the carried channel of least σt). Measured
-/// (docs/render.md, "The free paths of the least σt"): on the skin scene of the Mitsuba comparison
-/// (skin1, one walk for all channels: its blue reduced albedo is below [`SPLIT_ALBEDO`]) the
-/// channel with the least σt (red) is also the one whose walks run longest, and its MIS weights
-/// over those walks were most of the error (red's variance 1.9× the mean of the channels'); with
-/// its flights sampled by its own σt its variance falls 6×, green's and blue's rise 1.2–1.5×:
-/// mix 0 0.61× the variance, 0.25 0.59×, 0.5 0.64×, at the same cost. Where it applies is
-/// `least_sigma_t`'s rule. Under the rect light the
-/// least-σt flights (mix 0) cost efficiency (ear 0.7×, marble 0.12×: the connections of the
-/// other channels), so lights keep spectral MIS.
-pub const FLIGHT_MIX: f64 = 0.25;
-
-/// The channel l towards which a walk mixes its free paths in `m` ([`RandomWalk::flight_mix`]),
-/// where that pays: among the channels the walk carries (β_k > 0, at least two), l has the least
-/// σt (or majorant σ̄ of a grid) and the largest single-scattering albedo σs/σt, so its walks
-/// run longest and its MIS weights are most of the error, and every other carried channel's
-/// albedo is at most [`MIX_ALBEDO`], so their walks are short and the bounded factors
-/// σs,k T_k/p̄ of l's long flights do not pile up over many collisions. None elsewhere (spectral
-/// MIS alone). Measured (docs/render.md, "The free paths of the least σt"; the efficiency of mix
-/// 0.25 against spectral MIS in a white environment): where it takes a channel, skin1 spheres of
-/// 3 and 10 mm 1.8× and 1.2×, ketchup 2.5×, chicken1 1.8×, the benchmark's skin torus 1.7×,
-/// the ear's green–blue walk 1.4× (against a walk each); where it does not, potato (least σt
-/// blue, the shortest walks) 0.97×, a medium of albedo 0.995 / 0.968 / 0.909 (green's walks long
-/// too) 0.73×, and marble's green–blue walk (albedo 0.998) 0.04×.
-pub(super) fn least_sigma_t(m: &Translucent, beta: Rgb) -> Option<usize> {
-    let carried = |k: &usize| beta[*k] > 0.0;
-    if (0..3).filter(carried).count() < 2 {
-        return None;
-    }
-    let l = (0..3).filter(carried).min_by(|&a, &b| m.sigma_bar[a].total_cmp(&m.sigma_bar[b]))?;
-    let (al, ok) = (albedo(m, l), |k: usize| k == l || albedo(m, k) <= MIX_ALBEDO.min(albedo(m, l)));
-    (al.is_finite() && (0..3).filter(carried).all(ok)).then_some(l)
-}
-
-/// The single-scattering albedo σs/σt of channel `k` of `m` (NaN where σt = 0).
-fn albedo(m: &Translucent, k: usize) -> f64 {
-    m.sigma_s[k] / m.sigma_t[k]
-}
-
-/// The largest single-scattering albedo of a channel that shares the free paths of a walk's
-/// channel of least σt (see `least_sigma_t`): between the albedos measured to gain (≤ 0.925) and
-/// to lose (≥ 0.968).
-pub const MIX_ALBEDO: f64 = 0.95;
-
-/// The walks of one camera path into `m` in a scene lit by the environment alone (with
-/// `split_channels`), as start vectors β₀ (the first `n` of the array): one walk carrying every
-/// channel where some channel's reduced albedo is below `split_albedo` (`split_pays`);
-/// elsewhere a walk per channel, except that a channel whose albedo is at most [`MIX_ALBEDO`]
-/// (a short walk) shares the walk of the channel next below it in σt when that one's albedo is
-/// at least its own (skin2's blue joins its green: `least_sigma_t` then mixes that walk's free
-/// paths towards green).
-pub(super) fn walk_starts(m: &Translucent, split_albedo: f64) -> ([Rgb; 3], usize) {
-    if !split_pays(m, split_albedo) {
-        return ([[1.0; 3]; 3], 1);
-    }
-    let mut order = [0, 1, 2];
-    order.sort_by(|&a, &b| m.sigma_t[a].total_cmp(&m.sigma_t[b]));
-    let (mut starts, mut n) = ([[0.0; 3]; 3], 0);
-    for (i, &k) in order.iter().enumerate() {
-        let joins = i > 0 && {
-            let below = order[i - 1];
-            albedo(m, k) <= MIX_ALBEDO.min(albedo(m, below))
-        };
-        if !joins {
-            n += 1;
-        }
-        starts[n - 1][k] = 1.0;
-    }
-    (starts, n)
-}
-
-/// The Russian roulette threshold θ on max_k β_k (see [`RandomWalk::rr_threshold`]).
-pub const RR_THRESHOLD: f64 = 0.1;
 
 /// The scale c of the connection probability q = min(1, c e^{−σt,min r}) with point or
 /// directional lights in the scene (any c > 0 is unbiased: a connection's transmittance is at
@@ -772,28 +761,6 @@ impl Translucency for RandomWalk {
         let d = neg(wo);
         let f = fr_dielectric(dot(wo, hit.n), 1.0, m.eta);
         let Some(t) = refract(d, hit.n, 1.0, m.eta) else { return [0.0; 3] };
-        // One walk carrying every channel (spectral MIS), or walks of one or two channels.
-        let (starts, n) = if self.split_channels { walk_starts(m, self.split_albedo) } else { ([[1.0; 3]; 3], 1) };
-        let mut l = [0.0; 3];
-        for &beta in &starts[..n] {
-            let mut c = Radiance {
-                rw: self,
-                depth,
-                beta,
-                w: [0.0; 3],
-                k: 0,
-                l: [0.0; 3],
-                straight: false,
-                mirrored: false,
-                pending: false,
-                last: (hit.p, Media::empty()),
-                flight: Flight::CLASSIC,
-                arrive: t,
-                least: (std::ptr::null(), None),
-            };
-            walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);
-            l = add(l, c.l);
-        }
-        scale(mul(l, tint(scene, hit)), 1.0 - f)
+        scale(mul(self.walks(scene, hit, t, depth, rng), tint(scene, hit)), 1.0 - f)
     }
 }

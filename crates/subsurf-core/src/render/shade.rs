@@ -75,7 +75,14 @@ pub fn trace_seen(
 
 /// Radiance leaving the first surface `hit` of the ray along `d` (the environment if none),
 /// lights along the ray not counted.
-fn shade(scene: &Scene, hit: Option<Hit>, d: V3, depth: u32, rng: &mut PhotonRng, tr: &dyn Translucency) -> Rgb {
+pub(super) fn shade(
+    scene: &Scene,
+    hit: Option<Hit>,
+    d: V3,
+    depth: u32,
+    rng: &mut PhotonRng,
+    tr: &dyn Translucency,
+) -> Rgb {
     let Some(h) = hit else {
         return scene.environment;
     };

@@ -168,6 +168,20 @@ pub enum Crossing {
 /// Fresnel reflection or refraction at `hit` for a path travelling along `d` with the media
 /// `media` (updated on transmission); a Fresnel ξ is drawn only where the indices differ.
 pub fn cross_boundary(scene: &Scene, media: &mut Media, hit: &Hit, d: V3, rng: &mut PhotonRng) -> Crossing {
+    cross(scene, media, hit, d, rng, |_, _, _| {})
+}
+
+/// [`cross_boundary`], telling `coin(t, F, reflected)` the Fresnel coin's outcome at a boundary
+/// that leaves every object where the refracted direction t exists and F < 1 (the same ξ, the
+/// same crossing; [`Carrier::coin`]).
+fn cross(
+    scene: &Scene,
+    media: &mut Media,
+    hit: &Hit,
+    d: V3,
+    rng: &mut PhotonRng,
+    mut coin: impl FnMut(V3, f64, bool),
+) -> Crossing {
     let Some((after, n1, n2)) = media.across(scene, hit, d) else { return Crossing::Opaque };
     if n1 == n2 {
         *media = after;
@@ -175,10 +189,18 @@ pub fn cross_boundary(scene: &Scene, media: &mut Media, hit: &Hit, d: V3, rng: &
     }
     let f = fr_dielectric(dot(d, hit.n).abs(), n1, n2);
     if rng.uniform() < f {
+        if after.is_empty() && f < 1.0 {
+            if let Some(t) = refract(d, hit.n, n1, n2) {
+                coin(t, f, true);
+            }
+        }
         return Crossing::Reflected(reflect(d, hit.n));
     }
     match refract(d, hit.n, n1, n2) {
         Some(t) => {
+            if after.is_empty() {
+                coin(t, f, false);
+            }
             *media = after;
             Crossing::Transmitted { d: t, matched: false }
         }
@@ -242,6 +264,11 @@ pub trait Carrier {
     /// After [`Carrier::reach`], before the crossing at `hit` (arriving along `d`, inside
     /// `media`) is drawn: estimators of what follows it; nothing by default.
     fn boundary(&mut self, _scene: &Scene, _media: &Media, _hit: &Hit, _d: V3) {}
+    /// At a boundary `hit` that leaves every object, where the refracted direction `t` exists:
+    /// the Fresnel coin (reflectance `f` < 1) came out `reflected` (else the path leaves along
+    /// `t`, and [`Carrier::exit`] follows). Before [`Carrier::bounced`]; nothing by default (the
+    /// renderer's control variate, [`super::fresnel_control`]).
+    fn coin(&mut self, _scene: &Scene, _hit: &Hit, _t: V3, _f: f64, _reflected: bool) {}
     /// The path was reflected at, or crossed, a boundary and stays inside the objects.
     fn bounced(&mut self, crossing: &Crossing);
     /// The path left every object at `hit.p` along `d`.
@@ -336,7 +363,7 @@ pub fn walk<C: Carrier>(
                     c.flight(&flight);
                 }
                 c.boundary(scene, &media, &h, d);
-                let x = cross_boundary(scene, &mut media, &h, d, rng);
+                let x = cross(scene, &mut media, &h, d, rng, |t, f, r| c.coin(scene, &h, t, f, r));
                 match x {
                     Crossing::Opaque => return c.lost(p, false),
                     Crossing::Reflected(r) => d = r,
