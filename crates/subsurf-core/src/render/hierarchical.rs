@@ -7,14 +7,14 @@
 //!    radius of the object's profiles (the radius holding half of R_d's energy), so the
 //!    density follows the mean free path as in the paper (§3.1).
 //! 2. The transmitted irradiance E_t = ∫ F_t L_i cos dω at each sample
-//!    ([`super::irradiance`]; for `adaptive` each direction also weighted by the oblique gain): every light by shadow rays (`light_samples` each) and the rest
-//!    (the visible environment, light reflected by other surfaces) by `env_samples` cosine
+//!    ([`super::irradiance`]; for `adaptive` each direction also weighted by the oblique gain):
+//!    every light by shadow rays (`light_samples` each, jittered over the light's area) and the
+//!    rest (the visible environment, light reflected by other surfaces) by `env_samples` cosine
 //!    gathering rays. Translucent surfaces those rays reach are black in a first gathering; if
 //!    any ray reached one, the samples are gathered again with the first trees as their
-//!    radiance (one bounce of light between translucent surfaces; a quarter of the rays that
-//!    reach a translucent surface evaluate it, weighted 4×: Russian roulette, the same
-//!    expectation at a quarter of the tree walks; those walks use coarser clusters evaluated at
-//!    their sigma points, [`Cut`]).
+//!    radiance (one bounce of light between translucent surfaces; the tree walks of that
+//!    radiance use coarser clusters evaluated at their sigma points, [`Cut`], and are shared by
+//!    the rays that reach the same cell of 2 Δ, [`Cached`]).
 //! 3. An octree over the samples; each node keeps its area, its power Σ E_t A per channel and
 //!    the power-weighted centroid (§3.2).
 //! 4. At a shading point x_o the tree is walked: a node is used as a whole when its solid
@@ -31,7 +31,8 @@
 
 use super::accel::Hit;
 use super::driver::Control;
-use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Entry, Unlit};
+use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Coupled, Entry, Unlit};
+use super::material::Translucent;
 use super::math::{add, dot, mul, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
@@ -129,9 +130,8 @@ impl Hierarchical {
         if unlit.reached.load(Ordering::Relaxed) {
             ctl.total.fetch_add(n_all as u64, Ordering::Relaxed);
             let cut = Cut { epsilon: h.params.epsilon.max(GATHER_EPSILON), sigma: true, coarse: 0.0 };
-            let coarse = Coarse { inner: &h, cut };
-            let rr = Roulette { inner: &coarse, keep: SECOND_GATHER_KEEP };
-            let Some(trees) = gather(scene, params, &spots, seed ^ 0x4a42_2003, ctl, &rr) else { return Ok(None) };
+            let cached = Cached::new(scene, &h, &spots, cut, CACHE_CELL);
+            let Some(trees) = gather(scene, params, &spots, seed ^ 0x4a42_2003, ctl, &cached) else { return Ok(None) };
             h.trees = trees;
         }
         Ok(Some(h))
@@ -176,41 +176,115 @@ pub fn area_tree(scene: &Scene, oi: usize) -> Option<Tree> {
 /// walks evaluate 3× fewer samples.
 const GATHER_EPSILON: f64 = 0.5;
 
-/// The fraction of the second gathering's rays that reach a translucent surface and are
-/// evaluated (Russian roulette, [`Roulette`]). Such a ray costs a tree walk (≈ 10–20 µs with the
-/// adaptive kernel, measured on a torus: 80 % of the set-up) where a ray that misses costs a
-/// BVH traversal (< 1 µs); the light it carries (one bounce between translucent surfaces) is a
-/// small part of E_t, so evaluating a quarter of them, weighted 4×, keeps the expectation and
-/// adds little variance.
-const SECOND_GATHER_KEEP: f64 = 0.25;
-
-/// Russian roulette on the radiance of a translucent surface: `inner`'s radiance / `keep` with
-/// probability `keep`, else 0 (the same expectation; one uniform of the caller's stream), its
-/// trees walked with the cluster bound `epsilon` ([`Hierarchical::radiance_with`]).
-struct Roulette<'a> {
-    inner: &'a dyn Translucency,
-    keep: f64,
-}
-
 /// The hierarchical method's radiance with other clusters (the second gathering's: sigma points
-/// at [`GATHER_EPSILON`]).
+/// at [`GATHER_EPSILON`]), walked at each ray's own point: what [`Cached`] approximates.
+#[cfg(test)]
 struct Coarse<'a> {
     inner: &'a Hierarchical,
     cut: Cut,
 }
 
+#[cfg(test)]
 impl Translucency for Coarse<'_> {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
         self.inner.radiance_with(scene, hit, wo, depth, rng, self.cut)
     }
 }
 
-impl Translucency for Roulette<'_> {
+/// The second gathering's cache cell, in sample spacings Δ ([`Cached`]). Measured on the
+/// validation matrix's bowl (seed 2, `docs/render.md`, "The set-up's noise"): 2 Δ moves the
+/// object mean by +0.14, +0.12, +0.10 points against the walk at every ray (1 Δ: +0.09, +0.08,
+/// +0.07 at 3.2× the walks), the set-up's walks 17 000 → 830 with every ray evaluated.
+const CACHE_CELL: f64 = 2.0;
+
+/// The second gathering's radiance with the tree walks shared: the exitance ([`Exitance`], the
+/// walk at [`GATHER_EPSILON`], independent of the ray's direction) is computed once per cell of
+/// a grid of side `cell` × Δ, at the irradiance sample nearest the mean of the cell's samples
+/// (so the error, first order in the offset from it, cancels over the cell), and reused for
+/// every ray that reaches the object in that cell with a normal within 25° of the sample's; the
+/// ray's own direction, point and normal give the rest ([`Hierarchical::radiance_from`]). A ray
+/// whose cell holds no sample, or whose normal differs, or on a textured object, is walked at
+/// its own point. A cell's value does not depend on which thread computes it first (the walk
+/// draws nothing), so the same seed gives the same image for any thread count. With the walks
+/// this cheap every ray that reaches a translucent surface is evaluated (before: a quarter,
+/// weighted 4×, whose noise every pixel shared).
+struct Cached<'a> {
+    inner: &'a Hierarchical,
+    cut: Cut,
+    /// Per object (none where it is opaque or textured).
+    cells: Vec<Cells>,
+    /// Rays walked at their own point.
+    misses: std::sync::atomic::AtomicU64,
+}
+
+/// One object's cache: the cell side (mm; 0: none), per cell its sample and its value.
+#[derive(Default)]
+struct Cells {
+    side: f64,
+    vals: Vec<std::sync::OnceLock<Exitance>>,
+    map: std::collections::HashMap<[i64; 3], (u32, Hit)>,
+}
+
+impl<'a> Cached<'a> {
+    fn new(scene: &Scene, inner: &'a Hierarchical, spots: &[Option<(Spots, f64)>], cut: Cut, cell: f64) -> Cached<'a> {
+        let cells = spots
+            .iter()
+            .enumerate()
+            .map(|(oi, sp)| {
+                let textured = scene.material(oi).translucent().is_some_and(|m| m.texture.is_some());
+                let (Some((spots, delta)), false) = (sp, textured) else { return Cells::default() };
+                let side = cell * delta;
+                // each cell's samples' mean position, then the sample nearest it (first by index)
+                let mut mean: std::collections::HashMap<[i64; 3], (V3, f64)> = Default::default();
+                for (h, _, _) in spots {
+                    let e = mean.entry(key(h.p, side)).or_insert(([0.0; 3], 0.0));
+                    *e = (add(e.0, h.p), e.1 + 1.0);
+                }
+                let mut best: std::collections::HashMap<[i64; 3], (f64, usize)> = Default::default();
+                for (j, (h, _, _)) in spots.iter().enumerate() {
+                    let k = key(h.p, side);
+                    let (c, n) = mean[&k];
+                    let d = sub(h.p, scale(c, 1.0 / n));
+                    let e = best.entry(k).or_insert((f64::INFINITY, j));
+                    if dot(d, d) < e.0 {
+                        *e = (dot(d, d), j);
+                    }
+                }
+                let mut firsts: Vec<([i64; 3], usize)> = best.into_iter().map(|(k, (_, j))| (k, j)).collect();
+                firsts.sort_unstable_by_key(|&(_, j)| j);
+                let map = firsts.iter().enumerate().map(|(i, &(k, j))| (k, (i as u32, spots[j].0))).collect();
+                Cells { side, vals: (0..firsts.len()).map(|_| Default::default()).collect(), map }
+            })
+            .collect();
+        Cached { inner, cut, cells, misses: Default::default() }
+    }
+}
+
+/// The grid cell of `p` for cells of side `side`.
+fn key(p: V3, side: f64) -> [i64; 3] {
+    p.map(|x| (x / side).floor() as i64)
+}
+
+/// cos 25°: the largest angle between a ray's normal and its cell's sample's for [`Cached`].
+const CACHE_NORMAL_COS: f64 = 0.906;
+
+impl Translucency for Cached<'_> {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
-        if rng.uniform() >= self.keep {
+        let c = &self.cells[hit.object];
+        let (Some(m), Some(tree)) = (shading_medium(scene, hit), self.inner.trees[hit.object].as_ref()) else {
             return [0.0; 3];
-        }
-        scale(self.inner.radiance(scene, hit, wo, depth, rng), 1.0 / self.keep)
+        };
+        let cell = if c.side > 0.0 { c.map.get(&key(hit.p, c.side)) } else { None };
+        let x = match cell {
+            Some((i, h)) if dot(h.n, hit.n) >= CACHE_NORMAL_COS => {
+                *c.vals[*i as usize].get_or_init(|| exitance_at(scene, h, m, tree, self.cut))
+            }
+            _ => {
+                self.misses.fetch_add(1, Ordering::Relaxed);
+                exitance_at(scene, hit, m, tree, self.cut)
+            }
+        };
+        self.inner.radiance_from(scene, hit, wo, depth, rng, m, &x)
     }
 }
 
@@ -389,23 +463,32 @@ impl Hierarchical {
         let (Some(m), Some(tree)) = (shading_medium(scene, hit), self.trees[hit.object].as_ref()) else {
             return [0.0; 3];
         };
+        let x = exitance_at(scene, hit, m, tree, cut);
+        self.radiance_from(scene, hit, wo, depth, rng, m, &x)
+    }
+
+    /// The radiance leaving `hit` towards `wo` of the exitance `x` (the tree walk's, at `hit`
+    /// or, [`Cached`], at a sample near it): L_o = F_t(η, ω_o) M_o /(π c(η)) with the adaptive
+    /// model's exit term and coupling towards `wo`, plus the single scattering.
+    #[allow(clippy::too_many_arguments)]
+    fn radiance_from(
+        &self,
+        scene: &Scene,
+        hit: &Hit,
+        wo: V3,
+        depth: u32,
+        rng: &mut PhotonRng,
+        m: &Translucent,
+        x: &Exitance,
+    ) -> Rgb {
         let mu_o = dot(wo, hit.n);
         let mo = match &m.adaptive {
             Some(t) => {
-                // the exit term's angular shape on the near class (`bssrdf::exit`); across a part, none
-                let k = super::adaptive::Kernel::at(scene, t, hit);
-                if tree.coupled {
-                    // and its coupling to the light's direction (`bssrdf::coupling`)
-                    let ([near, far], v) = tree.exitance_coupled(&k, hit.p, cut);
-                    let ot = sub(wo, scale(hit.n, mu_o));
-                    let near: Rgb = std::array::from_fn(|c| near[c] + dot(v[c], ot));
-                    add(mul(near, t.exit_factors(mu_o)), far)
-                } else {
-                    let [near, far] = tree.exitance_cut(&k, hit.p, cut);
-                    add(mul(near, t.exit_factors(mu_o)), far)
-                }
+                let ot = sub(wo, scale(hit.n, mu_o));
+                let near: Rgb = std::array::from_fn(|c| x.near[c] + dot(x.v[c], ot));
+                add(mul(near, t.exit_factors(mu_o)), x.far)
             }
-            None => add_classes(tree.exitance_cut(&Flat(m.profiles()), hit.p, cut)),
+            None => add(x.near, x.far),
         };
         let f = ft(m.eta, mu_o) / (PI * m.c_norm);
         let mut l = scale(mul(mo, tint(scene, hit)), f);
@@ -413,6 +496,37 @@ impl Hierarchical {
             l = add(l, single_scattering(scene, m, hit, wo, depth, rng, self));
         }
         l
+    }
+}
+
+/// The tree walk's result at a shading point, before its direction: per class (the adaptive
+/// model's near side and across; else all in `near`) M_o, and the near class' coupling sum V
+/// ([`Tree::exitance_coupled`]; 0 without one).
+#[derive(Clone, Copy, Debug, Default)]
+struct Exitance {
+    near: Rgb,
+    far: Rgb,
+    v: Coupled,
+}
+
+/// [`Exitance`] of `tree` (material `m`) at `hit`, its clusters those of `cut`.
+fn exitance_at(scene: &Scene, hit: &Hit, m: &Translucent, tree: &Tree, cut: Cut) -> Exitance {
+    match &m.adaptive {
+        Some(t) => {
+            // the exit term's angular shape on the near class (`bssrdf::exit`); across a part, none
+            let k = super::adaptive::Kernel::at(scene, t, hit);
+            if tree.coupled {
+                // and its coupling to the light's direction (`bssrdf::coupling`)
+                let ([near, far], v) = tree.exitance_coupled(&k, hit.p, cut);
+                Exitance { near, far, v }
+            } else {
+                let [near, far] = tree.exitance_cut(&k, hit.p, cut);
+                Exitance { near, far, v: [[0.0; 3]; 3] }
+            }
+        }
+        None => {
+            Exitance { near: add_classes(tree.exitance_cut(&Flat(m.profiles()), hit.p, cut)), ..Default::default() }
+        }
     }
 }
 

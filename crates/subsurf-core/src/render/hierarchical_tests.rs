@@ -9,15 +9,6 @@ use crate::render::scene::Object;
 use crate::render::shapes::cuboid;
 use crate::render::tree::{box_distance2, sigma_axes, PairProfiles};
 
-/// A translucent surface of constant radiance.
-struct Constant(Rgb);
-
-impl Translucency for Constant {
-    fn radiance(&self, _: &Scene, _: &Hit, _: V3, _: u32, _: &mut PhotonRng) -> Rgb {
-        self.0
-    }
-}
-
 /// The sigma points have the covariance they were made from (a full and a flat one).
 #[test]
 fn sigma_axes_keep_the_covariance() {
@@ -134,26 +125,69 @@ fn coarse_clusters_only_where_the_irradiance_is_even() {
     assert!((c / exact - 1.0).abs() < 5e-3, "{c} vs {exact}");
 }
 
-/// Russian roulette keeps the expectation: the mean of 40 000 draws is the inner radiance
-/// within 4σ (σ from the draws; for keep = 1/4 the band is 4·√3/200 = 3.5 % of it) and
-/// about a quarter of the draws evaluate it.
+/// Two translucent blocks 1 mm apart under an area light to their side (the irradiance varies
+/// across the faces), and `n` hits on the second block's face x = 4 seen from the first's.
+fn facing_blocks(n: u64) -> (Scene, Vec<(Hit, V3)>) {
+    use crate::render::light::Light;
+    use crate::render::material::Translucent;
+    use std::sync::Arc;
+    let profiles: [Arc<dyn RadialProfile>; 3] =
+        std::array::from_fn(|k| Arc::new(TestProfile { total: 0.5, s: 2.0 + k as f64 }) as _);
+    let m = Translucent::new("m", [0.01; 3], [1.0; 3], 0.0, 1.4, Some(profiles), false).unwrap();
+    let objects = vec![
+        Object { name: "a".into(), mesh: cuboid([0.0; 3], [3.0; 3]).unwrap(), material: 0 },
+        Object { name: "b".into(), mesh: cuboid([4.0, 0.0, 0.0], [7.0, 3.0, 3.0]).unwrap(), material: 0 },
+    ];
+    let light = Light::rect("l", [2.0, 1.5, 12.0], [1.5, 0.0, 0.0], [0.0, -1.5, 0.0], [4000.0; 3]).unwrap();
+    let scene = Scene::new(objects, vec![Material::Translucent(Box::new(m))], vec![light], [0.1; 3], None).unwrap();
+    let hits = (0..n)
+        .filter_map(|i| {
+            let mut rng = PhotonRng::new(12, i);
+            let o = [3.01, 3.0 * rng.uniform(), 3.0 * rng.uniform()];
+            let d = crate::render::math::normalize([1.0, rng.uniform() - 0.5, rng.uniform() - 0.5]);
+            let h = scene.accel.intersect(o, d, f64::INFINITY, u32::MAX)?;
+            (h.object == 1).then_some((h, [-d[0], -d[1], -d[2]]))
+        })
+        .collect();
+    (scene, hits)
+}
+
+/// The second gathering's cache ([`Cached`]): the exitance walked once per cell (2 Δ) at the
+/// sample nearest the cell's mean, reused by every ray that reaches the cell, against the walk
+/// at each ray's own point ([`Coarse`]), on a 3 mm face whose irradiance varies (an area light
+/// to its side) and whose exitance falls towards its edges within the profiles' reach (blue's
+/// median radius 0.42 mm, the cell 0.29 mm): measured +0.95 % on the mean over 3 400 rays, the
+/// worst ray +30 % (at an edge), from 100 walks. The bounds: 2 % and 50 %, a tenth of the walks.
 #[test]
-fn roulette_keeps_the_expectation() {
-    let objects = vec![Object { name: "c".into(), mesh: cuboid([0.0; 3], [1.0; 3]).unwrap(), material: 0 }];
-    let scene = Scene::new(objects, vec![Material::Lambertian([0.5; 3])], vec![], [0.0; 3], None).unwrap();
-    let hit = Hit { t: 1.0, tri: 0, object: 0, b1: 0.3, b2: 0.3, p: [0.0; 3], n: [0.0, 0.0, 1.0] };
-    let (l, n) = ([1.0, 2.0, 3.0], 40_000);
-    let rr = Roulette { inner: &Constant(l), keep: 0.25 };
-    let (mut s, mut s2, mut kept) = ([0.0; 3], 0.0, 0);
-    for i in 0..n {
-        let v = rr.radiance(&scene, &hit, [0.0, 0.0, 1.0], 1, &mut PhotonRng::new(11, i));
-        s = add(s, v);
-        s2 += v[0] * v[0];
-        kept += (v[0] > 0.0) as u32;
+fn the_cached_exitance_is_the_walked_one() {
+    let (scene, hits) = facing_blocks(4_000);
+    assert!(hits.len() > 3_000);
+    let params = HierarchicalParams { env_samples: 4, light_samples: 4, ..Default::default() };
+    let h = Hierarchical::new(&scene, &params, 3).unwrap();
+    let spots: Vec<Option<(Spots, f64)>> = (0..scene.objects.len())
+        .map(|oi| {
+            let d = spacing(&scene, oi, &params)?;
+            Some((place_samples(&scene, oi, d), d))
+        })
+        .collect();
+    let cut = Cut { epsilon: GATHER_EPSILON, sigma: true, coarse: 0.0 };
+    let cached = Cached::new(&scene, &h, &spots, cut, CACHE_CELL);
+    let walked = Coarse { inner: &h, cut };
+    let (mut sc, mut sw, mut worst) = (0.0, 0.0, 0.0f64);
+    for (i, (hit, wo)) in hits.iter().enumerate() {
+        let mut rng = PhotonRng::new(13, i as u64);
+        let c = cached.radiance(&scene, hit, *wo, 1, &mut rng)[0];
+        let w = walked.radiance(&scene, hit, *wo, 1, &mut rng)[0];
+        sc += c;
+        sw += w;
+        worst = worst.max((c / w - 1.0).abs());
     }
-    let m = scale(s, 1.0 / n as f64);
-    let se = ((s2 / n as f64 - m[0] * m[0]) / (n as f64 - 1.0)).sqrt();
-    assert!((m[0] - l[0]).abs() < 4.0 * se, "{m:?} vs {l:?} ± {se}");
-    assert!((0..3).all(|k| (m[k] / m[0] - l[k] / l[0]).abs() < 1e-12), "channels scaled together: {m:?}");
-    assert!((kept as f64 / n as f64 - 0.25).abs() < 4.0 * (0.25f64 * 0.75 / n as f64).sqrt(), "kept {kept}");
+    let walks = cached.cells[1].vals.iter().filter(|v| v.get().is_some()).count();
+    println!("cached/walked {:.5}, worst {worst:.4}, {walks} walks for {} rays", sc / sw, hits.len());
+    assert!((sc / sw - 1.0).abs() < 0.02, "{sc} vs {sw}");
+    assert!(worst < 0.5, "worst {worst}");
+    assert!(walks * 10 < hits.len(), "{walks} walks");
+    let misses = cached.misses.load(Ordering::Relaxed) as usize;
+    assert!(misses * 20 < hits.len(), "{misses} rays walked at their own point");
+    // measured 78 (the edges)
 }

@@ -19,7 +19,7 @@ use super::accel::Hit;
 use super::material::Translucent;
 use super::math::{add, length, madd, mul, scale, sub, Frame, Rgb, V3};
 use super::scene::Scene;
-use super::shade::{direct_irradiance, ft, trace_seen, Seen, Translucency, MAX_DEPTH};
+use super::shade::{direct_irradiance, ft, light_samples_in, trace_seen, Seen, Stratum, Translucency, MAX_DEPTH};
 use crate::bssrdf::adaptive::AdaptiveTable;
 use crate::bssrdf::harmonic::AtRho;
 use crate::optics::sample_cosine_hemisphere;
@@ -58,7 +58,7 @@ impl Entry<'_> {
 }
 
 /// E_t at `hit` (front side) into the medium of `into`: the mean of `light_samples` shadow-ray
-/// samples of every light (none when 0) plus `rays` cosine-weighted gathering rays traced at
+/// samples of every light (none when 0; jittered over the light, [`Stratum::of`]) plus `rays` cosine-weighted gathering rays traced at
 /// `depth` + 1 with `tr` for the translucent surfaces they reach, each direction weighted by
 /// [`Entry::weight`]. At `depth` ≥ [`MAX_DEPTH`] the rays see the environment only (occluded),
 /// ending the recursion through `tr`.
@@ -74,8 +74,8 @@ pub fn transmitted_irradiance(
     tr: &dyn Translucency,
 ) -> Rgb {
     let mut e = [0.0; 3];
-    for _ in 0..light_samples {
-        e = add(e, direct_irradiance(scene, hit, Some(into), true, 0, rng));
+    for s in 0..light_samples {
+        light_samples_in(scene, hit, Some(into), rng, Stratum::of(s, light_samples), |_, _, de| e = add(e, de));
     }
     if light_samples > 1 {
         e = scale(e, 1.0 / light_samples as f64);
@@ -131,9 +131,9 @@ pub fn irradiance_and_harmonic(
     let n = hit.n;
     let (mut e, mut m, mut d) = ([0.0; 3], [[[0.0; 3]; 3]; 2], [[0.0; 3]; 3]);
     let table = into.gain.filter(|t| t.has_coupling());
-    for _ in 0..light_samples {
+    for s in 0..light_samples {
         let mut one = [0.0; 3];
-        super::shade::light_samples(scene, hit, Some(into), rng, |wi, c, de| {
+        light_samples_in(scene, hit, Some(into), rng, Stratum::of(s, light_samples), |wi, c, de| {
             one = add(one, de);
             let tan = sub(scale(n, c), wi); // the propagation direction −ω_i, its tangential part
             let tl = length(tan);
@@ -283,6 +283,65 @@ mod tests {
         println!("E_t = {got:.5} ± {se:.5}; light {nee:.5} ± {se_nee:.5}, sky [{sky_lo:.5}, {sky_hi:.5}]");
         assert!(band < 0.015 * got, "too noisy: {band} vs {got}");
         assert!(got > nee + sky_lo - band && got < nee + sky_hi + band);
+    }
+
+    /// A face in the penumbra of a 4 × 4 mm area light (an opaque screen halfway up hides the
+    /// light's part x < 0.3 mm): 16 light samples per estimate, jittered over the light's area
+    /// ([`Stratum`], what [`transmitted_irradiance`] draws) against 16 independent ones (the
+    /// estimator before): the same mean (4σ of the difference), at under half the variance
+    /// (measured 0.21×: the edge crosses one column of the 4 × 4 cells). This is the
+    /// hierarchical set-up's noise, which every pixel shares (`docs/render.md`, "The set-up's
+    /// noise"). 4 000 estimates each: the variance ratio's own σ is ≈ 3 %.
+    #[test]
+    fn jittered_light_samples_keep_the_mean_at_a_fraction_of_the_variance() {
+        let h = 10.0;
+        let light = Light::rect("l", [0.0, 0.0, 40.0], [2.0, 0.0, 0.0], [0.0, -2.0, 0.0], [500.0; 3]).unwrap();
+        let s = cube_over_floor(h, 0.5, vec![light], [0.0; 3]);
+        let mut objects = s.objects;
+        objects.push(Object {
+            name: "screen".into(),
+            mesh: rectangle(-49.85, 0.0, 25.0, 100.0, 100.0).unwrap(),
+            material: 1,
+        });
+        let s = Scene::new(objects, s.materials, s.lights, [0.0; 3], None).unwrap();
+        let hit = face(&s, h, [0.0, 0.0, 1.0]);
+        let n = 4_000;
+        let stats = |f: &dyn Fn(u64) -> f64| {
+            let (m, se) = mean_se(n, f);
+            (m, se * se * n as f64)
+        };
+        let (jit, var_jit) = stats(&|i| {
+            let mut rng = PhotonRng::new(9, i);
+            transmitted_irradiance(&s, &hit, INTO, 16, 0, 0, &mut rng, &Unlit::default())[0]
+        });
+        let (rnd, var_rnd) = stats(&|i| {
+            let mut rng = PhotonRng::new(10, i);
+            (0..16).map(|_| direct_irradiance(&s, &hit, Some(INTO), true, 0, &mut rng)[0]).sum::<f64>() / 16.0
+        });
+        let band = 4.0 * ((var_jit + var_rnd) / n as f64).sqrt();
+        println!("jittered {jit:.4} (var {var_jit:.3e}), independent {rnd:.4} (var {var_rnd:.3e}), 4σ {band:.4}");
+        assert!(var_rnd > 0.01 * rnd * rnd, "not a penumbra: {var_rnd} vs {rnd}");
+        assert!((jit - rnd).abs() < band, "{jit} vs {rnd} ± {band}");
+        assert!(var_jit < 0.5 * var_rnd, "{var_jit} vs {var_rnd}");
+    }
+
+    /// [`Stratum::of`]: the first ⌊√n⌋² samples one per cell, the rest over the whole square.
+    #[test]
+    fn strata_cover_the_grid_once() {
+        for n in [1u32, 2, 4, 5, 9, 16, 17, 24, 25, 64] {
+            let k = (1..=n).take_while(|k| k * k <= n).last().unwrap();
+            let cells: Vec<Stratum> = (0..n).map(|s| Stratum::of(s, n)).collect();
+            let mut grid: Vec<(u32, u32)> = cells.iter().filter(|c| c.k == k && k > 1).map(|c| (c.i, c.j)).collect();
+            grid.sort_unstable();
+            grid.dedup();
+            assert_eq!(grid.len() as u32, if k > 1 { k * k } else { 0 }, "n = {n}");
+            assert_eq!(
+                cells.iter().filter(|&&c| c == Stratum::WHOLE).count() as u32,
+                if k > 1 { n - k * k } else { n }
+            );
+        }
+        assert_eq!(Stratum::WHOLE.map(0.3, 0.7), (0.3, 0.7));
+        assert_eq!(Stratum::of(6, 16).map(0.5, 0.5), (2.5 / 4.0, 1.5 / 4.0));
     }
 
     /// The gathering rays see the translucent surfaces through the method's `Translucency`
