@@ -414,22 +414,24 @@ pub fn sun_retro(
     seed: u64,
     pred: impl Fn(f64) -> f64,
 ) -> Result<(f64, f64, f64)> {
-    sun_retro_pairs(stack, rho, cone, photons, seed, |mu, _, _, _| pred(mu))
+    sun_retro_pairs(stack, rho, cone, photons, seed, |mu, _| pred(mu))
 }
 
-/// [`sun_retro`] with an exit model that also sees each exit's pair: `pred`(μ, c, r, a) with c =
+/// [`sun_retro`] with an exit model that also sees each exit's pair: `pred`(μ, [`RetroPair`]) with c =
 /// t̂·ω_sun,t (t̂ the unit tangential direction at the exit point from the entry point, ω_sun,t the
 /// tangential part of the direction to the sun; 0 at the entry point) and r the chord (mm) from
 /// the entry point (the exit flow of [`super::flow`]); c is NaN for the exits through the far half
 /// (x ≤ 0: the model's far class, which has no flow); a > 0 when the refracted launch direction's
-/// tangential part at the entry points towards the exit point ([`sphere_flow`]'s split).
+/// tangential part at the entry points towards the exit point ([`sphere_flow`]'s split); μ_i the
+/// sun's cosine at the entry and s = ω_sun,t(x_i)·ω_sun,t(x_o) (the exit coupling's dot product);
+/// w the exit's weight.
 pub fn sun_retro_pairs(
     stack: &Stack,
     rho: f64,
     cone: f64,
     photons: u64,
     seed: u64,
-    pred: impl Fn(f64, f64, f64, f64) -> f64,
+    pred: impl Fn(f64, RetroPair) -> f64,
 ) -> Result<(f64, f64, f64)> {
     if !(rho > 0.0 && rho.is_finite() && cone > 0.0 && cone < 1.0) || photons < 2 {
         return Err(Error::Invalid("sun retro: rho > 0 (mm), cone in (0, 1) rad and photons >= 2".into()));
@@ -449,7 +451,12 @@ pub fn sun_retro_pairs(
                 let n = [p[0] / rho, p[1] / rho, p[2] / rho];
                 let (c, r) = pair_flow(p, n, rho, to_sun);
                 let along = d[0] * p[1] + d[1] * p[2];
-                model += w * pred(mu, if p[0] > 0.0 { c } else { f64::NAN }, r, along);
+                // the sun's tangential parts at the entry (normal +x) and at the exit
+                let ti = [0.0, to_sun[1], to_sun[2]];
+                let to = [to_sun[0] - mu * n[0], to_sun[1] - mu * n[1], to_sun[2] - mu * n[2]];
+                let ss = ti[1] * to[1] + ti[2] * to[2];
+                let c = if p[0] > 0.0 { c } else { f64::NAN };
+                model += w * pred(mu, RetroPair { c, r, along, mu_i: to_sun[0], ss, w });
             }
             if u[0] * to_sun[0] + u[1] * to_sun[1] + u[2] * to_sun[2] > cone.cos() {
                 hit += w / dom;
@@ -499,6 +506,18 @@ pub fn sun_retro_flow(
         }
     }
     Ok(model / photons as f64)
+}
+
+/// What [`sun_retro_pairs`]' model sees of one exit (see there).
+#[derive(Clone, Copy, Debug)]
+pub struct RetroPair {
+    pub c: f64,
+    pub r: f64,
+    pub along: f64,
+    pub mu_i: f64,
+    pub ss: f64,
+    /// The exit's weight (the model's term is multiplied by it).
+    pub w: f64,
 }
 
 /// t̂·v_t and the chord r for an exit at `p` (normal `n`) of the sphere of radius `rho` entered at
