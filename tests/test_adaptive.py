@@ -109,6 +109,12 @@ def test_profiles_and_bad_input(cache):
         assert sum(r[:5]) == pytest.approx(total, rel=0.1) and all(abs(c) <= w for w, c in zip(r[:5], r[5:]))
     assert len(cd["coupling_a_theta"]) == len(cd["coupling_a_theta_stderr"]) == len(cd["coupling_chi2"]) == 4
     assert -0.9 <= cd["coupling_a"] <= 0.9 and cd["coupling_a_stderr"] > 0
+    # the exit flow: the flat diffuse run's exit weight per (distance bin, exit-cosine bin), then its
+    # cos Δφ moment about the direction from the entry point; its amplitudes per distance bin
+    assert len(cd["flow"]) == len(cd["flow_stderr"]) == 2 * 9 * 5
+    assert sum(cd["flow"][:45]) == pytest.approx(cd["flat"], rel=0.1)
+    assert all(abs(c) <= w for w, c in zip(cd["flow"][:45], cd["flow"][45:]))
+    assert len(cd["flow_b"]) == len(cd["flow_b_stderr"]) == 9
     # the curved transport: a non-absorbing, index-matched sphere returns every photon
     clear = Stack([Layer(1.0, 0.0, 2.0, 0.0)])._to_core()
     assert _core.bssrdf_curved_escape(clear, "sphere", 1.0, 200, 1) == (1.0, 0.0)

@@ -33,12 +33,13 @@ from . import _core
 from .medium import Stack
 
 FORMAT = "subsurf-adaptive-table"
-FORMAT_VERSION = 8  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
+FORMAT_VERSION = 9  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
 # 4: and the flat oblique pencil runs of the oblique-incidence gain (``oblique``, ``oblique_stderr``);
 # 5: and the sphere's azimuthal harmonic under pencil beams (``harmonic_near``, ``harmonic_far``);
 # 6: and the flat exit-angle histogram of the exit term (``exit``, ``exit_stderr``);
 # 7: and the flat pencil runs of the exit direction's coupling to the light's (``coupling``, ``coupling_stderr``);
-# 8: the same arrays, the sphere's and the cylinder's escapes traced to 0.5 % relative standard error
+# 8: the same arrays, the sphere's and the cylinder's escapes traced to 0.5 % relative standard error;
+# 9: and the flat diffuse run of the exit direction's flow from the entry point (``flow``, ``flow_stderr``)
 _ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
 
 
@@ -107,7 +108,11 @@ class AdaptiveTable:
         (``coupling``, ``coupling_stderr``: per angle, the weights then the moments) with the exit
         coupling's amplitude ``coupling_a`` (± ``coupling_a_stderr``; pooled over the angles) and its
         fit per angle ``coupling_a_theta``, ``coupling_a_theta_stderr``, ``coupling_chi2``
-        (``subsurf_core::bssrdf::coupling``), and the
+        (``subsurf_core::bssrdf::coupling``), the flat half-space's exit weight and its cos Δφ moment
+        about the direction from the entry point per distance bin (in the transport length) and
+        exit-cosine bin under diffuse light (``flow``, ``flow_stderr``: the weights then the moments)
+        with the fitted amplitude per distance bin ``flow_b`` (± ``flow_b_stderr``;
+        ``subsurf_core::bssrdf::flow``), and the
         kernel scales derived from them (``scale_convex``: the near side's per bin, ``scale_convex_far``,
         ``scale_concave``)."""
         return self._t.curvature()
@@ -162,7 +167,7 @@ class AdaptiveTable:
                 # The core's curvature data as it gives it (lists: datasets; numbers: attributes);
                 # the scales (`scale_*`) are derived from it when the table is assembled.
                 for k, v in cd.items():
-                    if k.startswith(("scale_", "coupling_a")) or k in ("exit_beta", "coupling_chi2"):
+                    if k.startswith(("scale_", "coupling_a", "flow_b")) or k in ("exit_beta", "coupling_chi2"):
                         continue
                     if isinstance(v, float):
                         g.attrs[k] = v

@@ -97,9 +97,11 @@ impl PyAdaptiveTable {
     /// coupling, coupling_stderr (the flat pencil runs' exit weight and cos Δφ moment per exit-cosine
     /// bin, per oblique angle), coupling_a, coupling_a_stderr (the kept amplitude A, pooled over
     /// the angles), coupling_a_theta, coupling_a_theta_stderr, coupling_chi2 (the fit per angle;
-    /// `bssrdf::coupling`), scale_convex,
+    /// `bssrdf::coupling`), flow, flow_stderr (the flat diffuse run's exit weight and cos Δφ moment
+    /// about the direction from the entry point per distance bin and exit-cosine bin), flow_b,
+    /// flow_b_stderr (its B per distance bin; `bssrdf::flow`), scale_convex,
     /// scale_convex_far, scale_cylinder, scale_cylinder_far, scale_concave} (lists over the
-    /// curvature nodes; `scale_*`, `exit_beta` and `coupling_a*`/`coupling_chi2` derived, not read back).
+    /// curvature nodes; `scale_*`, `exit_beta`, `coupling_a*`/`coupling_chi2` and `flow_b*` derived, not read back).
     fn curvature<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         let mut out = vec![];
         for (c, cd) in self.inner.curvature().iter().enumerate() {
@@ -132,6 +134,10 @@ impl PyAdaptiveTable {
             o.set_item("coupling_a_theta", cp.fits.iter().map(|f| f.a).collect::<Vec<_>>())?;
             o.set_item("coupling_a_theta_stderr", cp.fits.iter().map(|f| f.stderr).collect::<Vec<_>>())?;
             o.set_item("coupling_chi2", cp.fits.iter().map(|f| f.chi2).collect::<Vec<_>>())?;
+            o.set_item("flow", cd.flow.weight.clone())?;
+            o.set_item("flow_stderr", cd.flow.stderr.clone())?;
+            o.set_item("flow_b", self.inner.flow(c).b.clone())?;
+            o.set_item("flow_b_stderr", self.inner.flow(c).stderr.clone())?;
             o.set_item("scale_convex", self.inner.scales(c).convex.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
             o.set_item("scale_convex_far", self.inner.scales(c).convex_far.clone())?;
             o.set_item("scale_cylinder", self.inner.scales(c).cylinder.iter().map(|a| a.to_vec()).collect::<Vec<_>>())?;
@@ -283,8 +289,9 @@ fn curvature_from_py(d: &Bound<'_, PyDict>) -> PyResult<CurvatureData> {
         return Err(to_py(Error::Invalid("adaptive table curvature: coupling_stderr has another length".into())));
     }
     let coupling = cw.into_iter().zip(cs).map(|(weight, stderr)| ExitBins { weight, stderr }).collect();
+    let flow = ExitBins { weight: list("flow")?, stderr: list("flow_stderr")? };
     let cavity = pairs("cavity")?;
-    Ok(CurvatureData { rho: list("rho")?, sphere, cavity, cylinder, flat, oblique, harmonic, exit, coupling })
+    Ok(CurvatureData { rho: list("rho")?, sphere, cavity, cylinder, flat, oblique, harmonic, exit, coupling, flow })
 }
 
 /// The curvature nodes (mm) of a stack's adaptive table.

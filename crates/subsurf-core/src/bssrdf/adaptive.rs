@@ -36,6 +36,7 @@ use super::curvature::{
     build_curvature, curvature_photons, cylinder_gather, sphere_gather, CurvatureData, Gathers, LocalScale, Scales,
 };
 use super::exit::{Exit, EXIT_BINS};
+use super::flow::Flow;
 use super::harmonic::Harmonic;
 use super::monte_carlo::{default_edges, McSettings, MonteCarloProfile, RadialData, RadialTally};
 use super::oblique::{Gain, OBLIQUE_THETA_DEG};
@@ -237,6 +238,8 @@ struct ChannelTable {
     exit: Exit,
     /// The exit direction's coupling to the light's ([`super::coupling`]).
     coupling: Coupling,
+    /// The exit direction's flow along the light from each entry point ([`super::flow`]).
+    flow: Flow,
 }
 
 /// The per-channel tables (see the module docs).
@@ -328,8 +331,9 @@ impl AdaptiveTable {
             }
             let exit = Exit::fit(top.n / stack.n_above, &ex.weight, &ex.stderr);
             let coupling = Coupling::new(top.n / stack.n_above, &curvature[c].coupling)?;
+            let flow = Flow::new(top.n / stack.n_above, transport_length(stack), &curvature[c].flow)?;
             let d = nodes.iter().map(|n| n.d).collect();
-            channels.push(ChannelTable { d, r, t, entering, gain, harmonic, exit, coupling });
+            channels.push(ChannelTable { d, r, t, entering, gain, harmonic, exit, coupling, flow });
         }
         let median_radius = channels
             .iter()
@@ -460,6 +464,14 @@ impl AdaptiveTable {
     /// Whether any channel has an exit coupling.
     pub fn has_coupling(&self) -> bool {
         self.channels.iter().any(|c| !c.coupling.is_zero())
+    }
+    /// Channel `c`'s exit flow ([`super::flow`]).
+    pub fn flow(&self, c: usize) -> &Flow {
+        &self.channels[c].flow
+    }
+    /// Whether any channel has an exit flow and the flow is switched on ([`super::flow::enabled`]).
+    pub fn has_flow(&self) -> bool {
+        super::flow::enabled() && self.channels.iter().any(|c| !c.flow.is_zero())
     }
     /// Number of channels.
     pub fn channels(&self) -> usize {

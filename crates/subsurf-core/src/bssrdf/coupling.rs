@@ -49,7 +49,7 @@ const STEPS: usize = 400;
 pub type CouplingTally = TopExitTally<COUPLING_BINS, true>;
 
 /// ⟨sin θo⟩ over exit-cosine bin `j` weighted by F_t(η, μ) μ.
-fn mean_sine(eta: f64, j: usize) -> f64 {
+pub(crate) fn mean_sine(eta: f64, j: usize) -> f64 {
     let (a, h) = (j as f64 / COUPLING_BINS as f64, 1.0 / (COUPLING_BINS * STEPS) as f64);
     let (mut s0, mut s1) = (0.0, 0.0);
     for i in 0..STEPS {

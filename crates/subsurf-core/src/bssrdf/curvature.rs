@@ -133,6 +133,9 @@ pub struct CurvatureData {
     /// (the oblique runs themselves): exit weight and its cos Δφ moment per exit-cosine bin
     /// ([`super::coupling`]).
     pub coupling: Vec<super::exit::ExitBins>,
+    /// The engine's flat half-space under diffuse light: exit weight and its cos Δφ moment about
+    /// the direction from the entry point, per distance bin and exit-cosine bin ([`super::flow`]).
+    pub flow: super::exit::ExitBins,
 }
 
 /// The curvature nodes (mm) of a stack (see the module docs).
@@ -226,7 +229,10 @@ pub fn build_curvature(
     let Some(exit) = super::exit::build_exit(stack, channel, s, cancel, progress)? else {
         return Ok(None);
     };
-    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic, exit, coupling }))
+    let Some(flow) = super::flow::build_flow(stack, channel, s, cancel, progress)? else {
+        return Ok(None);
+    };
+    Ok(Some(CurvatureData { rho, sphere, cavity, cylinder, flat, oblique, harmonic, exit, coupling, flow }))
 }
 
 /// Photons a channel's curvature data traces (with its oblique runs).
@@ -234,7 +240,9 @@ pub fn curvature_photons(stack: &Stack, photons: u64) -> u64 {
     let n_rho = curvature_nodes(stack).map_or(0, |v| v.len());
     let oblique = super::oblique::OBLIQUE_PHOTONS * super::oblique::OBLIQUE_THETA_DEG.len() as u64;
     let flat = photons.saturating_mul(1 + oblique);
-    let harmonic = super::harmonic::harmonic_photons(n_rho, photons).saturating_add(super::exit::exit_photons(photons));
+    let harmonic = super::harmonic::harmonic_photons(n_rho, photons)
+        .saturating_add(super::exit::exit_photons(photons))
+        .saturating_add(super::flow::flow_photons(photons));
     flat.saturating_add(curved_photons(photons).saturating_mul(3 * n_rho as u64)).saturating_add(harmonic)
 }
 

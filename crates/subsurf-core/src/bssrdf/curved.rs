@@ -414,6 +414,25 @@ pub fn sun_retro(
     seed: u64,
     pred: impl Fn(f64) -> f64,
 ) -> Result<(f64, f64, f64)> {
+    sun_retro_pairs(stack, rho, cone, photons, seed, |mu, _| pred(mu))
+}
+
+/// [`sun_retro`] with an exit model that also sees each exit's pair: `pred`(μ, [`RetroPair`]) with c =
+/// t̂·ω_sun,t (t̂ the unit tangential direction at the exit point from the entry point, ω_sun,t the
+/// tangential part of the direction to the sun; 0 at the entry point) and r the chord (mm) from
+/// the entry point (the exit flow of [`super::flow`]); c is NaN for the exits through the far half
+/// (x ≤ 0: the model's far class, which has no flow); a > 0 when the refracted launch direction's
+/// tangential part at the entry points towards the exit point ([`sphere_flow`]'s split); μ_i the
+/// sun's cosine at the entry and s = ω_sun,t(x_i)·ω_sun,t(x_o) (the exit coupling's dot product);
+/// w the exit's weight.
+pub fn sun_retro_pairs(
+    stack: &Stack,
+    rho: f64,
+    cone: f64,
+    photons: u64,
+    seed: u64,
+    pred: impl Fn(f64, RetroPair) -> f64,
+) -> Result<(f64, f64, f64)> {
     if !(rho > 0.0 && rho.is_finite() && cone > 0.0 && cone < 1.0) || photons < 2 {
         return Err(Error::Invalid("sun retro: rho > 0 (mm), cone in (0, 1) rad and photons >= 2".into()));
     }
@@ -429,7 +448,15 @@ pub fn sun_retro(
             let to_sun = [z, -x, -y]; // as in `sun_exitance`
             let mu = (p[0] * to_sun[0] + p[1] * to_sun[1] + p[2] * to_sun[2]) / rho;
             if mu > 0.0 {
-                model += w * pred(mu);
+                let n = [p[0] / rho, p[1] / rho, p[2] / rho];
+                let (c, r) = pair_flow(p, n, rho, to_sun);
+                let along = d[0] * p[1] + d[1] * p[2];
+                // the sun's tangential parts at the entry (normal +x) and at the exit
+                let ti = [0.0, to_sun[1], to_sun[2]];
+                let to = [to_sun[0] - mu * n[0], to_sun[1] - mu * n[1], to_sun[2] - mu * n[2]];
+                let ss = ti[1] * to[1] + ti[2] * to[2];
+                let c = if p[0] > 0.0 { c } else { f64::NAN };
+                model += w * pred(mu, RetroPair { c, r, along, mu_i: to_sun[0], ss, w });
             }
             if u[0] * to_sun[0] + u[1] * to_sun[1] + u[2] * to_sun[2] > cone.cos() {
                 hit += w / dom;
@@ -439,6 +466,125 @@ pub fn sun_retro(
     }
     let (mean, stderr) = mean_stderr(hit, hit2, photons);
     Ok((mean, stderr, model / photons as f64))
+}
+
+/// The renderer's flow term ([`super::flow`]: B(r) t̂·ω_t on pairs weighted by the kernel *without*
+/// the entry harmonic) towards a sun, for [`sun_retro`]'s sphere: Σ w `sym`(μ') B(r) c' over the
+/// exits through the entry's half, with the sun's direction turned about the entry's normal by a
+/// uniform random azimuth (stream (`seed` + 1, k)), so the exits' offsets from the entry carry no
+/// harmonic about it while its polar angle (the entry's irradiance) is the photon's own; μ' and c'
+/// are the turned sun's. Per unit incident power (add it to [`sun_retro`]'s model).
+pub fn sun_retro_flow(
+    stack: &Stack,
+    rho: f64,
+    photons: u64,
+    seed: u64,
+    sym: impl Fn(f64) -> f64,
+    b: impl Fn(f64) -> f64,
+) -> Result<f64> {
+    let g = Geometry::new(stack, Curved::Sphere, rho, Source::Diffuse)?;
+    let eta = stack.n_above / stack.layers[0].n;
+    let mut model = 0.0;
+    for k in 0..photons {
+        let (w, p, d, _, _) = g.trace_path(seed, k);
+        if !(w > 0.0 && p[0] > 0.0) {
+            continue;
+        }
+        let (x, y) = (d[0] / eta, d[1] / eta);
+        let z = (1.0 - x * x - y * y).max(0.0).sqrt();
+        let phi = 2.0 * std::f64::consts::PI * PhotonRng::new(seed.wrapping_add(1), k).uniform();
+        let (c, s) = (phi.cos(), phi.sin());
+        let (x, y) = (c * x - s * y, s * x + c * y);
+        let to_sun = [z, -x, -y];
+        let n = [p[0] / rho, p[1] / rho, p[2] / rho];
+        let mu = n[0] * to_sun[0] + n[1] * to_sun[1] + n[2] * to_sun[2];
+        if mu > 0.0 {
+            let (cf, r) = pair_flow(p, n, rho, to_sun);
+            if r > 0.0 {
+                model += w * sym(mu) * b(r) * cf;
+            }
+        }
+    }
+    Ok(model / photons as f64)
+}
+
+/// What [`sun_retro_pairs`]' model sees of one exit (see there).
+#[derive(Clone, Copy, Debug)]
+pub struct RetroPair {
+    pub c: f64,
+    pub r: f64,
+    pub along: f64,
+    pub mu_i: f64,
+    pub ss: f64,
+    /// The exit's weight (the model's term is multiplied by it).
+    pub w: f64,
+}
+
+/// t̂·v_t and the chord r for an exit at `p` (normal `n`) of the sphere of radius `rho` entered at
+/// (ρ, 0, 0): t̂ the unit tangential part of the chord p − (ρ, 0, 0) at p, v_t the tangential part of
+/// `v` (0 and 0 at the entry point itself).
+fn pair_flow(p: [f64; 3], n: [f64; 3], rho: f64, v: [f64; 3]) -> (f64, f64) {
+    let d = [p[0] - rho, p[1], p[2]];
+    let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+    let t = [d[0] - dn * n[0], d[1] - dn * n[1], d[2] - dn * n[2]];
+    let tl = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+    if !(tl > 0.0) {
+        return (0.0, r);
+    }
+    let vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
+    let c = ((v[0] - vn * n[0]) * t[0] + (v[1] - vn * n[1]) * t[1] + (v[2] - vn * n[2]) * t[2]) / tl;
+    (c, r)
+}
+
+/// The exit flow's tally ([`super::flow::FlowTally`]'s layout: weight per (r bin, exit-cosine
+/// bin), r the chord in the transport length `ell` (mm), then × cos Δφ about t̂) of the exits of a
+/// sphere of radius `rho` under uniform diffuse light through the entry's half (the near class);
+/// per incident photon, with standard errors. Single-threaded (a measurement, not a table run).
+/// `launch` 0 counts every photon; +1 (−1) only those whose refracted launch direction's
+/// tangential part at the entry points towards (away from) the exit point.
+pub fn sphere_flow(
+    stack: &Stack,
+    rho: f64,
+    ell: f64,
+    photons: u64,
+    seed: u64,
+    launch: i32,
+) -> Result<super::exit::ExitBins> {
+    use super::coupling::COUPLING_BINS;
+    use super::flow::{FLOW_BINS, FLOW_EDGES};
+    if !(rho > 0.0 && rho.is_finite() && ell > 0.0) || photons < 2 {
+        return Err(Error::Invalid("sphere flow: rho > 0, ell > 0 (mm) and photons >= 2".into()));
+    }
+    let g = Geometry::new(stack, Curved::Sphere, rho, Source::Diffuse)?;
+    let n = FLOW_BINS * COUPLING_BINS;
+    let (mut s1, mut s2) = (vec![0.0; 2 * n], vec![0.0; 2 * n]);
+    for k in 0..photons {
+        let (w, p, d, _, u) = g.trace_path(seed, k);
+        if !(w > 0.0 && p[0] > 0.0) {
+            continue;
+        }
+        // the launch's tangential part at the entry (0, d₀, d₁) against the chord's (0, p₁, p₂)
+        let along = d[0] * p[1] + d[1] * p[2];
+        if (launch > 0 && !(along > 0.0)) || (launch < 0 && !(along < 0.0)) {
+            continue;
+        }
+        let nn = [p[0] / rho, p[1] / rho, p[2] / rho];
+        let mu = (u[0] * nn[0] + u[1] * nn[1] + u[2] * nn[2]).clamp(0.0, 1.0);
+        let (c, r) = pair_flow(p, nn, rho, u);
+        let st = (1.0 - mu * mu).sqrt();
+        let j = ((mu * COUPLING_BINS as f64) as usize).min(COUPLING_BINS - 1);
+        let b = FLOW_EDGES.partition_point(|&e| e <= r / ell) * COUPLING_BINS + j;
+        s1[b] += w;
+        s2[b] += w * w;
+        if st > 0.0 {
+            let x = w * c / st;
+            s1[n + b] += x;
+            s2[n + b] += x * x;
+        }
+    }
+    let (weight, stderr) = s1.iter().zip(&s2).map(|(&a, &b)| mean_stderr(a, b, photons)).unzip();
+    Ok(super::exit::ExitBins { weight, stderr })
 }
 
 /// `work` over the chunk indices 0..`chunks` in parallel, results in index order: on a pool of

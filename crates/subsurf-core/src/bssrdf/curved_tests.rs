@@ -194,3 +194,138 @@ fn sun_retro_measurement() {
         }
     }
 }
+
+/// Not a check: the exit flow on a sphere (`docs/render.md`, "The exit flow"): per r bin the
+/// flat half-space's B (the table's run, [`crate::bssrdf::flow::build_flow`]'s tally) against
+/// the sphere's own (its near half's exits, [`super::sphere_flow`]), and the radiance sent back
+/// towards a sun ([`super::sun_retro_pairs`]): exact, an exit term symmetric about the normal,
+/// and with the flow of the flat B and of the sphere's B, all fed the exact exits; the renderer's
+/// flow term (pairs without the entry harmonic, [`super::sun_retro_flow`]); and the alternative of
+/// B t̂ on the exact (harmonic-weighted) pairs plus a coupling C(μ_i) ω_i,t·ω_o,t calibrated so that
+/// the flat surface (ρ = 1 m) keeps the symmetric term's retro-reflection. `FLOW_RHO=10,1000`
+/// (radii, mm), `FLOW_PHOTONS`, `FLOW_CASE` (a substring of the case names), `FLOW_MU` (also B per
+/// exit-cosine bin of the flat run: the sin θo form).
+/// `cargo test --release -p subsurf-core sphere_flow_measurement -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn sphere_flow_measurement() {
+    use crate::bssrdf::exit::{Exit, ExitBins};
+    use crate::bssrdf::flow::{Flow, FlowTally};
+    use crate::diffusion::bssrdf::ft;
+    use crate::mc::{run, RunConfig, Source};
+    use std::sync::atomic::{AtomicBool, AtomicU64};
+    let one = |n: f64, sa: f64, ss: f64| vec![Layer::new(n, sa, ss, 0.0, f64::INFINITY).unwrap()];
+    let photons: u64 = std::env::var("FLOW_PHOTONS").ok().and_then(|v| v.parse().ok()).unwrap_or(400_000);
+    let cases = [
+        ("ketchup red", one(1.3, 0.061, 0.18), -0.348),
+        ("ketchup green", one(1.3, 0.97, 0.07), -0.39),
+        ("marble x 0.25 red", one(1.5, 0.0021 * 0.25, 2.19 * 0.25), -0.049),
+        ("marble green", one(1.5, 0.0041, 2.62), -0.06),
+        ("skin1 red", one(1.3, 0.032, 0.74), -0.216),
+    ];
+    let rhos: Vec<f64> =
+        std::env::var("FLOW_RHO").ok().map_or(vec![10.0], |v| v.split(',').map(|x| x.parse().unwrap()).collect());
+    let only = std::env::var("FLOW_CASE").unwrap_or_default();
+    for (name, layers, beta, rho) in cases
+        .iter()
+        .filter(|c| c.0.contains(only.as_str()))
+        .flat_map(|c| rhos.iter().map(move |&r| (c.0, c.1.clone(), c.2, r)))
+    {
+        let n = layers[0].n;
+        let st = Stack::new(layers, 1.0, 1.0).unwrap();
+        let ell = crate::bssrdf::adaptive::transport_length(&st);
+        let cfg = RunConfig { photons, seed: 77, threads: None, source: Source::Diffuse, isa: None };
+        let o = run(&st, &cfg, || FlowTally::new(ell), &AtomicBool::new(false), &AtomicU64::new(0)).unwrap();
+        let (weight, stderr) = o.tally.data();
+        if std::env::var("FLOW_MU").is_ok() {
+            // per r bin, B from each exit-cosine bin alone: 2⟨cos Δφ⟩ / ⟨sin θo⟩ (the fit's sin θo form)
+            use crate::bssrdf::coupling::{mean_sine, COUPLING_BINS as NM};
+            let nb = weight.len() / 2;
+            for i in 0..nb / NM {
+                let row: Vec<String> = (0..NM)
+                    .map(|j| {
+                        let (m, c, e) = (weight[i * NM + j], weight[nb + i * NM + j], stderr[nb + i * NM + j]);
+                        let x = mean_sine(n, j);
+                        if m > 0.0 {
+                            format!("{:+.2}±{:.2}", 2.0 * c / m / x, 2.0 * e / m / x)
+                        } else {
+                            "-".into()
+                        }
+                    })
+                    .collect();
+                println!("  flat, r bin {i}, μ_o bins 0–0.2 … 0.8–1: {}", row.join(" "));
+            }
+        }
+        let flat = Flow::new(n, ell, &ExitBins { weight: weight.clone(), stderr: stderr.clone() }).unwrap();
+        let sb = super::sphere_flow(&st, rho, ell, photons, 78, 0).unwrap();
+        let sphere = Flow::new(n, ell, &sb).unwrap();
+        let towards = Flow::new(n, ell, &super::sphere_flow(&st, rho, ell, photons, 78, 1).unwrap()).unwrap();
+        let away = Flow::new(n, ell, &super::sphere_flow(&st, rho, ell, photons, 78, -1).unwrap()).unwrap();
+        println!("{name} (ℓ {ell:.3} mm, ρ {rho} mm): B per r bin, flat / sphere (launched towards x_o, away)");
+        for i in 0..flat.b.len() {
+            println!(
+                "  bin {i}: {:+.3} ± {:.3} / {:+.3} ± {:.3} ({:+.3} ± {:.3}, {:+.3} ± {:.3})",
+                flat.b[i],
+                flat.stderr[i],
+                sphere.b[i],
+                sphere.stderr[i],
+                towards.b[i],
+                towards.stderr[i],
+                away.b[i],
+                away.stderr[i]
+            );
+        }
+        let c: f64 = (0..20000).map(|i| (i as f64 + 0.5) / 20000.0).map(|m| 2.0 * ft(n, m) * m / 20000.0).sum();
+        let e = Exit::new(n, beta);
+        let sym = |mu: f64| e.factor(mu) * ft(n, mu) * mu / (std::f64::consts::PI * c);
+        fn with<'a>(f: [&'a Flow; 2], sym: &'a dyn Fn(f64) -> f64) -> impl Fn(f64, super::RetroPair) -> f64 + 'a {
+            move |mu: f64, q: super::RetroPair| {
+                let f = if q.along > 0.0 { f[0] } else { f[1] };
+                let b = if q.c.is_nan() || q.r <= 0.0 { 0.0 } else { f.at_ln(q.r.ln()) * q.c };
+                sym(mu) * (1.0 + b)
+            }
+        }
+        let (i, se, m) = super::sun_retro(&st, rho, 0.15, photons, 5, sym).unwrap();
+        let (_, _, mf) = super::sun_retro_pairs(&st, rho, 0.15, photons, 5, with([&flat, &flat], &sym)).unwrap();
+        let (_, _, ms) = super::sun_retro_pairs(&st, rho, 0.15, photons, 5, with([&sphere, &sphere], &sym)).unwrap();
+        let (_, _, mt) = super::sun_retro_pairs(&st, rho, 0.15, photons, 5, with([&towards, &away], &sym)).unwrap();
+        let fl = super::sun_retro_flow(&st, rho, photons, 5, sym, |r| sphere.at_ln(r.ln())).unwrap();
+        let pc = |x: f64| 100.0 * (x / i - 1.0);
+        println!("  retro, the renderer's flow (pairs without the entry harmonic): {:+.1} %", pc(m + fl));
+        // B t̂ on the harmonic-weighted pairs (the exact exits) plus a coupling C(μ_i) ω_i,t·ω_o,t
+        // calibrated on the flat surface (ρ = 1 m) so that the flat retro keeps the symmetric term's
+        const NB: usize = 10;
+        let bin = |mu_i: f64| ((mu_i.clamp(0.0, 1.0) * NB as f64) as usize).min(NB - 1);
+        let acc = std::cell::RefCell::new([[0.0f64; 2]; NB]);
+        let calib = |mu: f64, q: super::RetroPair| {
+            if !q.c.is_nan() && q.r > 0.0 {
+                let mut a = acc.borrow_mut();
+                let j = bin(q.mu_i);
+                a[j][0] += q.w * sym(mu) * sphere.at_ln(q.r.ln()) * q.c;
+                a[j][1] += q.w * sym(mu) * q.ss;
+            }
+            0.0
+        };
+        super::sun_retro_pairs(&st, 1000.0, 0.15, photons, 6, calib).unwrap();
+        let cc: Vec<f64> = acc.borrow().iter().map(|a| if a[1] != 0.0 { -a[0] / a[1] } else { 0.0 }).collect();
+        let comp = |mu: f64, q: super::RetroPair| {
+            let t =
+                if q.c.is_nan() || q.r <= 0.0 { 0.0 } else { sphere.at_ln(q.r.ln()) * q.c + cc[bin(q.mu_i)] * q.ss };
+            sym(mu) * (1.0 + t)
+        };
+        let (_, _, mc) = super::sun_retro_pairs(&st, rho, 0.15, photons, 5, comp).unwrap();
+        println!(
+            "  retro, B t̂ on the harmonic-weighted pairs + C(μ_i) ω_i,t·ω_o,t (C from the flat: {}): {:+.1} %",
+            cc.iter().map(|c| format!("{c:+.2}")).collect::<Vec<_>>().join(" "),
+            pc(mc)
+        );
+        println!(
+            "  retro: exact {i:.5} ± {se:.5}; symmetric {:+.1} %, flat flow {:+.1} %, sphere's flow {:+.1} %, \
+             the sphere's by launch (towards / away) {:+.1} %",
+            pc(m),
+            pc(mf),
+            pc(ms),
+            pc(mt)
+        );
+    }
+}

@@ -26,6 +26,7 @@ pub mod curvature;
 pub mod curved;
 pub mod dipole;
 pub mod exit;
+pub mod flow;
 pub mod harmonic;
 pub mod inverse;
 pub mod monte_carlo;

@@ -27,7 +27,9 @@
 //!    azimuthal factor ([`crate::bssrdf::harmonic`]: the samples carry their lights' harmonic,
 //!    the nodes its power-weighted mean), and the near class' radiance carries the exit
 //!    direction's coupling to the light's ([`crate::bssrdf::coupling`]: the samples carry their
-//!    lights' vector D, the nodes its power-weighted mean, [`Tree::exitance_coupled`]).
+//!    lights' vector D, the nodes its power-weighted mean, [`Tree::exitance_coupled`]), and
+//!    its flow along the light from each entry point ([`crate::bssrdf::flow`], under any light:
+//!    [`Tree::exitance_flow`]).
 
 use super::accel::Hit;
 use super::driver::Control;
@@ -37,7 +39,7 @@ use super::math::{add, dot, mul, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{ft, single_scattering, tint, Translucency};
 use super::texture::shading_medium;
-use super::tree::{add_classes, Cut, Flat, Sample, Tree, COARSE_FACTOR};
+use super::tree::{add_classes, Cut, Flat, FlowAt, Sample, Tree, COARSE_FACTOR};
 use crate::bssrdf::harmonic::{AtRho, Lobe};
 use crate::error::{Error, Result};
 use crate::rng::PhotonRng;
@@ -485,7 +487,8 @@ impl Hierarchical {
         let mo = match &m.adaptive {
             Some(t) => {
                 let ot = sub(wo, scale(hit.n, mu_o));
-                let near: Rgb = std::array::from_fn(|c| x.near[c] + dot(x.v[c], ot));
+                // the coupling and the flow (`bssrdf::flow`) are in `v`; the radiance held ≥ 0
+                let near: Rgb = std::array::from_fn(|c| (x.near[c] + dot(x.v[c], ot)).max(0.0));
                 add(mul(near, t.exit_factors(mu_o)), x.far)
             }
             None => add(x.near, x.far),
@@ -515,7 +518,13 @@ fn exitance_at(scene: &Scene, hit: &Hit, m: &Translucent, tree: &Tree, cut: Cut)
         Some(t) => {
             // the exit term's angular shape on the near class (`bssrdf::exit`); across a part, none
             let k = super::adaptive::Kernel::at(scene, t, hit);
-            if tree.coupled {
+            if t.has_flow() {
+                // its coupling to the light's direction (`bssrdf::coupling`) and its flow from
+                // each entry point (`bssrdf::flow`), both vectors dotted with the exit direction
+                let b = std::array::from_fn(|c| t.flow(c.min(t.channels() - 1)));
+                let ([near, far], v, fl) = tree.exitance_flow(&k, hit.p, cut, &FlowAt { normal: hit.n, b });
+                Exitance { near, far, v: std::array::from_fn(|c| add(v[c], fl[c])) }
+            } else if tree.coupled {
                 // and its coupling to the light's direction (`bssrdf::coupling`)
                 let ([near, far], v) = tree.exitance_coupled(&k, hit.p, cut);
                 Exitance { near, far, v }

@@ -46,6 +46,8 @@ pub mod walk;
 pub mod walk_sim;
 
 #[cfg(test)]
+mod flow_tests;
+#[cfg(test)]
 mod grid_tests;
 #[cfg(test)]
 mod tests;

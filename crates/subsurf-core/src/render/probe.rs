@@ -24,7 +24,8 @@
 //! [`super::irradiance`]). For `adaptive` under lights, R_d is weighted by the entry point's
 //! azimuthal factor ([`crate::bssrdf::harmonic`], amplitudes at x_i's probed curvature), and
 //! on the near class by 1 + D·ω_o,t, the exit direction's coupling to x_i's lights
-//! ([`crate::bssrdf::coupling`]).
+//! ([`crate::bssrdf::coupling`]), plus the pair's exit flow B(r) t̂·ω_o,t without the harmonic
+//! ([`crate::bssrdf::flow`]).
 
 use super::accel::Hit;
 use super::adaptive::entry_amplitudes;
@@ -170,6 +171,21 @@ impl Translucency for Probe {
                 };
                 // the exit term's angular shape on the near class (`bssrdf::exit`); across a part, none
                 let rd = if c == 0 { mul(rd, t.exit_factors(mu_o)) } else { rd };
+                // the exit flow from x_i (`bssrdf::flow`): B(r) t̂·ω_o,t on the pair without the harmonic
+                let ot = sub(wo, scale(hit.n, mu_o));
+                let flow: Rgb = if c == 0 && t.has_flow() {
+                    let d = sub(hit.p, hi.p);
+                    let tt = sub(d, scale(hit.n, dot(d, hit.n)));
+                    let (tl, ln_r) = (length(tt), dist.ln());
+                    if tl > 0.0 {
+                        let u = dot(tt, ot) / tl;
+                        std::array::from_fn(|k| rd[k] * t.flow(k.min(t.channels() - 1)).at_ln(ln_r) * u)
+                    } else {
+                        [0.0; 3]
+                    }
+                } else {
+                    [0.0; 3]
+                };
                 let amps = if scene.lights.is_empty() { None } else { entry_amplitudes(scene, t, &hi) };
                 let coupled = !scene.lights.is_empty() && t.has_coupling();
                 if amps.is_some() || coupled {
@@ -177,11 +193,10 @@ impl Translucency for Probe {
                         irradiance_and_harmonic(scene, &hi, Entry::of(m), 1, 1, depth, rng, self, amps.as_ref());
                     let rd = mul(rd, factors(&hm[c].map(Lobe::new), hi.n, sub(hit.p, hi.p)));
                     // the near class' exit coupling to the light's direction (`bssrdf::coupling`)
-                    let ot = sub(wo, scale(hit.n, mu_o));
                     let rd = if c == 0 { std::array::from_fn(|k| rd[k] * (1.0 + dot(d[k], ot))) } else { rd };
-                    (rd, e)
+                    (add(rd, flow), e)
                 } else {
-                    (rd, transmitted_irradiance(scene, &hi, Entry::of(m), 1, 1, depth, rng, self))
+                    (add(rd, flow), transmitted_irradiance(scene, &hi, Entry::of(m), 1, 1, depth, rng, self))
                 }
             }
             None => {

@@ -8,6 +8,7 @@ use super::fastmath;
 use super::irradiance::Coupled;
 use super::material::Translucent;
 use super::math::{add, dot, length, madd, mul, scale, sub, Rgb, V3};
+use crate::bssrdf::flow::Flow;
 use crate::bssrdf::harmonic::{factors, Lobe};
 use crate::bssrdf::RadialProfile;
 use std::f64::consts::PI;
@@ -113,7 +114,7 @@ impl Tree {
 
     /// [`exitance_classes`](Self::exitance_classes) with the clusters of `cut`.
     pub fn exitance_cut(&self, pp: &dyn PairProfiles, x: V3, cut: Cut) -> [Rgb; 2] {
-        self.sums(pp, x, cut, false).0
+        self.sums(pp, x, cut, false, None).0
     }
 
     /// [`exitance_cut`](Self::exitance_cut) and, per channel, the near class' sum of each pair's
@@ -121,10 +122,31 @@ impl Tree {
     /// mean, the near field's area-weighted): the near class' radiance leaving towards ω_o is then
     /// (near + V·ω_o,t) × its exit term ([`crate::bssrdf::coupling`]).
     pub fn exitance_coupled(&self, pp: &dyn PairProfiles, x: V3, cut: Cut) -> ([Rgb; 2], Coupled) {
-        self.sums(pp, x, cut, true)
+        let (a, v, _) = self.sums(pp, x, cut, true, None);
+        (a, v)
     }
 
-    fn sums(&self, pp: &dyn PairProfiles, x: V3, cut: Cut, coupled: bool) -> ([Rgb; 2], Coupled) {
+    /// [`exitance_coupled`](Self::exitance_coupled) (its vector 0 unless the tree is
+    /// [`coupled`](Self::coupled)) and, per channel, the near class' exit flow
+    /// ([`crate::bssrdf::flow`]): the sum of each pair's contribution without the entry harmonic
+    /// × B_k(r) t̂, t̂ the unit tangential part (about `flow.normal`) of x − x_i (a cluster's
+    /// centroid or sigma point); the near class' radiance towards ω_o is then
+    /// (near + V·ω_o,t + F·ω_o,t) × its exit term. The near field's peak (the profile above
+    /// R(ρ₀) within ρ₀) adds −π ∇E ∫₀^ρ₀ (R − R(ρ₀)) B r² dr, ∇E the tangential gradient of the
+    /// samples' irradiance within ρ₀ (least squares; the peak is symmetric about x, so only the
+    /// irradiance's slope across it has a direction).
+    pub fn exitance_flow(&self, pp: &dyn PairProfiles, x: V3, cut: Cut, flow: &FlowAt) -> ([Rgb; 2], Coupled, Coupled) {
+        self.sums(pp, x, cut, self.coupled, Some(flow))
+    }
+
+    fn sums(
+        &self,
+        pp: &dyn PairProfiles,
+        x: V3,
+        cut: Cut,
+        coupled: bool,
+        flow: Option<&FlowAt>,
+    ) -> ([Rgb; 2], Coupled, Coupled) {
         let epsilon = cut.epsilon;
         let rho0 = self.rho0;
         let cap: [Rgb; 2] = std::array::from_fn(|c| std::array::from_fn(|k| pp.profile(c, k).rd(rho0)));
@@ -136,6 +158,23 @@ impl Tree {
         };
         let (mut acc, mut near_e, mut near_a) = ([[0.0; 3]; 2], [[0.0; 3]; 2], [0.0; 2]);
         let (mut vd, mut near_d) = ([[0.0; 3]; 3], [[0.0; 3]; 3]);
+        // the flow vector per channel, and the near field's irradiance moments for its gradient
+        let mut vf = [[0.0; 3]; 3];
+        let mut grad = Moments::default();
+        // B_k(r) t̂ · w for a near-class pair of weight w (per channel) from entry point q
+        let add_flow = |vf: &mut Coupled, q: V3, r: f64, w: Rgb| {
+            let Some(f) = flow else { return };
+            let d = sub(x, q);
+            let t = sub(d, scale(f.normal, dot(d, f.normal)));
+            let tl = length(t);
+            if !(tl > 0.0 && r > 0.0) {
+                return;
+            }
+            let ln_r = fastmath::ln(r);
+            for k in 0..3 {
+                vf[k] = madd(vf[k], t, w[k] * f.b[k].at_ln(ln_r) / tl);
+            }
+        };
         let target = pp.target();
         let mut mass = [0.0; 3]; // Σ profile × area (for `target`)
         let mut stack = vec![0u32];
@@ -150,6 +189,9 @@ impl Tree {
                     let (c, r) = pp.class(x, s.p);
                     let p = rd(c, r);
                     let v = mul(p, s.e);
+                    if c == 0 {
+                        add_flow(&mut vf, s.p, r, scale(v, s.area));
+                    }
                     let v = if self.harm { mul(v, factors(&s.m[c], s.n, sub(x, s.p))) } else { v };
                     acc[c] = add(acc[c], scale(v, s.area));
                     if coupled && c == 0 {
@@ -161,6 +203,9 @@ impl Tree {
                         mass = madd(mass, p, s.area);
                     }
                     if r < rho0 {
+                        if let (Some(f), 0) = (flow, c) {
+                            grad.add(f.normal, sub(s.p, x), s.e, s.area);
+                        }
                         near_e[c] = madd(near_e[c], s.e, s.area);
                         near_a[c] += s.area;
                         if coupled && c == 0 {
@@ -193,6 +238,9 @@ impl Tree {
                             mass = madd(mass, p, nd.area);
                         }
                         let v = mul(p, nd.power);
+                        if c == 0 {
+                            add_flow(&mut vf, q, r, v);
+                        }
                         let v = if self.harm { mul(v, factors(&nd.m[c], nd.n, sub(x, nd.centroid))) } else { v };
                         acc[c] = add(acc[c], v);
                         if coupled && c == 0 {
@@ -231,6 +279,13 @@ impl Tree {
                         vd[k] = madd(vd[k], near_d[k], peak[k] / near_a[c]);
                     }
                 }
+                if let (Some(f), 0) = (flow, c) {
+                    let g = grad.gradient();
+                    for k in 0..3 {
+                        let m2 = f.peak_moment(pp.profile(0, k), k, rho0, cap[0][k]);
+                        vf[k] = madd(vf[k], g[k], -PI * m2);
+                    }
+                }
             }
         }
         match target {
@@ -238,11 +293,96 @@ impl Tree {
                 let norm = |a: Rgb| -> Rgb {
                     std::array::from_fn(|k| if mass[k] > 0.0 { a[k] * t[k] / mass[k] } else { a[k] })
                 };
-                let vd = std::array::from_fn(|k| if mass[k] > 0.0 { scale(vd[k], t[k] / mass[k]) } else { vd[k] });
-                (acc.map(norm), vd)
+                let vn = |v: Coupled| -> Coupled {
+                    std::array::from_fn(|k| if mass[k] > 0.0 { scale(v[k], t[k] / mass[k]) } else { v[k] })
+                };
+                (acc.map(norm), vn(vd), vn(vf))
             }
-            None => (acc, vd),
+            None => (acc, vd, vf),
         }
+    }
+}
+
+/// What [`Tree::exitance_flow`] needs of the shading point: its unit normal and the channels'
+/// flow amplitudes B_k(r) ([`crate::bssrdf::flow`]).
+pub struct FlowAt<'a> {
+    pub normal: V3,
+    pub b: [&'a Flow; 3],
+}
+
+/// Midpoints of [`FlowAt::peak_moment`].
+const PEAK_STEPS: usize = 16;
+
+impl FlowAt<'_> {
+    /// ∫₀^ρ₀ (R(r) − R(ρ₀))₊ B_k(r) r² dr of channel `k`'s near-class profile `p` (`cap` = R(ρ₀);
+    /// midpoint rule in r, [`PEAK_STEPS`] steps).
+    fn peak_moment(&self, p: &dyn RadialProfile, k: usize, rho0: f64, cap: f64) -> f64 {
+        let h = rho0 / PEAK_STEPS as f64;
+        (0..PEAK_STEPS)
+            .map(|i| {
+                let r = (i as f64 + 0.5) * h;
+                (p.rd(r) - cap).max(0.0) * self.b[k].at_ln(r.ln()) * r * r * h
+            })
+            .sum()
+    }
+}
+
+/// Area-weighted moments of the near field's samples (offsets q = x_i − x in the tangent plane,
+/// irradiance E per channel) for the least-squares plane E ≈ E₀ + g·q.
+#[derive(Default)]
+struct Moments {
+    w: f64,
+    q: [f64; 2],
+    qq: [[f64; 2]; 2],
+    e: Rgb,
+    eq: [[f64; 2]; 3],
+    frame: Option<(V3, V3)>,
+}
+
+impl Moments {
+    fn add(&mut self, n: V3, q: V3, e: Rgb, a: f64) {
+        let (t, b) = *self.frame.get_or_insert_with(|| {
+            let f = super::math::Frame::new(n);
+            (f.t, f.b)
+        });
+        let u = [dot(q, t), dot(q, b)];
+        self.w += a;
+        for i in 0..2 {
+            self.q[i] += a * u[i];
+            for j in 0..2 {
+                self.qq[i][j] += a * u[i] * u[j];
+            }
+        }
+        for k in 0..3 {
+            self.e[k] += a * e[k];
+            for i in 0..2 {
+                self.eq[k][i] += a * e[k] * u[i];
+            }
+        }
+    }
+
+    /// The fitted tangential gradient per channel (0 with fewer than 3 samples' worth of spread).
+    fn gradient(&self) -> Coupled {
+        let Some((t, b)) = self.frame else { return [[0.0; 3]; 3] };
+        if !(self.w > 0.0) {
+            return [[0.0; 3]; 3];
+        }
+        let m = [self.q[0] / self.w, self.q[1] / self.w];
+        let c = [
+            [self.qq[0][0] / self.w - m[0] * m[0], self.qq[0][1] / self.w - m[0] * m[1]],
+            [self.qq[1][0] / self.w - m[1] * m[0], self.qq[1][1] / self.w - m[1] * m[1]],
+        ];
+        let det = c[0][0] * c[1][1] - c[0][1] * c[1][0];
+        if !(det > 1e-12 * (c[0][0] + c[1][1]).powi(2)) {
+            return [[0.0; 3]; 3];
+        }
+        std::array::from_fn(|k| {
+            let em = self.e[k] / self.w;
+            let s = [self.eq[k][0] / self.w - em * m[0], self.eq[k][1] / self.w - em * m[1]];
+            let g0 = (c[1][1] * s[0] - c[0][1] * s[1]) / det;
+            let g1 = (c[0][0] * s[1] - c[1][0] * s[0]) / det;
+            add(scale(t, g0), scale(b, g1))
+        })
     }
 }
 
