@@ -7,9 +7,9 @@
 //! refracted ray escapes to the environment (no surface along it; a deterministic test of the
 //! ray, made only where the coefficients are not zero), the walk also scores, per channel k,
 //!
-//!   c_k β_k L_env,k (1[reflected] − F),
+//!   c_k β_k L_env,k (1\[reflected\] − F),
 //!
-//! which has mean zero given the contact (E 1[ξ < F] = F), so the estimator stays unbiased for
+//! which has mean zero given the contact (E 1\[ξ < F\] = F), so the estimator stays unbiased for
 //! any c fixed before the render (a control variate, e.g. Owen 2013, *Monte Carlo theory,
 //! methods and examples*, §8.9). A reflection adds c (1 − F) β L_env and goes on at β; an exit
 //! scores (1 − c F) β L_env instead of β L_env. The coin's own variance at the contact,

@@ -14,7 +14,7 @@
 //!    any ray reached one, the samples are gathered again with the first trees as their
 //!    radiance (one bounce of light between translucent surfaces; the tree walks of that
 //!    radiance use coarser clusters evaluated at their sigma points, [`Cut`], and are shared by
-//!    the rays that reach the same cell of 2 Δ, [`Cached`]).
+//!    the rays that reach the same cell of 2 Δ, `Cached`).
 //! 3. An octree over the samples; each node keeps its area, its power Σ E_t A per channel and
 //!    the power-weighted centroid (§3.2).
 //! 4. At a shading point x_o the tree is walked: a node is used as a whole when its solid

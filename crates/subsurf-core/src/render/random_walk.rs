@@ -28,7 +28,7 @@
 //!   else one walk and θ = 1 (`split_channels`, `rr_threshold`, `flight_mix`: chosen by
 //!   measurement; the rules in [`super::env_walk`]);
 //! - in scenes lit by the environment alone, where a walk leaves every object along a ray that
-//!   escapes, the Fresnel coin's zero-mean control variate c β L_env (1[reflected] − F), c from a
+//!   escapes, the Fresnel coin's zero-mean control variate c β L_env (1\[reflected\] − F), c from a
 //!   pilot before the render ([`super::fresnel_control`]).
 //!
 //! Light reaches the interior in two ways: the path leaves the objects and the ray continues
@@ -359,7 +359,7 @@ impl Carrier for Radiance<'_> {
     }
 
     fn coin(&mut self, scene: &Scene, h: &Hit, t: V3, f: f64, reflected: bool) {
-        // The control variate c β L_env(t) (1[reflected] − F) (super::fresnel_control): a
+        // The control variate c β L_env(t) (1\[reflected\] − F) (super::fresnel_control): a
         // reflection adds c (1 − F) β L_env where the refracted ray escapes; an exit scores
         // (1 − c F) β L_env in place of β L_env where it does (`Radiance::exit`).
         let Some(c) = self.rw.coin_control(scene, h.object, self.depth) else { return };
