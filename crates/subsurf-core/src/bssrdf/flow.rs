@@ -20,7 +20,7 @@
 //! B per channel and r bin ([`FLOW_EDGES`], in the transport length ℓ of the stack,
 //! [`super::adaptive`]) is the weighted least-squares fit of the engine's tally ([`FlowTally`]:
 //! the flat semi-infinite stack under diffuse light, seed + 64c + [`SEED_FLOW`],
-//! [`FLOW_PHOTONS`] × the table's photons; weight leaving through the top per r bin and exit-cosine
+//! [`flow_photons`] of the table's; weight leaving through the top per r bin and exit-cosine
 //! bin, and the same × cos Δφ, Δφ the exit direction's azimuth from t̂): 2⟨cos Δφ⟩ = B ⟨sin θo⟩
 //! per exit-cosine bin, the exit coupling's fit ([`super::coupling::fit`] at θi = 90°). Between
 //! the bins' geometric centres B is linear in ln r, held outside them. Diffusion gives the
@@ -45,8 +45,13 @@ pub const FLOW_EDGES: [f64; 8] = [0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
 pub const FLOW_BINS: usize = FLOW_EDGES.len() + 1;
 /// Seed offset of the flow run within a channel's stride.
 pub const SEED_FLOW: u64 = 62;
-/// Photons of the flow run, in the table's photons.
+/// Photons of the flow run, in the table's photons (at most [`MAX_FLOW_RUN`] or the table's own
+/// photons, whichever is more: a 10 000-photon table's run, the validation matrix's, is 80 000).
 pub const FLOW_PHOTONS: u64 = 8;
+/// The flow run's photons beyond which [`FLOW_PHOTONS`] no longer multiplies (B's bins are held to
+/// a standard error of [`MAX_FLOW_STDERR`] anyway; a 100 000-photon table's run took 800 000 a
+/// channel, most of its build).
+pub const MAX_FLOW_RUN: u64 = 80_000;
 /// |B| is held at most this per bin (the engine's are up to 1.45 at r < ℓ/2 on ketchup; the
 /// summed radiance is held ≥ 0 by the renderer).
 pub const MAX_FLOW: f64 = 1.5;
@@ -146,7 +151,7 @@ pub fn build_flow(
 ) -> Result<Option<ExitBins>> {
     let seed = s.seed.wrapping_add(super::adaptive::SEED_STRIDE * channel as u64 + SEED_FLOW);
     let ell = super::adaptive::transport_length(stack);
-    let photons = s.photons.saturating_mul(FLOW_PHOTONS);
+    let photons = flow_photons(s.photons);
     let cfg = RunConfig { photons, seed, threads: s.threads, source: Source::Diffuse, isa: None };
     let o = run(stack, &cfg, || FlowTally::new(ell), cancel, progress)?;
     if o.cancelled {
@@ -158,7 +163,7 @@ pub fn build_flow(
 
 /// Photons of [`build_flow`].
 pub fn flow_photons(photons: u64) -> u64 {
-    photons.saturating_mul(FLOW_PHOTONS)
+    photons.saturating_mul(FLOW_PHOTONS).min(MAX_FLOW_RUN.max(photons))
 }
 
 /// One channel's flow amplitudes B(r) (see the module docs).
