@@ -121,6 +121,12 @@ pub struct TopExitTally<const BINS: usize, const AZIMUTH: bool> {
     photons: u64,
 }
 
+/// The bin of `bins` equal bins of the exit cosine [0, 1] that an escape direction falls in.
+#[inline]
+pub fn mu_bin(dir_out: [f64; 3], bins: usize) -> usize {
+    ((dir_out[2].abs().min(1.0) * bins as f64) as usize).min(bins - 1)
+}
+
 /// The exit run's tally: weight per exit-cosine bin.
 pub type ExitTally = TopExitTally<EXIT_BINS, false>;
 
@@ -154,7 +160,7 @@ impl<const BINS: usize, const AZIMUTH: bool> Tally for TopExitTally<BINS, AZIMUT
     #[inline]
     fn escape(&mut self, _lane: usize, _p: &Packet, side: Side, dir_out: [f64; 3], w: f64) {
         if side == Side::Top {
-            let b = ((dir_out[2].abs().min(1.0) * BINS as f64) as usize).min(BINS - 1);
+            let b = mu_bin(dir_out, BINS);
             self.all.add(b, w);
             if AZIMUTH {
                 let t = dir_out[0].hypot(dir_out[1]);

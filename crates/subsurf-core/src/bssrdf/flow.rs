@@ -113,7 +113,7 @@ impl Tally for FlowTally {
             return;
         }
         let r = p.pos[0].hypot(p.pos[1]);
-        let j = ((dir_out[2].abs().min(1.0) * COUPLING_BINS as f64) as usize).min(COUPLING_BINS - 1);
+        let j = super::exit::mu_bin(dir_out, COUPLING_BINS);
         let b = r_bin(r * self.inv_ell) * COUPLING_BINS + j;
         self.all.add(b, w);
         let t = dir_out[0].hypot(dir_out[1]);

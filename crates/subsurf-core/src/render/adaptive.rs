@@ -309,4 +309,4 @@ impl Kernel {
 
 #[cfg(test)]
 #[path = "adaptive_tests.rs"]
-mod tests;
+pub(super) mod tests;

@@ -17,9 +17,9 @@ use std::f64::consts::PI;
 use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::Arc;
 
-const SA: f64 = 0.05;
-const SS: f64 = 2.0;
-const ETA: f64 = 1.4;
+pub(in crate::render) const SA: f64 = 0.05;
+pub(in crate::render) const SS: f64 = 2.0;
+pub(in crate::render) const ETA: f64 = 1.4;
 
 /// An `adaptive` material of one semi-infinite layer (the same in every channel), its table
 /// traced at `photons` per run unless given.
@@ -48,8 +48,9 @@ fn one_layer(
 }
 
 /// The test material (the same stack in every channel), its table traced once for all the
-/// tests of this file (each channel's nodes, curvature and oblique runs at 20 000 photons).
-fn material() -> Material {
+/// tests of this file and `flow_tests` (each channel's nodes, curvature and oblique runs at 20 000
+/// photons).
+pub(in crate::render) fn material() -> Material {
     static TABLE: std::sync::OnceLock<Arc<AdaptiveTable>> = std::sync::OnceLock::new();
     let spec = |adaptive| one_layer("materials.m", (SA, SS, 0.0, ETA), 20_000, adaptive);
     let build = |s: TranslucentSpec| s.build(true, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();

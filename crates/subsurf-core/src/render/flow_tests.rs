@@ -1,15 +1,15 @@
 //! The exit flow of `adaptive` (`bssrdf::flow`) at the edge of a lit half-plane, against the
 //! engine.
 
+use super::adaptive::tests::{material, ETA, SA, SS};
 use super::adaptive::Kernel;
-use super::material::{Material, TranslucentSpec};
+use super::material::Material;
 use super::scene::{Object, Scene};
 use super::shapes::cuboid;
 use super::tree::{Cut, FlowAt, Sample, Tree, COARSE_FACTOR};
 use crate::bssrdf::coupling::{fit, COUPLING_BINS};
-use crate::bssrdf::exit::ExitBins;
+use crate::bssrdf::exit::{mu_bin, ExitBins};
 use crate::bssrdf::harmonic::Lobe;
-use crate::bssrdf::monte_carlo::McSettings;
 use crate::mc::tally::accum::Accum;
 use crate::mc::tally::{Channel, ChannelState};
 use crate::mc::{run, Packet, RunConfig, Side, Source, Tally};
@@ -40,7 +40,7 @@ impl Tally for HalfPlane {
         if side != Side::Top {
             return;
         }
-        let j = ((dir_out[2].abs().min(1.0) * COUPLING_BINS as f64) as usize).min(COUPLING_BINS - 1);
+        let j = mu_bin(dir_out, COUPLING_BINS);
         let t = dir_out[0].hypot(dir_out[1]);
         for (i, &a) in OFFSETS.iter().enumerate() {
             if p.pos[0] > a {
@@ -85,29 +85,14 @@ impl Tally for HalfPlane {
 /// the flow).
 #[test]
 fn half_plane_flow_matches_the_engine() {
-    let (sa, ss, eta) = (0.05, 2.0, 1.4);
-    let stack = Stack::new(vec![Layer::new(eta, sa, ss, 0.0, f64::INFINITY).unwrap()], 1.0, 1.0).unwrap();
-    let spec = TranslucentSpec {
-        field: "materials.flow".into(),
-        sigma_a: [sa; 3],
-        sigma_s: [ss; 3],
-        g: 0.0,
-        eta,
-        model: "adaptive".into(),
-        stacks: [stack.clone(), stack.clone(), stack.clone()],
-        mc: McSettings { photons: 20_000, seed: 1, threads: Some(2), ..McSettings::default() },
-        reflectance: None,
-        single_scattering: None,
-        grid: None,
-        texture: None,
-        adaptive: None,
-    };
-    let m = spec.build(true, &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();
+    // the adaptive tests' material and its table, traced once for both files
+    let stack = Stack::new(vec![Layer::new(ETA, SA, SS, 0.0, f64::INFINITY).unwrap()], 1.0, 1.0).unwrap();
+    let Material::Translucent(m) = material() else { unreachable!() };
     let table = m.adaptive.clone().unwrap();
     assert!(!table.flow(0).is_zero());
     let slab = cuboid([-30.0, -30.0, -30.0], [30.0, 30.0, 0.0]).unwrap();
     let obj = Object { name: "slab".into(), mesh: slab, material: 0 };
-    let s = Scene::new(vec![obj], vec![Material::Translucent(Box::new(m))], vec![], [0.0; 3], None).unwrap();
+    let s = Scene::new(vec![obj], vec![Material::Translucent(m)], vec![], [0.0; 3], None).unwrap();
     let half = 20.0;
     let tree = |delta: f64| {
         let n = (2.0 * half / delta) as usize;
@@ -129,7 +114,7 @@ fn half_plane_flow_matches_the_engine() {
     for (i, &a) in OFFSETS.iter().enumerate() {
         let part = &data[2 * COUPLING_BINS * i..2 * COUPLING_BINS * (i + 1)];
         let bins = ExitBins { weight: part.iter().map(|x| x.0).collect(), stderr: part.iter().map(|x| x.1).collect() };
-        let want = fit(eta, std::f64::consts::FRAC_PI_2, &bins);
+        let want = fit(ETA, std::f64::consts::FRAC_PI_2, &bins);
         let hit = s.accel.intersect([a, 0.03, 10.0], [0.0, 0.0, -1.0], f64::INFINITY, u32::MAX).unwrap();
         let k = Kernel::at(&s, &table, &hit);
         let b = std::array::from_fn(|c| table.flow(c));
