@@ -207,6 +207,8 @@ def test_api_integers_through_the_core():
         (dict(threads=2000), "threads = 2000 is out of range"),
         (dict(spp=float("inf")), "spp = inf is out of range"),
         (dict(hierarchical=dict(env_samples=-1)), "hierarchical.env_samples = -1 is out of range"),
+        (dict(hierarchical=dict(samples_per_exitance=0)), "hierarchical.samples_per_exitance = 0 is out of range"),
+        (dict(hierarchical=dict(samples_per_exitance=-3)), "hierarchical.samples_per_exitance = -3 is out of range"),
     ]:
         with pytest.raises(ParameterError, match=fragment.replace("[", r"\[").replace(".", r"\.")):
             R.render(sc, **{"spp": 1, **kw})

@@ -407,6 +407,7 @@ struct HierarchicalArgs<'py> {
     epsilon: f64,
     env_samples: Bound<'py, PyAny>,
     light_samples: Bound<'py, PyAny>,
+    samples_per_exitance: Bound<'py, PyAny>,
 }
 
 impl HierarchicalArgs<'_> {
@@ -420,6 +421,11 @@ impl HierarchicalArgs<'_> {
             epsilon: self.epsilon,
             env_samples: count(&self.env_samples, "hierarchical.env_samples", "an integer in [0, 4294967295]")?,
             light_samples: count(&self.light_samples, "hierarchical.light_samples", "an integer in [1, 4294967295]")?,
+            samples_per_exitance: count(
+                &self.samples_per_exitance,
+                "hierarchical.samples_per_exitance",
+                "an integer in [1, 4294967295]",
+            )?,
             ..HierarchicalParams::default()
         };
         hp.validate().py()?;
@@ -429,13 +435,14 @@ impl HierarchicalArgs<'_> {
 
 /// The hierarchical method's settings a user can give, with their defaults.
 fn hierarchical_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
-    let HierarchicalParams { spacing, epsilon, env_samples, light_samples, max_samples: _ } =
+    let HierarchicalParams { spacing, epsilon, env_samples, light_samples, max_samples: _, samples_per_exitance } =
         HierarchicalParams::default();
     let d = PyDict::new(py);
     d.set_item("spacing", spacing)?;
     d.set_item("epsilon", epsilon)?;
     d.set_item("env_samples", env_samples)?;
     d.set_item("light_samples", light_samples)?;
+    d.set_item("samples_per_exitance", samples_per_exitance)?;
     Ok(d)
 }
 

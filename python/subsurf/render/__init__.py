@@ -63,7 +63,10 @@ def render(
     (KeyboardInterrupt) ends the render after the current pass and returns the image so far with
     ``partial = True`` (during the set-up: an image of 0 spp). The same seed gives the same image
     for any ``threads``.
-    ``hierarchical`` = dict(spacing=, epsilon=, env_samples=, light_samples=) tunes that method."""
+    ``hierarchical`` = dict(spacing=, epsilon=, env_samples=, light_samples=, samples_per_exitance=)
+    tunes that method (``samples_per_exitance``, default 16: consecutive samples of a pixel that
+    share one evaluation of the exitance, each applying its own direction; 1 evaluates it for
+    every sample)."""
     if method not in METHODS:
         raise _core.ParameterError(f"method = {method!r} is not a render method: must be one of {list(METHODS)}")
     spp, _ = _core.render_check_settings(spp, seed)

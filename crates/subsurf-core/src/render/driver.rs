@@ -3,13 +3,15 @@
 //!
 //! Sample `s` of pixel `i` (row-major index) draws from the stream `PhotonRng::new(seed,
 //! (s << 32) | i)` ([`crate::rng`]): a counter-based stream per (pixel, sample), so the image
-//! does not depend on how rows are scheduled. Each pass adds its per-pixel sums (formed in
+//! does not depend on how rows are scheduled; its point in the pixel is the pixel's own
+//! scrambled Sobol point `s` ([`super::pixel`]), stratified over the pixel's samples. Each pass adds its per-pixel sums (formed in
 //! sample order) to the accumulator, so an image of N spp is the same number whether it was
 //! rendered in one pass or many, and a cancelled render keeps every completed pass.
 
+use super::camera::Camera;
 use super::hierarchical::{Hierarchical, HierarchicalParams};
 use super::material::Material;
-use super::math::Rgb;
+use super::math::{Rgb, V3};
 use super::probe::Probe;
 use super::random_walk::RandomWalk;
 use super::scene::Scene;
@@ -18,6 +20,7 @@ use crate::error::{Error, Result};
 use crate::mc::config::{MAX_THREADS, THREADS_ALLOWED};
 use crate::rng::PhotonRng;
 use rayon::prelude::*;
+use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -52,6 +55,48 @@ pub struct Control {
     pub cancel: AtomicBool,
     pub done: AtomicU64,
     pub total: AtomicU64,
+}
+
+/// One camera sample: sample `s` of pixel `pixel` (row-major index) of an image of seed `seed`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CameraSample {
+    pub seed: u64,
+    pub pixel: u64,
+    pub s: u32,
+}
+
+/// The unit direction of camera sample `cs`'s ray (from `cam.position`): through its point of
+/// the pixel ([`super::pixel::pixel_offset`]).
+pub fn camera_ray(cam: &Camera, cs: CameraSample) -> V3 {
+    let (u, v) = super::pixel::pixel_offset(cs.seed, cs.pixel, cs.s);
+    let w = cam.width as u64;
+    cam.ray((cs.pixel % w) as f64 + u, (cs.pixel / w) as f64 + v)
+}
+
+thread_local! {
+    static TRACING: Cell<Option<CameraSample>> = const { Cell::new(None) };
+}
+
+/// The camera sample this thread is tracing ([`Renderer::sample`]; `None` elsewhere, e.g. in a
+/// method's set-up): through it a method can share work between the samples of one pixel
+/// (`hierarchical`'s [`HierarchicalParams::samples_per_exitance`]).
+pub fn camera_sample() -> Option<CameraSample> {
+    TRACING.with(|t| t.get())
+}
+
+/// Names the sample being traced until dropped (also when the trace unwinds).
+struct Tracing(Option<CameraSample>);
+
+impl Tracing {
+    fn start(cs: CameraSample) -> Tracing {
+        Tracing(TRACING.with(|t| t.replace(Some(cs))))
+    }
+}
+
+impl Drop for Tracing {
+    fn drop(&mut self) {
+        TRACING.with(|t| t.set(self.0));
+    }
 }
 
 /// A scene prepared for one method.
@@ -113,13 +158,15 @@ impl Renderer {
         Renderer { scene, tr, seed, dropped: AtomicU64::new(0) }
     }
 
-    /// One sample of pixel (x, y): the radiance through a jittered point of the pixel.
+    /// One sample of pixel (x, y): the radiance through a point of the pixel, stratified over
+    /// the pixel's samples ([`super::pixel`]). While it is traced, [`camera_sample`] names it.
     pub fn sample(&self, x: usize, y: usize, s: u32) -> Rgb {
         let cam = self.camera();
         let idx = (y * cam.width + x) as u64;
         let mut rng = PhotonRng::new(self.seed, ((s as u64) << 32) | idx);
-        let d = cam.ray(x as f64 + rng.uniform(), y as f64 + rng.uniform());
-        let l = trace(&self.scene, cam.position, d, u32::MAX, 0, &mut rng, self.tr.as_ref());
+        let cs = CameraSample { seed: self.seed, pixel: idx, s };
+        let _now = Tracing::start(cs);
+        let l = trace(&self.scene, cam.position, camera_ray(cam, cs), u32::MAX, 0, &mut rng, self.tr.as_ref());
         if l.iter().all(|v| v.is_finite()) {
             l
         } else {

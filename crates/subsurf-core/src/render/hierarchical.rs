@@ -32,7 +32,7 @@
 //!    [`Tree::exitance_flow`]).
 
 use super::accel::Hit;
-use super::driver::Control;
+use super::driver::{camera_ray, camera_sample, CameraSample, Control};
 use super::irradiance::{irradiance_and_harmonic, transmitted_irradiance, Coupled, Entry, Unlit};
 use super::material::Translucent;
 use super::math::{add, dot, mul, scale, sub, Rgb, V3};
@@ -46,6 +46,7 @@ use crate::rng::PhotonRng;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::sync::atomic::Ordering;
+use std::sync::Mutex;
 
 /// Settings of the hierarchical method.
 #[derive(Clone, Copy, Debug)]
@@ -68,11 +69,27 @@ pub struct HierarchicalParams {
     /// mean irradiance, and the set-up costs an eighth of 2 000 000 samples' (the validation
     /// matrix's 100 L sphere: object means within their seed-to-seed noise, `docs/render.md`).
     pub max_samples: usize,
+    /// Consecutive camera samples of a pixel that share one tree walk: samples k·b … k·b + b − 1
+    /// take the exitance M_o (and its direction vectors) at the surface point of sample k·b
+    /// where that sample's ray meets the same object first, each then applying its own normal,
+    /// direction, F_t and tint (`Hierarchical::block_exitance`); 1 walks the tree for every
+    /// sample. The anchor's point is uniform over the pixel as every sample's is, so a pixel's
+    /// mean is unchanged but for the covariance of the direction factors and M_o across the
+    /// pixel; the samples still resolve what changes within a pixel fast (a highlight's edge,
+    /// the silhouette), which is where the error of a few samples per pixel is (`docs/render.md`).
+    pub samples_per_exitance: u32,
 }
 
 impl Default for HierarchicalParams {
     fn default() -> Self {
-        HierarchicalParams { spacing: 0.35, epsilon: 0.05, env_samples: 16, light_samples: 16, max_samples: 250_000 }
+        HierarchicalParams {
+            spacing: 0.35,
+            epsilon: 0.05,
+            env_samples: 16,
+            light_samples: 16,
+            max_samples: 250_000,
+            samples_per_exitance: 16,
+        }
     }
 }
 
@@ -87,6 +104,9 @@ impl HierarchicalParams {
         if self.light_samples == 0 || self.max_samples == 0 {
             return Err(Error::Invalid("hierarchical.light_samples and max_samples must be >= 1".into()));
         }
+        if self.samples_per_exitance == 0 {
+            return Err(Error::param_int("hierarchical.samples_per_exitance", 0, "an integer in [1, 4294967295]"));
+        }
         Ok(())
     }
 }
@@ -95,6 +115,47 @@ impl HierarchicalParams {
 pub struct Hierarchical {
     pub trees: Vec<Option<Tree>>,
     pub params: HierarchicalParams,
+    /// Per pixel of the scene's camera, its latest block's exitance
+    /// ([`Hierarchical::block_exitance`]; empty when `samples_per_exitance` is 1).
+    blocks: Vec<Mutex<Block>>,
+}
+
+/// A pixel's latest block of [`HierarchicalParams::samples_per_exitance`] camera samples: its
+/// first sample's index (`u32::MAX`: none yet) and that sample's object and [`Exitance`] in f32
+/// (`u32::MAX`: its ray met no translucent surface first). A pixel's samples come in order, one
+/// thread at a time, over however many passes (the mutex is never contended).
+#[derive(Clone, Copy)]
+struct Block {
+    first: u32,
+    object: u32,
+    x: [f32; 15],
+}
+
+impl Block {
+    const EMPTY: Block = Block { first: u32::MAX, object: u32::MAX, x: [0.0; 15] };
+
+    fn new(first: u32, x: Option<(usize, Exitance)>) -> Block {
+        let Some((o, x)) = x else { return Block { first, ..Block::EMPTY } };
+        let mut f = [0.0f32; 15];
+        let all = x.near.iter().chain(&x.far).chain(x.v.iter().flatten());
+        for (d, v) in f.iter_mut().zip(all) {
+            *d = *v as f32;
+        }
+        Block { first, object: o as u32, x: f }
+    }
+
+    fn get(&self) -> Option<(usize, Exitance)> {
+        if self.object == u32::MAX {
+            return None;
+        }
+        let f = |i: usize| self.x[i] as f64;
+        let x = Exitance {
+            near: [f(0), f(1), f(2)],
+            far: [f(3), f(4), f(5)],
+            v: std::array::from_fn(|c| std::array::from_fn(|k| f(6 + 3 * c + k))),
+        };
+        Some((self.object as usize, x))
+    }
 }
 
 impl Hierarchical {
@@ -128,7 +189,10 @@ impl Hierarchical {
         // First gathering: translucent surfaces black; again with that estimate if a ray saw one.
         let unlit = Unlit::default();
         let Some(trees) = gather(scene, params, &spots, seed ^ 0x4a42_2002, ctl, &unlit) else { return Ok(None) };
-        let mut h = Hierarchical { trees, params: *params };
+        let pixels =
+            scene.camera.as_ref().filter(|_| params.samples_per_exitance > 1).map_or(0, |c| c.width * c.height);
+        let blocks = (0..pixels).map(|_| Mutex::new(Block::EMPTY)).collect();
+        let mut h = Hierarchical { trees, params: *params, blocks };
         if unlit.reached.load(Ordering::Relaxed) {
             ctl.total.fetch_add(n_all as u64, Ordering::Relaxed);
             let cut = Cut { epsilon: h.params.epsilon.max(GATHER_EPSILON), sigma: true, coarse: 0.0 };
@@ -454,8 +518,56 @@ fn morton(acc: &super::accel::Accel, p: V3) -> u64 {
 impl Translucency for Hierarchical {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
         let e = self.params.epsilon;
-        self.radiance_with(scene, hit, wo, depth, rng, Cut { epsilon: e, sigma: false, coarse: COARSE_FACTOR * e })
+        let cut = Cut { epsilon: e, sigma: false, coarse: COARSE_FACTOR * e };
+        if depth == 0 {
+            if let (Some(x), Some(m)) = (self.block_exitance(scene, hit, cut), shading_medium(scene, hit)) {
+                return self.radiance_from(scene, hit, wo, depth, rng, m, &x);
+            }
+        }
+        self.radiance_with(scene, hit, wo, depth, rng, cut)
     }
+}
+
+impl Hierarchical {
+    /// For a camera sample's first surface `hit` ([`camera_sample`]): the exitance at the first
+    /// sample of its block of [`HierarchicalParams::samples_per_exitance`], if that sample's ray
+    /// meets the same object first (from the front, no light before it); else `None` (the
+    /// caller walks the tree at `hit`). Deterministic in (seed, pixel, sample), whatever the
+    /// passes: the block's exitance (rounded to f32) is kept per pixel only to not walk it again.
+    fn block_exitance(&self, scene: &Scene, hit: &Hit, cut: Cut) -> Option<Exitance> {
+        let b = self.params.samples_per_exitance;
+        let cs = camera_sample().filter(|_| b > 1)?;
+        let first = CameraSample { s: cs.s - cs.s % b, ..cs };
+        let walk = || {
+            let at = if first == cs { Some(*hit) } else { camera_hit(scene, first) };
+            let x = at.and_then(|h| {
+                let (m, tree) = (shading_medium(scene, &h)?, self.trees[h.object].as_ref()?);
+                Some((h.object, exitance_at(scene, &h, m, tree, cut)))
+            });
+            Block::new(first.s, x)
+        };
+        let block = match self.blocks.get(cs.pixel as usize) {
+            Some(slot) => {
+                let mut slot = slot.lock().unwrap_or_else(|e| e.into_inner());
+                if slot.first != first.s {
+                    *slot = walk();
+                }
+                *slot
+            }
+            None => walk(), // a camera other than the scene's: no store, the same numbers
+        };
+        block.get().filter(|(o, _)| *o == hit.object).map(|(_, x)| x)
+    }
+}
+
+/// The first surface camera sample `cs`'s ray meets, if it meets it from the front with no
+/// light before it (as [`super::shade::trace_seen`] would shade it).
+fn camera_hit(scene: &Scene, cs: CameraSample) -> Option<Hit> {
+    let cam = scene.camera.as_ref()?;
+    let d = camera_ray(cam, cs);
+    let h = scene.accel.intersect(cam.position, d, f64::INFINITY, u32::MAX)?;
+    let lit = scene.light_hit(cam.position, d, h.t).is_some();
+    (!lit && dot(d, h.n) < 0.0).then_some(h)
 }
 
 impl Hierarchical {

@@ -35,6 +35,7 @@ pub mod light;
 pub mod material;
 pub mod math;
 pub mod mesh;
+pub mod pixel;
 pub mod probe;
 pub mod random_walk;
 pub mod scene;

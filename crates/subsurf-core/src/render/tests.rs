@@ -254,6 +254,41 @@ fn same_seed_same_image_any_thread_count() {
     }
 }
 
+/// `samples_per_exitance` (one tree walk per block of a pixel's samples, kept per pixel): the
+/// same bits for any thread count, and for any split into passes to rounding; and against one walk per sample
+/// (the same set-up, seed and points in the pixels) the mean of the per-pixel differences is
+/// within 4σ of 0 (σ from their spread): only the pairing of each sample's direction with the
+/// exitance of its block's first point differs.
+#[test]
+fn shared_exitance_blocks_keep_the_image() {
+    let s = lit_sphere(3, 24);
+    let cam = s.camera.as_ref().unwrap();
+    let blocks = HierarchicalParams { samples_per_exitance: 8, ..Default::default() };
+    let each = HierarchicalParams { samples_per_exitance: 1, ..Default::default() };
+    let passes = |hp: &HierarchicalParams, cuts: &[u32]| {
+        let r = Renderer::new(s.clone(), Method::Hierarchical, 7, hp).unwrap();
+        let mut acc = vec![0.0; cam.width * cam.height * 3];
+        for w in cuts.windows(2) {
+            assert!(r.pass(w[0], w[1], &mut acc, &AtomicBool::new(false)));
+        }
+        acc
+    };
+    let a = with_threads(Some(1), || passes(&blocks, &[0, 16])).unwrap();
+    assert!(a == with_threads(Some(2), || passes(&blocks, &[0, 16])).unwrap(), "the thread count changed the image");
+    // passes add their sums in another order: the same to rounding
+    let b = with_threads(Some(2), || passes(&blocks, &[0, 1, 3, 11, 16])).unwrap();
+    assert!(a.iter().zip(&b).all(|(x, y)| (x - y).abs() <= 1e-12 * x.abs()), "the passes changed the image");
+    let c = with_threads(Some(2), || passes(&each, &[0, 16])).unwrap();
+    let d: Vec<f64> = a.iter().zip(&c).filter(|(x, _)| **x > 0.0).map(|(x, y)| (x - y) / 16.0).collect();
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n;
+    let sd = (d.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1.0)).sqrt();
+    let level = c.iter().sum::<f64>() / 16.0 / n;
+    println!("{n} values: mean difference {mean:.3e} ± {:.1e} (level {level:.4})", sd / n.sqrt());
+    assert!(mean.abs() < 4.0 * sd / n.sqrt(), "{mean} vs σ {}", sd / n.sqrt());
+    assert!(sd > 0.0 && sd < 0.2 * level, "the blocks changed the pixels by {sd} at a level of {level}");
+}
+
 /// A camera inside an object, random_walk on an open mesh, unknown method: clear errors.
 #[test]
 fn bad_scenes_are_refused() {
