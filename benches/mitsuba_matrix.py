@@ -1,5 +1,5 @@
-"""Mitsuba 3 on the validation matrix's scenes (docs/render.md, "Mitsuba 3 on the matrix's scenes";
-issues 19 and 20): is the matrix's reference, the mean of four 128-spp ``random_walk`` images, right?
+"""Mitsuba 3 on the validation matrix's scenes (docs/render.md, "Mitsuba 3 on the matrix's scenes"):
+is the matrix's reference, the mean of four 128-spp ``random_walk`` images, right?
 
 Per row ``shape:material:scale`` the scene is built exactly as docs/scripts/adaptive_validation.py
 builds it (``SHAPES[shape](library(material, scale, "monte_carlo", 10000))``, ``scene(objs, extent,
