@@ -14,6 +14,14 @@ table) and for the whole object (the matrix's mask): the model's object mean aga
 R, G, B, with the walk's σ (per-pixel variance over its images); and the sides' share of the walk's
 image (1 − framed/unframed).
 
+Then the unscattered (ballistic) image of the light through the slab, per pixel from its centre ray
+(:func:`ballistic`): the ray refracted into the front face (y = −1) leaves the back face parallel to
+itself; where it meets the rectangle it carries L (1 − F_in)(1 − F_out) e^{−σt · 2 mm / cos θt}, else
+the environment's radiance so attenuated. Printed: its share of the walk's image per region (light
+alone) and of the matrix row's reference (``--refs``, with the environment), the model's bias
+against the walk less it, and the step of walk − model in bands of x across the line x ≈ 9.9 mm
+beyond which the rays pass beside the light (|z| < 9 mm), against the predicted step.
+
 Usage: SUBSURF_CACHE=... nice -n 5 .venv/bin/python docs/scripts/slab_sides.py [--out /tmp/mtref/sides]
 """
 
@@ -58,6 +66,36 @@ def rim_distance(cam):
     return 15 - np.maximum(np.abs(p[..., 0]), np.abs(p[..., 2]))
 
 
+def fresnel(ci, n1, n2):
+    """Unpolarised Fresnel reflectance at incidence cosine ``ci`` from n1 into n2, and cos θt."""
+    si = n1 / n2 * np.sqrt(np.maximum(0.0, 1 - ci**2))
+    ct = np.sqrt(np.maximum(0.0, 1 - si**2))
+    rs = ((n1 * ci - n2 * ct) / (n1 * ci + n2 * ct)) ** 2
+    rp = ((n1 * ct - n2 * ci) / (n1 * ct + n2 * ci)) ** 2
+    return 0.5 * (rs + rp), ct
+
+
+def ballistic(sc, material):
+    """(image of the unscattered light through the slab (H, W, 3), the rectangle seen through it
+    (H, W) bool, the front-face point of each pixel's centre ray (H, W, 3))."""
+    cam, (light,) = sc.camera, sc.lights
+    pos, d = np.asarray(cam.position, float), rc.camera_rays(cam)
+    f_in, ct = fresnel(d[..., 1], 1.0, material.eta)  # the front face's outward normal is −y
+    f_out, _ = fresnel(ct, material.eta, 1.0)
+    p0 = pos + ((-1 - pos[1]) / d[..., 1])[..., None] * d
+    inside = d / material.eta
+    inside[..., 1] = ct
+    p1 = p0 + (2 / ct)[..., None] * inside
+    c, u, v = (np.asarray(x, float) for x in (light.position, light.u, light.v))
+    q = p1 + ((c[1] - p1[..., 1]) / d[..., 1])[..., None] * d - c  # on the light's plane y = c_y
+    sees = (np.abs(q @ u) <= u @ u) & (np.abs(q @ v) <= v @ v)
+    radiance = np.asarray(light.power, float) / (np.pi * 4 * np.linalg.norm(np.cross(u, v)))
+    seen = np.where(sees[..., None], radiance, np.asarray(sc.environment, float))
+    st = np.asarray(material.sigma_a) + np.asarray(material.sigma_s)
+    img = ((1 - f_in) * (1 - f_out))[..., None] * seen * np.exp(-st * (2 / ct)[..., None])
+    return img, sees, p0
+
+
 def images(objs, extent, a, framed, out):
     """(walk images, model images) of the slab under the light alone, cached in ``out``."""
     res = {}
@@ -86,6 +124,7 @@ def main(argv=None):
     ap.add_argument("--walk-spp", type=int, default=128)
     ap.add_argument("--walk-seeds", type=lambda x: [int(v) for v in x.split(",")], default=[1, 2])
     ap.add_argument("--out", default="/tmp/mtref/sides")
+    ap.add_argument("--refs", default="/work/wt/vm/refs", help="the matrix's random_walk references")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
     objs, extent = av.SHAPES["slab"](av.library("marble", 1.0, "monte_carlo", 10000))
@@ -108,6 +147,45 @@ def main(argv=None):
     for name, mk in regions:
         share = 1 - walks[True][mk].mean(axis=0) / walks[False][mk].mean(axis=0)
         print(f"  {name}: " + ", ".join(f"{100 * x:.1f}" for x in share))
+    unscattered(objs, extent, a, regions)
+
+
+def unscattered(objs, extent, a, regions):
+    """The ballistic image's shares and the step of walk − model across the edge of the light's view."""
+    sc = av.scene(objs, extent, True, a.size)
+    dark = av.scene(objs, extent, True, a.size)
+    dark.environment = (0.0, 0.0, 0.0)
+    ball, sees, p0 = ballistic(dark, objs[0].material)
+    w, h = images(objs, extent, a, False, a.out)
+    wm, hm = np.mean(w, axis=0), np.mean(h, axis=0)
+    print("\nthe light's unscattered image through the slab (light alone), R, G, B:")
+    for name, mk in regions:
+        b = ball[mk].mean(axis=0)
+        share = ", ".join(f"{100 * x:.1f}" for x in b / wm[mk].mean(axis=0))
+        less = ", ".join(f"{100 * x:+.1f}" for x in hm[mk].mean(axis=0) / (wm - ball)[mk].mean(axis=0) - 1)
+        vals = ", ".join(f"{x:.3f}" for x in b)
+        print(f"  {name}: {vals} = {share} % of the walk; model / (walk − it) − 1: {less} %")
+    names = [f"slab_marble_1.0_{a.size}_128_{s}.npz" for s in (1, 7, 11, 13)]
+    if all(os.path.exists(os.path.join(a.refs, n)) for n in names):
+        ref = np.mean([np.load(os.path.join(a.refs, n))["img"] for n in names], axis=0)
+        full, _, _ = ballistic(sc, objs[0].material)
+        mk = regions[-1][1]
+        share = full[mk].sum(axis=0) / ref[mk].sum(axis=0)
+        pct = ", ".join(f"{100 * x:.2f}" for x in share)
+        print(f"  of the matrix row's reference (with the environment): {pct} %")
+    x, z, (_, mask) = p0[..., 0], p0[..., 2], regions[-1]
+    edge = x[sees & mask & (np.abs(z) < 9)].max()
+    print(f"walk − model in bands of x (|z| < 9 mm; the rays pass beside the light beyond x = {edge:.1f} mm):")
+    for lo, hi in ((edge - 3.6, edge - 1.8), (edge - 1.8, edge), (edge, edge + 1.8), (edge + 1.8, edge + 3.6)):
+        mk = mask & (x > lo + 1e-9) & (x <= hi + 1e-9) & (np.abs(z) < 9)
+        d = (wm - hm)[mk].mean(axis=0)
+        s = np.sqrt(np.stack([im[mk] for im in w]).var(axis=0, ddof=1).sum(axis=0) / (len(w) * mk.sum() ** 2))
+        print(
+            f"  x ∈ ({lo:.1f}, {hi:.1f}] mm, {int(mk.sum())} px: "
+            + ", ".join(f"{m:+.3f}±{e:.3f}" for m, e in zip(d, s))
+            + "; unscattered image "
+            + ", ".join(f"{m:.3f}" for m in ball[mk].mean(axis=0))
+        )
 
 
 if __name__ == "__main__":
