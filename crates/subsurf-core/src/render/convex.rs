@@ -246,8 +246,9 @@ mod tests {
 
     /// The ray-free paths give what the BVH gives: the walk's segments from inside and from a
     /// facet (`Accel::intersect_walk` against `Accel::intersect`), and the facet connections
-    /// (`facet_nee::points` with and without the convex lookup) to points of a light above; on a
-    /// tessellated sphere and on a box (coplanar facet pairs).
+    /// (`facet_nee::points` with and without the convex lookup) to points of a light above, and
+    /// shadow rays from a facet (`Accel::occluded`); on a tessellated sphere and on a box
+    /// (coplanar facet pairs).
     #[test]
     fn convex_paths_match_the_bvh() {
         let cuboid = crate::render::shapes::cuboid([-4.0, -3.0, -5.0], [4.0, 3.0, 5.0]).unwrap();
@@ -284,6 +285,14 @@ mod tests {
             let (w, r) =
                 (acc.intersect_walk(h.p, inward, s, h.tri, &mut false, 0.0), acc.intersect(h.p, inward, s, h.tri));
             assert_eq!(w.map(|h| (h.tri, h.t)), r.map(|h| (h.tri, h.t)), "from facet {}", h.tri);
+            // a shadow ray leaving the facet outwards (from the offset point, as the shading
+            // code casts it): `occluded`'s convex answer is the BVH's
+            let out = scale(inward, -1.0);
+            let p = acc.offset(h.p, h.n, 1.0);
+            assert!(!acc.occluded(p, out, 50.0, h.tri) && !b.accel.occluded(p, out, 50.0, h.tri), "facet {}", h.tri);
+            // and inwards (not answered by the shortcut): both see the far side
+            let q = acc.offset(h.p, h.n, -1.0);
+            assert_eq!(acc.occluded(q, inward, 50.0, h.tri), b.accel.occluded(q, inward, 50.0, h.tri));
             hits += usize::from(r.is_some());
             let y = [8.0 * rng.symmetric(), 8.0 * rng.symmetric(), 7.0];
             let v = scale(o, 1.7);

@@ -63,8 +63,8 @@ pub struct HierarchicalParams {
     pub env_samples: u32,
     /// Samples of each light per irradiance sample.
     pub light_samples: u32,
-    /// Most irradiance samples per object (Δ grows to respect it). The default, 250 000, binds
-    /// only where the profile is short against the object (a 10 mm sphere of ≥ 5 marble
+    /// Most irradiance samples per object (Δ grows until the facets' cut respects it, `placed`).
+    /// The default, 250 000, binds only where the profile is short against the object (a 10 mm sphere of ≥ 5 marble
     /// diffusion lengths): the near field then integrates the profile's peak exactly over a
     /// mean irradiance, and the set-up costs an eighth of 2 000 000 samples' (the validation
     /// matrix's 100 L sphere: object means within their seed-to-seed noise, `docs/render.md`).
@@ -176,12 +176,7 @@ impl Hierarchical {
         ctl: &Control,
     ) -> Result<Option<Hierarchical>> {
         params.validate()?;
-        let spots: Vec<Option<(Spots, f64)>> = (0..scene.objects.len())
-            .map(|oi| {
-                let delta = spacing(scene, oi, params)?;
-                Some((place_samples(scene, oi, delta), delta))
-            })
-            .collect();
+        let spots: Vec<Option<(Spots, f64)>> = (0..scene.objects.len()).map(|oi| placed(scene, oi, params)).collect();
         let spots: Vec<Option<(Spots, f64)>> =
             spots.into_iter().enumerate().map(|(oi, sp)| sp.map(|(s, d)| (with_amplitudes(scene, oi, s), d))).collect();
         let n_all: usize = spots.iter().flatten().map(|(s, _)| s.len()).sum();
@@ -221,12 +216,29 @@ fn spacing(scene: &Scene, oi: usize, params: &HierarchicalParams) -> Option<f64>
     Some(delta)
 }
 
+/// The irradiance samples of translucent object `oi` ([`place_samples`]) and their spacing Δ
+/// ([`spacing`]), at most `max_samples` of them: where cutting the triangles (k = ⌈√A/Δ⌉ per
+/// side) would place more, Δ grows by √(count/`max_samples`) until it does not. On the
+/// validation matrix's spheres (20 480 facets) at the cap every side was cut in 4 (327 680
+/// samples, 31 % over); now 247 040 (Δ 0.071 → 0.081 mm, the smaller facets cut in 3).
+fn placed(scene: &Scene, oi: usize, params: &HierarchicalParams) -> Option<(Spots, f64)> {
+    let mut delta = spacing(scene, oi, params)?;
+    loop {
+        let spots = place_samples(scene, oi, delta);
+        if spots.len() <= params.max_samples {
+            return Some((spots, delta));
+        }
+        // ends: once every triangle is under Δ², the count is the area over Δ² (± 1)
+        delta *= (spots.len() as f64 / params.max_samples as f64).sqrt().max(1.0 + 1e-6);
+    }
+}
+
 /// The hierarchical method's samples of translucent object `oi` with E_t = 1 and their octree
 /// (default settings): [`Tree::exitance_with`] then integrates a kernel over the object's
 /// surface (the `probe` method's normalisation of a tube's saddle, `render::adaptive`).
 pub fn area_tree(scene: &Scene, oi: usize) -> Option<Tree> {
-    let delta = spacing(scene, oi, &HierarchicalParams::default())?;
-    let samples = place_samples(scene, oi, delta)
+    let (spots, delta) = placed(scene, oi, &HierarchicalParams::default())?;
+    let samples = spots
         .into_iter()
         .map(|(h, area, _)| Sample { p: h.p, area, e: [1.0; 3], n: h.n, m: Default::default(), d: Default::default() })
         .collect();
@@ -238,9 +250,11 @@ pub fn area_tree(scene: &Scene, oi: usize) -> Option<Tree> {
 /// averaged over its sample's rays and over the samples under the profile, so it needs less
 /// than a pixel's accuracy. Measured (`docs/render.md`, the validation matrix's bowl, 64², 4 spp):
 /// object means +0.29, −0.52, −2.97 % with the pixels' clusters, +0.29, −0.51, −2.97 % with
-/// these (−0.01, −0.82, −3.26 % at this bound evaluated at the centroids), the set-up's tree
-/// walks evaluate 3× fewer samples.
-const GATHER_EPSILON: f64 = 0.5;
+/// these at 0.5 sr (−0.01, −0.82, −3.26 % at 0.5 evaluated at the centroids), the set-up's tree
+/// walks evaluate 3× fewer samples. At 1 sr (same seed, against 0.5 sr): object means −0.035,
+/// −0.02 and −0.002 points on the torus, the bowl and the blob, their set-up CPU time 0.93×,
+/// 0.90× and 0.74× (`docs/render.md`, "The set-up's fixed cost").
+const GATHER_EPSILON: f64 = 1.0;
 
 /// The hierarchical method's radiance with other clusters (the second gathering's: sigma points
 /// at [`GATHER_EPSILON`]), walked at each ray's own point: what [`Cached`] approximates.
@@ -260,7 +274,10 @@ impl Translucency for Coarse<'_> {
 /// The second gathering's cache cell, in sample spacings Δ ([`Cached`]). Measured on the
 /// validation matrix's bowl (seed 2, `docs/render.md`, "The set-up's noise"): 2 Δ moves the
 /// object mean by +0.14, +0.12, +0.10 points against the walk at every ray (1 Δ: +0.09, +0.08,
-/// +0.07 at 3.2× the walks), the set-up's walks 17 000 → 830 with every ray evaluated.
+/// +0.07 at 3.2× the walks), the set-up's walks 17 000 → 830 with every ray evaluated. 4 Δ
+/// would halve the blob's set-up (its rays reach the object in 9 751 cells, 3.5 rays a cell) and
+/// moves its object means by < 0.01 points, but fails `the_cached_exitance_is_the_walked_one`
+/// (+2.6 % on the mean, the worst ray +60 %): not taken.
 const CACHE_CELL: f64 = 2.0;
 
 /// The second gathering's radiance with the tree walks shared: the exitance ([`Exitance`], the

@@ -164,12 +164,7 @@ fn the_cached_exitance_is_the_walked_one() {
     assert!(hits.len() > 3_000);
     let params = HierarchicalParams { env_samples: 4, light_samples: 4, ..Default::default() };
     let h = Hierarchical::new(&scene, &params, 3).unwrap();
-    let spots: Vec<Option<(Spots, f64)>> = (0..scene.objects.len())
-        .map(|oi| {
-            let d = spacing(&scene, oi, &params)?;
-            Some((place_samples(&scene, oi, d), d))
-        })
-        .collect();
+    let spots: Vec<Option<(Spots, f64)>> = (0..scene.objects.len()).map(|oi| placed(&scene, oi, &params)).collect();
     let cut = Cut { epsilon: GATHER_EPSILON, sigma: true, coarse: 0.0 };
     let cached = Cached::new(&scene, &h, &spots, cut, CACHE_CELL);
     let walked = Coarse { inner: &h, cut };

@@ -492,7 +492,7 @@ fn material_set_up_skips_unused_profiles_and_stops_when_cancelled() {
 }
 
 /// The hierarchical set-up of a dense medium (millions of irradiance samples)
-/// counts its samples and stops at once when cancelled.
+/// counts its samples, at most `max_samples`, and stops at once when cancelled.
 #[test]
 fn hierarchical_set_up_counts_and_stops_when_cancelled() {
     let m = test_material([0.5; 3], 1e5, [1e4; 3], [1e6; 3], 0.0, 1.3, false);
@@ -504,10 +504,11 @@ fn hierarchical_set_up_counts_and_stops_when_cancelled() {
     let r = Renderer::prepare(s.clone(), Method::Hierarchical, 0, &hp, &ctl).unwrap();
     assert!(r.is_none());
     let (done, total) = (ctl.done.into_inner(), ctl.total.into_inner());
-    assert!(done == 0 && (40_000..=80_000).contains(&total), "{done} of {total}");
+    // at most `max_samples` (the facets' cut into k² gave 62 720 here before)
+    assert!(done == 0 && (40_000..=50_000).contains(&total), "{done} of {total}");
     let hp = HierarchicalParams { max_samples: 500, ..Default::default() };
     let ctl = super::Control::default();
     assert!(Renderer::prepare(s, Method::Hierarchical, 0, &hp, &ctl).unwrap().is_some());
     let (done, total) = (ctl.done.into_inner(), ctl.total.into_inner());
-    assert!(done == total && (400..=800).contains(&total), "{done} of {total}");
+    assert!(done == total && (400..=500).contains(&total), "{done} of {total}");
 }
