@@ -101,19 +101,19 @@ impl Tree {
     /// this, those samples were clustered and the far class' near-field energy was lost: an
     /// optically small ketchup sphere, 10 mm at 0.59 × ketchup, under uniform light: red −37 %
     /// against the all-pairs sum; `docs/render.md`.)
-    pub fn exitance_with(&self, pp: &dyn PairProfiles, x: V3, epsilon: f64) -> Rgb {
+    pub fn exitance_with<P: PairProfiles + ?Sized>(&self, pp: &P, x: V3, epsilon: f64) -> Rgb {
         let [a, b] = self.exitance_classes(pp, x, epsilon);
         add(a, b)
     }
 
     /// [`exitance_with`](Self::exitance_with) per class of `pp` (0: the near side, 1: across):
     /// the adaptive model gives each class its own exit term.
-    pub fn exitance_classes(&self, pp: &dyn PairProfiles, x: V3, epsilon: f64) -> [Rgb; 2] {
+    pub fn exitance_classes<P: PairProfiles + ?Sized>(&self, pp: &P, x: V3, epsilon: f64) -> [Rgb; 2] {
         self.exitance_cut(pp, x, Cut { epsilon, sigma: false, coarse: 0.0 })
     }
 
     /// [`exitance_classes`](Self::exitance_classes) with the clusters of `cut`.
-    pub fn exitance_cut(&self, pp: &dyn PairProfiles, x: V3, cut: Cut) -> [Rgb; 2] {
+    pub fn exitance_cut<P: PairProfiles + ?Sized>(&self, pp: &P, x: V3, cut: Cut) -> [Rgb; 2] {
         self.sums(pp, x, cut, false, None).0
     }
 
@@ -121,7 +121,7 @@ impl Tree {
     /// contribution × its entry's exit-coupling vector ([`Coupled`]; the clusters' power-weighted
     /// mean, the near field's area-weighted): the near class' radiance leaving towards ω_o is then
     /// (near + V·ω_o,t) × its exit term ([`crate::bssrdf::coupling`]).
-    pub fn exitance_coupled(&self, pp: &dyn PairProfiles, x: V3, cut: Cut) -> ([Rgb; 2], Coupled) {
+    pub fn exitance_coupled<P: PairProfiles + ?Sized>(&self, pp: &P, x: V3, cut: Cut) -> ([Rgb; 2], Coupled) {
         let (a, v, _) = self.sums(pp, x, cut, true, None);
         (a, v)
     }
@@ -135,13 +135,19 @@ impl Tree {
     /// R(ρ₀) within ρ₀) adds −π ∇E ∫₀^ρ₀ (R − R(ρ₀)) B r² dr, ∇E the tangential gradient of the
     /// samples' irradiance within ρ₀ (least squares; the peak is symmetric about x, so only the
     /// irradiance's slope across it has a direction).
-    pub fn exitance_flow(&self, pp: &dyn PairProfiles, x: V3, cut: Cut, flow: &FlowAt) -> ([Rgb; 2], Coupled, Coupled) {
+    pub fn exitance_flow<P: PairProfiles + ?Sized>(
+        &self,
+        pp: &P,
+        x: V3,
+        cut: Cut,
+        flow: &FlowAt,
+    ) -> ([Rgb; 2], Coupled, Coupled) {
         self.sums(pp, x, cut, self.coupled, Some(flow))
     }
 
-    fn sums(
+    fn sums<P: PairProfiles + ?Sized>(
         &self,
-        pp: &dyn PairProfiles,
+        pp: &P,
         x: V3,
         cut: Cut,
         coupled: bool,
@@ -150,11 +156,11 @@ impl Tree {
         let epsilon = cut.epsilon;
         let rho0 = self.rho0;
         let cap: [Rgb; 2] = std::array::from_fn(|c| std::array::from_fn(|k| pp.profile(c, k).rd(rho0)));
-        let rd = |c: usize, r: f64| -> Rgb {
-            let ln_r = fastmath::ln(r); // once for the three channels' profiles
-            std::array::from_fn(|k| {
-                pp.profile(c, k).rd_ln(r, ln_r).min(if r < rho0 { cap[c][k] } else { f64::INFINITY })
-            })
+        // the profiles of class c at r given ln r (once for the three channels, the flow's too),
+        // flat-topped within ρ₀
+        let rd = |c: usize, r: f64, ln_r: f64| -> Rgb {
+            let v = pp.rd3(c, r, ln_r);
+            std::array::from_fn(|k| v[k].min(if r < rho0 { cap[c][k] } else { f64::INFINITY }))
         };
         let (mut acc, mut near_e, mut near_a) = ([[0.0; 3]; 2], [[0.0; 3]; 2], [0.0; 2]);
         let (mut vd, mut near_d) = ([[0.0; 3]; 3], [[0.0; 3]; 3]);
@@ -162,7 +168,7 @@ impl Tree {
         let mut vf = [[0.0; 3]; 3];
         let mut grad = Moments::default();
         // B_k(r) t̂ · w for a near-class pair of weight w (per channel) from entry point q
-        let add_flow = |vf: &mut Coupled, q: V3, r: f64, w: Rgb| {
+        let add_flow = |vf: &mut Coupled, q: V3, r: f64, ln_r: f64, w: Rgb| {
             let Some(f) = flow else { return };
             let d = sub(x, q);
             let t = sub(d, scale(f.normal, dot(d, f.normal)));
@@ -170,7 +176,6 @@ impl Tree {
             if !(tl > 0.0 && r > 0.0) {
                 return;
             }
-            let ln_r = fastmath::ln(r);
             for k in 0..3 {
                 vf[k] = madd(vf[k], t, w[k] * f.b[k].at_ln(ln_r) / tl);
             }
@@ -187,10 +192,11 @@ impl Tree {
             if nd.leaf {
                 for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
                     let (c, r) = pp.class(x, s.p);
-                    let p = rd(c, r);
+                    let ln_r = fastmath::ln(r);
+                    let p = rd(c, r, ln_r);
                     let v = mul(p, s.e);
                     if c == 0 {
-                        add_flow(&mut vf, s.p, r, scale(v, s.area));
+                        add_flow(&mut vf, s.p, r, ln_r, scale(v, s.area));
                     }
                     let v = if self.harm { mul(v, factors(&s.m[c], s.n, sub(x, s.p))) } else { v };
                     acc[c] = add(acc[c], scale(v, s.area));
@@ -233,13 +239,14 @@ impl Tree {
                     // the kernel's curvature and undercounts a convex profile).
                     let mut point = |q: V3, w: f64| {
                         let (c, r) = if w == 1.0 { (c, r) } else { pp.class(x, q) };
-                        let p = scale(rd(c, r), w);
+                        let ln_r = fastmath::ln(r);
+                        let p = scale(rd(c, r, ln_r), w);
                         if target.is_some() {
                             mass = madd(mass, p, nd.area);
                         }
                         let v = mul(p, nd.power);
                         if c == 0 {
-                            add_flow(&mut vf, q, r, v);
+                            add_flow(&mut vf, q, r, ln_r, v);
                         }
                         let v = if self.harm { mul(v, factors(&nd.m[c], nd.n, sub(x, nd.centroid))) } else { v };
                         acc[c] = add(acc[c], v);
@@ -426,6 +433,13 @@ pub trait PairProfiles {
     fn class(&self, x: V3, q: V3) -> (usize, f64);
     /// The profile of class `c` (0 or 1) for channel `k`.
     fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile;
+    /// The three channels' profiles of class `c` at `r` (mm) given `ln_r` = ln r
+    /// ([`RadialProfile::rd_ln`]): the tree walk's one call per pair, which an implementation
+    /// may answer without the trait objects (the adaptive kernel's, `render::adaptive`).
+    #[inline]
+    fn rd3(&self, c: usize, r: f64, ln_r: f64) -> Rgb {
+        std::array::from_fn(|k| self.profile(c, k).rd_ln(r, ln_r))
+    }
     /// The profiles' integral over the surface (per channel) that [`Tree::exitance_with`]
     /// normalises the gathered sum to, if any: the sum is then scaled by this over the same
     /// profiles' integral over the tree's samples (their areas, with the same clusters and near
