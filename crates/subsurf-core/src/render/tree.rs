@@ -189,47 +189,13 @@ impl Tree {
             if pp.beyond(x, nd.lo, nd.hi, rho0) {
                 continue;
             }
-            if nd.leaf {
-                for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
-                    let (c, r) = pp.class(x, s.p);
-                    let ln_r = fastmath::ln(r);
-                    let p = rd(c, r, ln_r);
-                    let v = mul(p, s.e);
-                    if c == 0 {
-                        add_flow(&mut vf, s.p, r, ln_r, scale(v, s.area));
-                    }
-                    let v = if self.harm { mul(v, factors(&s.m[c], s.n, sub(x, s.p))) } else { v };
-                    acc[c] = add(acc[c], scale(v, s.area));
-                    if coupled && c == 0 {
-                        for k in 0..3 {
-                            vd[k] = madd(vd[k], s.d[k], v[k] * s.area);
-                        }
-                    }
-                    if target.is_some() {
-                        mass = madd(mass, p, s.area);
-                    }
-                    if r < rho0 {
-                        if let (Some(f), 0) = (flow, c) {
-                            grad.add(f.normal, sub(s.p, x), s.e, s.area);
-                        }
-                        near_e[c] = madd(near_e[c], s.e, s.area);
-                        near_a[c] += s.area;
-                        if coupled && c == 0 {
-                            for k in 0..3 {
-                                near_d[k] = madd(near_d[k], s.d[k], s.e[k] * s.area);
-                            }
-                        }
-                    }
-                }
-                continue;
-            }
             let d = sub(x, nd.centroid);
             let d2 = dot(d, d);
             let inside = (0..3).all(|k| x[k] >= nd.lo[k] && x[k] <= nd.hi[k]);
             let fine = nd.area < epsilon * d2;
             let coarse = !fine && nd.area < cut.coarse * d2 && nd.contrast <= MAX_CONTRAST;
-            if !inside && (fine || coarse) {
-                let sigma = cut.sigma || coarse;
+            let sigma = cut.sigma || coarse;
+            if !inside && (fine || coarse) && (!nd.leaf || evaluations(nd, sigma) < nd.count as usize) {
                 let (c, r) = pp.class(x, nd.centroid);
                 // A far-class node that may hold samples within ρ₀ of r⊥ = 0 is opened (every
                 // member is within the box's diagonal of the centroid, and r⊥ is 1-Lipschitz).
@@ -271,6 +237,40 @@ impl Tree {
                     continue;
                 }
             }
+            if nd.leaf {
+                for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
+                    let (c, r) = pp.class(x, s.p);
+                    let ln_r = fastmath::ln(r);
+                    let p = rd(c, r, ln_r);
+                    let v = mul(p, s.e);
+                    if c == 0 {
+                        add_flow(&mut vf, s.p, r, ln_r, scale(v, s.area));
+                    }
+                    let v = if self.harm { mul(v, factors(&s.m[c], s.n, sub(x, s.p))) } else { v };
+                    acc[c] = add(acc[c], scale(v, s.area));
+                    if coupled && c == 0 {
+                        for k in 0..3 {
+                            vd[k] = madd(vd[k], s.d[k], v[k] * s.area);
+                        }
+                    }
+                    if target.is_some() {
+                        mass = madd(mass, p, s.area);
+                    }
+                    if r < rho0 {
+                        if let (Some(f), 0) = (flow, c) {
+                            grad.add(f.normal, sub(s.p, x), s.e, s.area);
+                        }
+                        near_e[c] = madd(near_e[c], s.e, s.area);
+                        near_a[c] += s.area;
+                        if coupled && c == 0 {
+                            for k in 0..3 {
+                                near_d[k] = madd(near_d[k], s.d[k], s.e[k] * s.area);
+                            }
+                        }
+                    }
+                }
+                continue;
+            }
             stack.extend(nd.first..nd.first + nd.count);
         }
         for c in 0..2 {
@@ -308,6 +308,16 @@ impl Tree {
             None => (acc, vd, vf),
         }
     }
+}
+
+/// The kernel evaluations of node `nd` as a cluster: its centroid, or its sigma points (a leaf
+/// is a cluster only where these are fewer than its samples).
+fn evaluations(nd: &Node, sigma: bool) -> usize {
+    if !sigma {
+        return 1;
+    }
+    let live = nd.axes.iter().take_while(|a| a.iter().any(|&v| v != 0.0)).count();
+    2 * live + usize::from(live < 3)
 }
 
 /// What [`Tree::exitance_flow`] needs of the shading point: its unit normal and the channels'
