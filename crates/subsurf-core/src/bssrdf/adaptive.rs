@@ -213,8 +213,9 @@ pub fn build_node(
 
 /// A node's profile: the energy-exact Monte Carlo profile with R_d looked up in a log–log table
 /// (the renderer's [`RdTable`], ≤ 1.1·10⁻⁴ relative; the tree walk evaluates it at every sample,
-/// and the lookup is cheaper than the profile's own spline).
-type Node = Arc<dyn RadialProfile>;
+/// and the lookup is cheaper than the profile's own spline). The concrete type, not a trait
+/// object: [`Mix::value_ln`] inlines the lookups.
+type Node = Arc<RdTable>;
 
 fn node(d: &RadialData, max_rel_err: f64) -> Result<Node> {
     Ok(Arc::new(RdTable::new(Box::new(MonteCarloProfile::from_data(d.clone(), max_rel_err)?), 1.0)))
@@ -534,13 +535,20 @@ impl Mix {
         let total = (0..2).map(|i| p[i].as_ref().map_or(0.0, |q| w[i] * q.total())).sum();
         Mix { p, w, total }
     }
-    fn each(&self, f: impl Fn(&dyn RadialProfile) -> f64) -> f64 {
+    #[inline(always)]
+    fn each(&self, f: impl Fn(&RdTable) -> f64) -> f64 {
         (0..2)
             .map(|i| match &self.p[i] {
-                Some(q) if self.w[i] != 0.0 => self.w[i] * f(&**q),
+                Some(q) if self.w[i] != 0.0 => self.w[i] * f(q),
                 _ => 0.0,
             })
             .sum()
+    }
+    /// [`RadialProfile::rd_ln`] without the trait object (the tables' lookups inlined,
+    /// [`RdTable::value_ln`]): the adaptive kernel's tree walk.
+    #[inline(always)]
+    pub fn value_ln(&self, r: f64, ln_r: f64) -> f64 {
+        self.each(|q| q.value_ln(r, ln_r))
     }
 }
 
@@ -549,7 +557,7 @@ impl RadialProfile for Mix {
         self.each(|q| q.rd(r))
     }
     fn rd_ln(&self, r: f64, ln_r: f64) -> f64 {
-        self.each(|q| q.rd_ln(r, ln_r))
+        self.value_ln(r, ln_r)
     }
     fn reach(&self) -> f64 {
         (0..2).filter(|&i| self.w[i] != 0.0).filter_map(|i| self.p[i].as_ref()).map(|q| q.reach()).fold(0.0, f64::max)

@@ -605,8 +605,25 @@ impl Binned {
         }
         Binned { base, edges, mass, cum, s: sc.near }
     }
-    fn bin(&self, r: f64) -> usize {
+    /// The chord bin of radius `r` (mm).
+    #[inline(always)]
+    pub fn bin(&self, r: f64) -> usize {
         self.edges[1..NEAR_BINS].partition_point(|&e| e <= r)
+    }
+    /// Whether `other` has the same bins (then [`Binned::bin`] of one serves both).
+    pub fn same_bins(&self, other: &Binned) -> bool {
+        self.edges == other.edges
+    }
+    /// [`RadialProfile::rd_ln`] without the trait objects ([`Mix::value_ln`]): the adaptive
+    /// kernel's tree walk.
+    #[inline(always)]
+    pub fn value_ln(&self, r: f64, ln_r: f64) -> f64 {
+        self.value_ln_in(self.bin(r), r, ln_r)
+    }
+    /// [`Binned::value_ln`] given `r`'s bin `b` ([`Binned::bin`]).
+    #[inline(always)]
+    pub fn value_ln_in(&self, b: usize, r: f64, ln_r: f64) -> f64 {
+        self.s[b] * self.base.value_ln(r, ln_r)
     }
     /// [`cylinder_mass`] of this near side and the far side `t` on the cylinder of its bins'
     /// radius `rho` (the base's CDF per point, scaled per bin: half the work).
@@ -624,7 +641,7 @@ impl RadialProfile for Binned {
         self.s[self.bin(r)] * self.base.rd(r)
     }
     fn rd_ln(&self, r: f64, ln_r: f64) -> f64 {
-        self.s[self.bin(r)] * self.base.rd_ln(r, ln_r)
+        self.value_ln(r, ln_r)
     }
     fn reach(&self) -> f64 {
         self.base.reach()

@@ -178,6 +178,11 @@ pub struct Kernel {
     pub target: Option<Rgb>,
     /// [`Kernel::t_reach`].
     t_reach: f64,
+    /// Per channel R's reach ([`RadialProfile::reach`]; `beyond` asks at every node).
+    r_reach: [f64; 3],
+    /// Whether the channels' R have the same chord bins ([`Binned::same_bins`]; the bins' radius
+    /// is the curvature's, so they do: one bin look-up per pair).
+    one_bins: bool,
 }
 
 impl Kernel {
@@ -195,7 +200,9 @@ impl Kernel {
         let target =
             (!edge && is_tube_saddle(d, k1, k2)).then(|| std::array::from_fn(|k| r[k].cylinder_mass(&t[k], 1.0 / k1)));
         let t_reach = Kernel::t_reach(&r, &t);
-        Kernel { p: hit.p, n: hit.n, d, h: 0.5 * (k1 + k2), k: (k1, k2), r, t, target, t_reach }
+        let r_reach = std::array::from_fn(|k| r[k].reach());
+        let one_bins = r[0].same_bins(&r[1]) && r[0].same_bins(&r[2]);
+        Kernel { p: hit.p, n: hit.n, d, h: 0.5 * (k1 + k2), k: (k1, k2), r, t, target, t_reach, r_reach, one_bins }
     }
 
     /// The profile value per channel (mm⁻²) for light entering at `q`.
@@ -244,6 +251,9 @@ impl PairProfiles for Unnormalised<'_> {
     fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile {
         self.0.profile(c, k)
     }
+    fn rd3(&self, c: usize, r: f64, ln_r: f64) -> Rgb {
+        self.0.rd3(c, r, ln_r)
+    }
     fn beyond(&self, x: V3, lo: V3, hi: V3, near: f64) -> bool {
         self.0.beyond(x, lo, hi, near)
     }
@@ -269,13 +279,28 @@ impl PairProfiles for Kernel {
             &self.t[k]
         }
     }
+    /// [`Binned::value_ln`] or [`Mix::value_ln`] per channel (the same values as `profile`'s,
+    /// without the trait objects).
+    #[inline]
+    fn rd3(&self, c: usize, r: f64, ln_r: f64) -> Rgb {
+        if c == 0 {
+            if self.one_bins {
+                let b = self.r[0].bin(r);
+                std::array::from_fn(|k| self.r[k].value_ln_in(b, r, ln_r))
+            } else {
+                std::array::from_fn(|k| self.r[k].value_ln(r, ln_r))
+            }
+        } else {
+            std::array::from_fn(|k| self.t[k].value_ln(r, ln_r))
+        }
+    }
     fn target(&self) -> Option<Rgb> {
         self.target
     }
     /// Beyond R's reach from x, and beyond T's (`Kernel::t_reach`): an entry point across the
     /// part (d/2 < h ≤ [`BEYOND`]·d) with r⊥ within it is within √(reach² + (d/2)²) of x − d·n.
     fn beyond(&self, x: V3, lo: V3, hi: V3, near: f64) -> bool {
-        let r = self.r.iter().map(|p| p.reach()).fold(near, f64::max);
+        let r = self.r_reach.iter().copied().fold(near, f64::max);
         if box_distance2(x, lo, hi) <= r * r {
             return false;
         }

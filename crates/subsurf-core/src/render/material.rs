@@ -424,21 +424,39 @@ impl RdTable {
         let ln_rd: Vec<f64> = (0..n).map(|i| inner.rd(lo * (i as f64 * step).exp()).max(1e-300).ln()).collect();
         RdTable { inner, k, ln_r0: lo.ln(), inv_step: 1.0 / step, ln_rd, reach: hi }
     }
+
+    /// The table's value at ln r (inlined e^x, [`fastmath`]; within 2 ulp of libm's): what
+    /// [`RadialProfile::rd_ln`] gives, callable without the trait object (the adaptive kernel's
+    /// tree walk inlines it, `render::adaptive`).
+    #[inline(always)]
+    pub fn value_ln(&self, r: f64, ln_r: f64) -> f64 {
+        let x = (ln_r - self.ln_r0) * self.inv_step;
+        let n = self.ln_rd.len();
+        if n < 2 || !(r > 0.0 && x >= 0.0 && x < (n - 1) as f64) {
+            return self.outside(r);
+        }
+        // 0 ≤ x < n − 1: the truncation is the floor, and i + 1 < n
+        let xi = x as i64;
+        let (i, f) = (xi as usize, x - xi as f64);
+        let [a, b] = [self.ln_rd[i], self.ln_rd[i + 1]];
+        self.k * fastmath::exp((1.0 - f) * a + f * b)
+    }
+
+    /// k R_d(r) of the wrapped profile, outside the table.
+    #[cold]
+    #[inline(never)]
+    fn outside(&self, r: f64) -> f64 {
+        self.k * self.inner.rd(r)
+    }
 }
 
 impl RadialProfile for RdTable {
     fn rd(&self, r: f64) -> f64 {
-        self.rd_ln(r, fastmath::ln(r))
+        self.value_ln(r, fastmath::ln(r))
     }
-    /// The table's value at ln r (inlined e^x, [`fastmath`]; within 2 ulp of libm's).
+    /// [`RdTable::value_ln`].
     fn rd_ln(&self, r: f64, ln_r: f64) -> f64 {
-        let x = (ln_r - self.ln_r0) * self.inv_step;
-        if self.ln_rd.len() < 2 || !(r > 0.0 && x >= 0.0 && x < (self.ln_rd.len() - 1) as f64) {
-            return self.k * self.inner.rd(r);
-        }
-        let i = x as usize;
-        let f = x - i as f64;
-        self.k * fastmath::exp((1.0 - f) * self.ln_rd[i] + f * self.ln_rd[i + 1])
+        self.value_ln(r, ln_r)
     }
     fn total(&self) -> f64 {
         self.k * self.inner.total()

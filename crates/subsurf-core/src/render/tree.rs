@@ -101,19 +101,19 @@ impl Tree {
     /// this, those samples were clustered and the far class' near-field energy was lost: an
     /// optically small ketchup sphere, 10 mm at 0.59 × ketchup, under uniform light: red −37 %
     /// against the all-pairs sum; `docs/render.md`.)
-    pub fn exitance_with(&self, pp: &dyn PairProfiles, x: V3, epsilon: f64) -> Rgb {
+    pub fn exitance_with<P: PairProfiles + ?Sized>(&self, pp: &P, x: V3, epsilon: f64) -> Rgb {
         let [a, b] = self.exitance_classes(pp, x, epsilon);
         add(a, b)
     }
 
     /// [`exitance_with`](Self::exitance_with) per class of `pp` (0: the near side, 1: across):
     /// the adaptive model gives each class its own exit term.
-    pub fn exitance_classes(&self, pp: &dyn PairProfiles, x: V3, epsilon: f64) -> [Rgb; 2] {
+    pub fn exitance_classes<P: PairProfiles + ?Sized>(&self, pp: &P, x: V3, epsilon: f64) -> [Rgb; 2] {
         self.exitance_cut(pp, x, Cut { epsilon, sigma: false, coarse: 0.0 })
     }
 
     /// [`exitance_classes`](Self::exitance_classes) with the clusters of `cut`.
-    pub fn exitance_cut(&self, pp: &dyn PairProfiles, x: V3, cut: Cut) -> [Rgb; 2] {
+    pub fn exitance_cut<P: PairProfiles + ?Sized>(&self, pp: &P, x: V3, cut: Cut) -> [Rgb; 2] {
         self.sums(pp, x, cut, false, None).0
     }
 
@@ -121,7 +121,7 @@ impl Tree {
     /// contribution × its entry's exit-coupling vector ([`Coupled`]; the clusters' power-weighted
     /// mean, the near field's area-weighted): the near class' radiance leaving towards ω_o is then
     /// (near + V·ω_o,t) × its exit term ([`crate::bssrdf::coupling`]).
-    pub fn exitance_coupled(&self, pp: &dyn PairProfiles, x: V3, cut: Cut) -> ([Rgb; 2], Coupled) {
+    pub fn exitance_coupled<P: PairProfiles + ?Sized>(&self, pp: &P, x: V3, cut: Cut) -> ([Rgb; 2], Coupled) {
         let (a, v, _) = self.sums(pp, x, cut, true, None);
         (a, v)
     }
@@ -135,13 +135,19 @@ impl Tree {
     /// R(ρ₀) within ρ₀) adds −π ∇E ∫₀^ρ₀ (R − R(ρ₀)) B r² dr, ∇E the tangential gradient of the
     /// samples' irradiance within ρ₀ (least squares; the peak is symmetric about x, so only the
     /// irradiance's slope across it has a direction).
-    pub fn exitance_flow(&self, pp: &dyn PairProfiles, x: V3, cut: Cut, flow: &FlowAt) -> ([Rgb; 2], Coupled, Coupled) {
+    pub fn exitance_flow<P: PairProfiles + ?Sized>(
+        &self,
+        pp: &P,
+        x: V3,
+        cut: Cut,
+        flow: &FlowAt,
+    ) -> ([Rgb; 2], Coupled, Coupled) {
         self.sums(pp, x, cut, self.coupled, Some(flow))
     }
 
-    fn sums(
+    fn sums<P: PairProfiles + ?Sized>(
         &self,
-        pp: &dyn PairProfiles,
+        pp: &P,
         x: V3,
         cut: Cut,
         coupled: bool,
@@ -150,11 +156,11 @@ impl Tree {
         let epsilon = cut.epsilon;
         let rho0 = self.rho0;
         let cap: [Rgb; 2] = std::array::from_fn(|c| std::array::from_fn(|k| pp.profile(c, k).rd(rho0)));
-        let rd = |c: usize, r: f64| -> Rgb {
-            let ln_r = fastmath::ln(r); // once for the three channels' profiles
-            std::array::from_fn(|k| {
-                pp.profile(c, k).rd_ln(r, ln_r).min(if r < rho0 { cap[c][k] } else { f64::INFINITY })
-            })
+        // the profiles of class c at r given ln r (once for the three channels, the flow's too),
+        // flat-topped within ρ₀
+        let rd = |c: usize, r: f64, ln_r: f64| -> Rgb {
+            let v = pp.rd3(c, r, ln_r);
+            std::array::from_fn(|k| v[k].min(if r < rho0 { cap[c][k] } else { f64::INFINITY }))
         };
         let (mut acc, mut near_e, mut near_a) = ([[0.0; 3]; 2], [[0.0; 3]; 2], [0.0; 2]);
         let (mut vd, mut near_d) = ([[0.0; 3]; 3], [[0.0; 3]; 3]);
@@ -162,7 +168,7 @@ impl Tree {
         let mut vf = [[0.0; 3]; 3];
         let mut grad = Moments::default();
         // B_k(r) t̂ · w for a near-class pair of weight w (per channel) from entry point q
-        let add_flow = |vf: &mut Coupled, q: V3, r: f64, w: Rgb| {
+        let add_flow = |vf: &mut Coupled, q: V3, r: f64, ln_r: f64, w: Rgb| {
             let Some(f) = flow else { return };
             let d = sub(x, q);
             let t = sub(d, scale(f.normal, dot(d, f.normal)));
@@ -170,7 +176,6 @@ impl Tree {
             if !(tl > 0.0 && r > 0.0) {
                 return;
             }
-            let ln_r = fastmath::ln(r);
             for k in 0..3 {
                 vf[k] = madd(vf[k], t, w[k] * f.b[k].at_ln(ln_r) / tl);
             }
@@ -184,13 +189,62 @@ impl Tree {
             if pp.beyond(x, nd.lo, nd.hi, rho0) {
                 continue;
             }
+            let d = sub(x, nd.centroid);
+            let d2 = dot(d, d);
+            let inside = (0..3).all(|k| x[k] >= nd.lo[k] && x[k] <= nd.hi[k]);
+            let fine = nd.area < epsilon * d2;
+            let coarse = !fine && nd.area < cut.coarse * d2 && nd.contrast <= MAX_CONTRAST;
+            let sigma = cut.sigma || coarse;
+            if !inside && (fine || coarse) && (!nd.leaf || evaluations(nd, sigma) < nd.count as usize) {
+                let (c, r) = pp.class(x, nd.centroid);
+                // A far-class node that may hold samples within ρ₀ of r⊥ = 0 is opened (every
+                // member is within the box's diagonal of the centroid, and r⊥ is 1-Lipschitz).
+                if c == 0 || r >= rho0 + length(sub(nd.hi, nd.lo)) {
+                    // The kernel at the centroid, or the members' mean of it by the sigma points
+                    // (exact to second order in the cluster's extent: the centroid alone misses
+                    // the kernel's curvature and undercounts a convex profile).
+                    let mut point = |q: V3, w: f64| {
+                        let (c, r) = if w == 1.0 { (c, r) } else { pp.class(x, q) };
+                        let ln_r = fastmath::ln(r);
+                        let p = scale(rd(c, r, ln_r), w);
+                        if target.is_some() {
+                            mass = madd(mass, p, nd.area);
+                        }
+                        let v = mul(p, nd.power);
+                        if c == 0 {
+                            add_flow(&mut vf, q, r, ln_r, v);
+                        }
+                        let v = if self.harm { mul(v, factors(&nd.m[c], nd.n, sub(x, nd.centroid))) } else { v };
+                        acc[c] = add(acc[c], v);
+                        if coupled && c == 0 {
+                            for k in 0..3 {
+                                vd[k] = madd(vd[k], nd.d[k], v[k]);
+                            }
+                        }
+                    };
+                    if !sigma {
+                        point(nd.centroid, 1.0);
+                        continue;
+                    }
+                    let live = nd.axes.iter().take_while(|a| a.iter().any(|&v| v != 0.0)).count();
+                    if live < 3 {
+                        point(nd.centroid, (3 - live) as f64 / 3.0);
+                    }
+                    for a in nd.axes.iter().take(live) {
+                        point(add(nd.centroid, *a), 1.0 / 6.0);
+                        point(sub(nd.centroid, *a), 1.0 / 6.0);
+                    }
+                    continue;
+                }
+            }
             if nd.leaf {
                 for s in &self.samples[nd.first as usize..(nd.first + nd.count) as usize] {
                     let (c, r) = pp.class(x, s.p);
-                    let p = rd(c, r);
+                    let ln_r = fastmath::ln(r);
+                    let p = rd(c, r, ln_r);
                     let v = mul(p, s.e);
                     if c == 0 {
-                        add_flow(&mut vf, s.p, r, scale(v, s.area));
+                        add_flow(&mut vf, s.p, r, ln_r, scale(v, s.area));
                     }
                     let v = if self.harm { mul(v, factors(&s.m[c], s.n, sub(x, s.p))) } else { v };
                     acc[c] = add(acc[c], scale(v, s.area));
@@ -216,53 +270,6 @@ impl Tree {
                     }
                 }
                 continue;
-            }
-            let d = sub(x, nd.centroid);
-            let d2 = dot(d, d);
-            let inside = (0..3).all(|k| x[k] >= nd.lo[k] && x[k] <= nd.hi[k]);
-            let fine = nd.area < epsilon * d2;
-            let coarse = !fine && nd.area < cut.coarse * d2 && nd.contrast <= MAX_CONTRAST;
-            if !inside && (fine || coarse) {
-                let sigma = cut.sigma || coarse;
-                let (c, r) = pp.class(x, nd.centroid);
-                // A far-class node that may hold samples within ρ₀ of r⊥ = 0 is opened (every
-                // member is within the box's diagonal of the centroid, and r⊥ is 1-Lipschitz).
-                if c == 0 || r >= rho0 + length(sub(nd.hi, nd.lo)) {
-                    // The kernel at the centroid, or the members' mean of it by the sigma points
-                    // (exact to second order in the cluster's extent: the centroid alone misses
-                    // the kernel's curvature and undercounts a convex profile).
-                    let mut point = |q: V3, w: f64| {
-                        let (c, r) = if w == 1.0 { (c, r) } else { pp.class(x, q) };
-                        let p = scale(rd(c, r), w);
-                        if target.is_some() {
-                            mass = madd(mass, p, nd.area);
-                        }
-                        let v = mul(p, nd.power);
-                        if c == 0 {
-                            add_flow(&mut vf, q, r, v);
-                        }
-                        let v = if self.harm { mul(v, factors(&nd.m[c], nd.n, sub(x, nd.centroid))) } else { v };
-                        acc[c] = add(acc[c], v);
-                        if coupled && c == 0 {
-                            for k in 0..3 {
-                                vd[k] = madd(vd[k], nd.d[k], v[k]);
-                            }
-                        }
-                    };
-                    if !sigma {
-                        point(nd.centroid, 1.0);
-                        continue;
-                    }
-                    let live = nd.axes.iter().take_while(|a| a.iter().any(|&v| v != 0.0)).count();
-                    if live < 3 {
-                        point(nd.centroid, (3 - live) as f64 / 3.0);
-                    }
-                    for a in nd.axes.iter().take(live) {
-                        point(add(nd.centroid, *a), 1.0 / 6.0);
-                        point(sub(nd.centroid, *a), 1.0 / 6.0);
-                    }
-                    continue;
-                }
             }
             stack.extend(nd.first..nd.first + nd.count);
         }
@@ -301,6 +308,16 @@ impl Tree {
             None => (acc, vd, vf),
         }
     }
+}
+
+/// The kernel evaluations of node `nd` as a cluster: its centroid, or its sigma points (a leaf
+/// is a cluster only where these are fewer than its samples).
+fn evaluations(nd: &Node, sigma: bool) -> usize {
+    if !sigma {
+        return 1;
+    }
+    let live = nd.axes.iter().take_while(|a| a.iter().any(|&v| v != 0.0)).count();
+    2 * live + usize::from(live < 3)
 }
 
 /// What [`Tree::exitance_flow`] needs of the shading point: its unit normal and the channels'
@@ -426,6 +443,13 @@ pub trait PairProfiles {
     fn class(&self, x: V3, q: V3) -> (usize, f64);
     /// The profile of class `c` (0 or 1) for channel `k`.
     fn profile(&self, c: usize, k: usize) -> &dyn RadialProfile;
+    /// The three channels' profiles of class `c` at `r` (mm) given `ln_r` = ln r
+    /// ([`RadialProfile::rd_ln`]): the tree walk's one call per pair, which an implementation
+    /// may answer without the trait objects (the adaptive kernel's, `render::adaptive`).
+    #[inline]
+    fn rd3(&self, c: usize, r: f64, ln_r: f64) -> Rgb {
+        std::array::from_fn(|k| self.profile(c, k).rd_ln(r, ln_r))
+    }
     /// The profiles' integral over the surface (per channel) that [`Tree::exitance_with`]
     /// normalises the gathered sum to, if any: the sum is then scaled by this over the same
     /// profiles' integral over the tree's samples (their areas, with the same clusters and near
