@@ -498,7 +498,8 @@ def main(argv=None):
         help="seeds of the random_walk references (at least 2), whose mean is the reference",
     )
     ap.add_argument("--spp-low", type=int, default=16)
-    ap.add_argument("--spp", type=int, default=4)
+    # hierarchical's spp: 16, one tree walk per pixel (its default samples_per_exitance); 4 before session g
+    ap.add_argument("--spp", type=int, default=16)
     ap.add_argument("--spp-probe", type=int, default=64)
     ap.add_argument(
         "--model-seeds",

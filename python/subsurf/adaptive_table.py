@@ -33,13 +33,14 @@ from . import _core
 from .medium import Stack
 
 FORMAT = "subsurf-adaptive-table"
-FORMAT_VERSION = 9  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
+FORMAT_VERSION = 10  # 2: the curvature data (sphere, cavity and flat escapes per channel); 3: and cylinders;
 # 4: and the flat oblique pencil runs of the oblique-incidence gain (``oblique``, ``oblique_stderr``);
 # 5: and the sphere's azimuthal harmonic under pencil beams (``harmonic_near``, ``harmonic_far``);
 # 6: and the flat exit-angle histogram of the exit term (``exit``, ``exit_stderr``);
 # 7: and the flat pencil runs of the exit direction's coupling to the light's (``coupling``, ``coupling_stderr``);
 # 8: the same arrays, the sphere's and the cylinder's escapes traced to 0.5 % relative standard error;
 # 9: and the flat diffuse run of the exit direction's flow from the entry point (``flow``, ``flow_stderr``)
+# 10: T without the photons that crossed unscattered (the renderer adds that light itself)
 _ARRAYS = ("edges", "weight", "stderr", "single", "single_stderr")
 
 

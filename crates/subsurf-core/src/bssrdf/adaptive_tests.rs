@@ -62,16 +62,30 @@ fn infinite_node_is_the_monte_carlo_profile() {
 }
 
 /// Without absorption every photon leaves: R + T = 1 − R_sp for each photon, so the means agree
-/// to rounding (any weight lost or counted twice by the two tallies shows up at 10⁻⁹).
+/// to rounding (any weight lost or counted twice by the two tallies shows up at 10⁻⁹). σt d = 45:
+/// no photon crosses unscattered (T holds only scattered light, `unscattered_light_is_not_in_t`).
 #[test]
 fn non_absorbing_slab_conserves_energy() {
-    let s = one_layer(0.0, 1.0, 0.5);
+    let s = one_layer(0.0, 30.0, 0.95);
     let node =
         build_node(&s, 1.5, 0, 0, &settings(2000), &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();
     let rsp = crate::optics::fr_dielectric(1.0, 1.0, 1.4);
     let sum = node.top.total + node.bottom.total;
     assert!(node.bottom.total > 0.2, "{}", node.bottom.total);
     assert!((sum - (1.0 - rsp)).abs() < 1e-9, "R + T = {sum}, 1 - R_sp = {}", 1.0 - rsp);
+}
+
+/// T holds the scattered light only (the renderer adds the unscattered chord itself): a slab
+/// that does not scatter transmits nothing into T, though e^(−σt d) (1 − F)² = 0.59 of the
+/// entering power crosses it; its R is the light reflected inside it, unscattered as well.
+#[test]
+fn unscattered_light_is_not_in_t() {
+    let s = Stack::new(vec![Layer::new(1.4, 0.5, 0.0, 0.0, f64::INFINITY).unwrap()], 1.0, 1.0).unwrap();
+    let node =
+        build_node(&s, 1.0, 0, 0, &settings(2000), &AtomicBool::new(false), &AtomicU64::new(0)).unwrap().unwrap();
+    assert_eq!(node.bottom.total, 0.0);
+    assert!(node.bottom.weight.iter().all(|&w| w == 0.0));
+    assert!(node.top.total > 0.0, "{}", node.top.total);
 }
 
 /// Interpolation: exact nodes at the grid points, continuous between them and towards ∞, and
@@ -99,9 +113,12 @@ fn local_interpolation_is_continuous_and_totals_match_the_nodes() {
     assert_eq!(far, Local { i: ds.len() - 1, t: 1.0 });
     let (r_inf, t_inf) = t.totals(0, f64::INFINITY);
     assert!((r_inf - enter * t.data()[0][ds.len()].top.total).abs() < 1e-12 && t_inf == 0.0);
-    // thinner slabs reflect less and transmit more
+    // thinner slabs transmit more: T (scattered light only) plus what crosses unscattered,
+    // e^(−σt d) (1 − F(0)) per entering power
+    let f = 1.0 - crate::optics::fr_dielectric(1.0, 1.4, 1.0);
     let tot: Vec<(f64, f64)> = ds.iter().map(|&d| t.totals(0, d)).collect();
-    assert!(tot.windows(2).all(|w| w[1].1 < w[0].1), "{tot:?}");
+    let all: Vec<f64> = ds.iter().zip(&tot).map(|(&d, &(_, tr))| tr + f * (-2.2 * d).exp()).collect();
+    assert!(all.windows(2).all(|w| w[1] < w[0]), "{all:?} from {tot:?}");
     // the oblique gain: 1 at normal incidence, the runs' totals per entering power over R(0) at
     // the nodes, linear in μ between them (continuous), held below the last node
     let r0 = enter * t.data()[0][ds.len()].top.total;

@@ -543,6 +543,9 @@ impl Translucency for Hierarchical {
         }
         self.radiance_with(scene, hit, wo, depth, rng, cut)
     }
+    fn adds_unscattered(&self) -> bool {
+        true
+    }
 }
 
 impl Hierarchical {

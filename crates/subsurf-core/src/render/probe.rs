@@ -207,4 +207,7 @@ impl Translucency for Probe {
         let w = ft(m.eta, mu_o) / (PI * m.c_norm * pdf);
         add(scale(mul(mul(rd, e), tint(scene, hit)), w), s1)
     }
+    fn adds_unscattered(&self) -> bool {
+        true
+    }
 }

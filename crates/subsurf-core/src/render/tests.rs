@@ -289,6 +289,37 @@ fn shared_exitance_blocks_keep_the_image() {
     assert!(sd > 0.0 && sd < 0.2 * level, "the blocks changed the pixels by {sd} at a level of {level}");
 }
 
+/// The light that crosses a translucent part unscattered (`shade::unscattered`): a 1 mm slab
+/// that hardly scatters (σs = 10⁻⁶ mm⁻¹, a profile of total 10⁻⁹) between the camera and an
+/// area light, seen at normal incidence: the BSSRDF methods see the light through it at
+/// (1 − F(0))² e^(−σt d) of its radiance (to 10⁻³: the rays within 0.25° of the normal); the
+/// random walk does too (its paths include it), within 4σ.
+#[test]
+fn the_bssrdf_methods_see_a_light_through_a_thin_part() {
+    let (eta, sa) = (1.4, [0.5, 1.0, 2.0]);
+    let m = test_material([1e-9; 3], 1.0, sa, [1e-6; 3], 0.0, eta, false);
+    let slab = cuboid([-15.0, -15.0, -1.0], [15.0, 15.0, 0.0]).unwrap();
+    let light = Light::rect("l", [0.0, 0.0, -10.0], [20.0, 0.0, 0.0], [0.0, 20.0, 0.0], [1600.0 * PI; 3]).unwrap();
+    let s = scene(vec![slab], m, vec![light], [0.0; 3], Some(down_camera(2)));
+    let f = 1.0 - crate::optics::fr_dielectric(1.0, 1.0, eta);
+    for method in [Method::Hierarchical, Method::Probe] {
+        let img = render(&s, method, 4, &HierarchicalParams::default());
+        for k in 0..3 {
+            let want = f * f * (-(sa[k] + 1e-6f64)).exp(); // the light's radiance is 1
+            let got = img[k];
+            println!("{method:?} channel {k}: {got:.6} vs {want:.6}");
+            assert!((got / want - 1.0).abs() < 1e-3, "{method:?} channel {k}: {got} vs {want}");
+        }
+    }
+    let walk = Renderer::new(s.clone(), Method::RandomWalk, 3, &HierarchicalParams::default()).unwrap();
+    let (mean, se) = pixel_stats(&walk, 0, 0, 4000);
+    for k in 0..3 {
+        let want = f * f * (-sa[k]).exp();
+        println!("walk channel {k}: {:.5} ± {:.5} vs {want:.5}", mean[k], se[k]);
+        assert!((mean[k] - want).abs() < 4.0 * se[k] + 1e-3 * want, "walk channel {k}");
+    }
+}
+
 /// A camera inside an object, random_walk on an open mesh, unknown method: clear errors.
 #[test]
 fn bad_scenes_are_refused() {
