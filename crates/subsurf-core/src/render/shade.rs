@@ -28,7 +28,7 @@ pub const MAX_DEPTH: u32 = 6;
 /// towards `wo` (unit, on the outside), *not* counting the Fresnel-reflected part.
 pub trait Translucency: Send + Sync {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb;
-    /// Whether [`shade`] adds the light that crosses the object unscattered ([`unscattered`]):
+    /// Whether the shading (`shade`) adds the light that crosses the object unscattered ([`unscattered`]):
     /// the BSSRDF methods, whose profiles hold only scattered light; not the random walk, whose
     /// paths include it.
     fn adds_unscattered(&self) -> bool {
