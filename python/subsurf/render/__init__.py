@@ -65,8 +65,8 @@ def render(
     for any ``threads``.
     ``hierarchical`` = dict(spacing=, epsilon=, env_samples=, light_samples=, samples_per_exitance=)
     tunes that method (``samples_per_exitance``, default 16: consecutive samples of a pixel that
-    share one evaluation of the exitance, each applying its own direction; 1 evaluates it for
-    every sample)."""
+    share one evaluation of the exitance, each applying its own direction, and rays after a bounce
+    share it per cell of two sample spacings; 1 evaluates it for every sample and ray)."""
     if method not in METHODS:
         raise _core.ParameterError(f"method = {method!r} is not a render method: must be one of {list(METHODS)}")
     spp, _ = _core.render_check_settings(spp, seed)

@@ -77,6 +77,8 @@ pub struct HierarchicalParams {
     /// mean is unchanged but for the covariance of the direction factors and M_o across the
     /// pixel; the samples still resolve what changes within a pixel fast (a highlight's edge,
     /// the silhouette), which is where the error of a few samples per pixel is (`docs/render.md`).
+    /// Above 1, rays after a bounce (depth ≥ 1) also share the exitance per cell of 2 Δ
+    /// (`Hierarchical::deep`); 1 walks at every point.
     pub samples_per_exitance: u32,
 }
 
@@ -118,6 +120,11 @@ pub struct Hierarchical {
     /// Per pixel of the scene's camera, its latest block's exitance
     /// ([`Hierarchical::block_exitance`]; empty when `samples_per_exitance` is 1).
     blocks: Vec<Mutex<Block>>,
+    /// The exitances of the render's rays after a bounce (depth ≥ 1: a reflection off a
+    /// translucent surface that meets one again, a gathering ray of the single scattering),
+    /// shared over cells of [`CACHE_CELL`] at the render's cut ([`CellCache`]); `None` when
+    /// `samples_per_exitance` is 1 (every point walked at itself).
+    deep: Option<CellCache>,
 }
 
 /// A pixel's latest block of [`HierarchicalParams::samples_per_exitance`] camera samples: its
@@ -187,13 +194,16 @@ impl Hierarchical {
         let pixels =
             scene.camera.as_ref().filter(|_| params.samples_per_exitance > 1).map_or(0, |c| c.width * c.height);
         let blocks = (0..pixels).map(|_| Mutex::new(Block::EMPTY)).collect();
-        let mut h = Hierarchical { trees, params: *params, blocks };
+        let mut h = Hierarchical { trees, params: *params, blocks, deep: None };
         if unlit.reached.load(Ordering::Relaxed) {
             ctl.total.fetch_add(n_all as u64, Ordering::Relaxed);
             let cut = Cut { epsilon: h.params.epsilon.max(GATHER_EPSILON), sigma: true, coarse: 0.0 };
             let cached = Cached::new(scene, &h, &spots, cut, CACHE_CELL);
             let Some(trees) = gather(scene, params, &spots, seed ^ 0x4a42_2003, ctl, &cached) else { return Ok(None) };
             h.trees = trees;
+        }
+        if params.samples_per_exitance > 1 {
+            h.deep = Some(CellCache::new(scene, &spots, h.render_cut(), CACHE_CELL));
         }
         Ok(Some(h))
     }
@@ -280,23 +290,20 @@ impl Translucency for Coarse<'_> {
 /// (+2.6 % on the mean, the worst ray +60 %): not taken.
 const CACHE_CELL: f64 = 2.0;
 
-/// The second gathering's radiance with the tree walks shared: the exitance ([`Exitance`], the
-/// walk at [`GATHER_EPSILON`], independent of the ray's direction) is computed once per cell of
-/// a grid of side `cell` × Δ, at the irradiance sample nearest the mean of the cell's samples
-/// (so the error, first order in the offset from it, cancels over the cell), and reused for
-/// every ray that reaches the object in that cell with a normal within 25° of the sample's; the
-/// ray's own direction, point and normal give the rest ([`Hierarchical::radiance_from`]). A ray
-/// whose cell holds no sample, or whose normal differs, or on a textured object, is walked at
-/// its own point. A cell's value does not depend on which thread computes it first (the walk
-/// draws nothing), so the same seed gives the same image for any thread count. With the walks
-/// this cheap every ray that reaches a translucent surface is evaluated (before: a quarter,
-/// weighted 4×, whose noise every pixel shared).
-struct Cached<'a> {
-    inner: &'a Hierarchical,
+/// Exitances shared over a grid: the exitance ([`Exitance`], the walk at `cut`, independent of
+/// the ray's direction) is computed once per cell of side `cell` × Δ, at the irradiance sample
+/// nearest the mean of the cell's samples (so the error, first order in the offset from it,
+/// cancels over the cell), and reused for every point in that cell whose normal is within 25°
+/// of the sample's. A point whose cell holds no sample, or whose normal differs, or on a
+/// textured object, is walked at its own point. A cell's value does not depend on which thread
+/// computes it first (the walk draws nothing), so the same seed gives the same image for any
+/// thread count. Used by the second gathering ([`Cached`]) and by the render's rays after a
+/// bounce ([`Hierarchical::deep`]).
+struct CellCache {
     cut: Cut,
     /// Per object (none where it is opaque or textured).
     cells: Vec<Cells>,
-    /// Rays walked at their own point.
+    /// Points walked at their own point.
     misses: std::sync::atomic::AtomicU64,
 }
 
@@ -308,8 +315,8 @@ struct Cells {
     map: std::collections::HashMap<[i64; 3], (u32, Hit)>,
 }
 
-impl<'a> Cached<'a> {
-    fn new(scene: &Scene, inner: &'a Hierarchical, spots: &[Option<(Spots, f64)>], cut: Cut, cell: f64) -> Cached<'a> {
+impl CellCache {
+    fn new(scene: &Scene, spots: &[Option<(Spots, f64)>], cut: Cut, cell: f64) -> CellCache {
         let cells = spots
             .iter()
             .enumerate()
@@ -339,7 +346,22 @@ impl<'a> Cached<'a> {
                 Cells { side, vals: (0..firsts.len()).map(|_| Default::default()).collect(), map }
             })
             .collect();
-        Cached { inner, cut, cells, misses: Default::default() }
+        CellCache { cut, cells, misses: Default::default() }
+    }
+
+    /// The exitance of `tree` (material `m`) at `hit`: its cell's, else walked there.
+    fn exitance(&self, scene: &Scene, hit: &Hit, m: &Translucent, tree: &Tree) -> Exitance {
+        let c = &self.cells[hit.object];
+        let cell = if c.side > 0.0 { c.map.get(&key(hit.p, c.side)) } else { None };
+        match cell {
+            Some((i, h)) if dot(h.n, hit.n) >= CACHE_NORMAL_COS => {
+                *c.vals[*i as usize].get_or_init(|| exitance_at(scene, h, m, tree, self.cut))
+            }
+            _ => {
+                self.misses.fetch_add(1, Ordering::Relaxed);
+                exitance_at(scene, hit, m, tree, self.cut)
+            }
+        }
     }
 }
 
@@ -348,25 +370,31 @@ fn key(p: V3, side: f64) -> [i64; 3] {
     p.map(|x| (x / side).floor() as i64)
 }
 
-/// cos 25°: the largest angle between a ray's normal and its cell's sample's for [`Cached`].
+/// cos 25°: the largest angle between a point's normal and its cell's sample's ([`CellCache`]).
 const CACHE_NORMAL_COS: f64 = 0.906;
+
+/// The second gathering's radiance with the tree walks (at [`GATHER_EPSILON`]) shared over cells
+/// of [`CACHE_CELL`] ([`CellCache`]); the ray's own direction, point and normal give the rest
+/// ([`Hierarchical::radiance_from`]). With the walks this cheap every ray that reaches a
+/// translucent surface is evaluated (before: a quarter, weighted 4×, whose noise every pixel
+/// shared).
+struct Cached<'a> {
+    inner: &'a Hierarchical,
+    cache: CellCache,
+}
+
+impl<'a> Cached<'a> {
+    fn new(scene: &Scene, inner: &'a Hierarchical, spots: &[Option<(Spots, f64)>], cut: Cut, cell: f64) -> Cached<'a> {
+        Cached { inner, cache: CellCache::new(scene, spots, cut, cell) }
+    }
+}
 
 impl Translucency for Cached<'_> {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
-        let c = &self.cells[hit.object];
         let (Some(m), Some(tree)) = (shading_medium(scene, hit), self.inner.trees[hit.object].as_ref()) else {
             return [0.0; 3];
         };
-        let cell = if c.side > 0.0 { c.map.get(&key(hit.p, c.side)) } else { None };
-        let x = match cell {
-            Some((i, h)) if dot(h.n, hit.n) >= CACHE_NORMAL_COS => {
-                *c.vals[*i as usize].get_or_init(|| exitance_at(scene, h, m, tree, self.cut))
-            }
-            _ => {
-                self.misses.fetch_add(1, Ordering::Relaxed);
-                exitance_at(scene, hit, m, tree, self.cut)
-            }
-        };
+        let x = self.cache.exitance(scene, hit, m, tree);
         self.inner.radiance_from(scene, hit, wo, depth, rng, m, &x)
     }
 }
@@ -534,14 +562,17 @@ fn morton(acc: &super::accel::Accel, p: V3) -> u64 {
 
 impl Translucency for Hierarchical {
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
-        let e = self.params.epsilon;
-        let cut = Cut { epsilon: e, sigma: false, coarse: COARSE_FACTOR * e };
-        if depth == 0 {
-            if let (Some(x), Some(m)) = (self.block_exitance(scene, hit, cut), shading_medium(scene, hit)) {
-                return self.radiance_from(scene, hit, wo, depth, rng, m, &x);
-            }
-        }
-        self.radiance_with(scene, hit, wo, depth, rng, cut)
+        let cut = self.render_cut();
+        let (Some(m), Some(tree)) = (shading_medium(scene, hit), self.trees[hit.object].as_ref()) else {
+            return [0.0; 3];
+        };
+        let shared = match (depth, &self.deep) {
+            (0, _) => self.block_exitance(scene, hit, cut),
+            (_, Some(deep)) => Some(deep.exitance(scene, hit, m, tree)),
+            (_, None) => None,
+        };
+        let x = shared.unwrap_or_else(|| exitance_at(scene, hit, m, tree, cut));
+        self.radiance_from(scene, hit, wo, depth, rng, m, &x)
     }
     fn adds_unscattered(&self) -> bool {
         true
@@ -549,6 +580,12 @@ impl Translucency for Hierarchical {
 }
 
 impl Hierarchical {
+    /// The render's cut: clusters below `epsilon`, at their centroids.
+    fn render_cut(&self) -> Cut {
+        let e = self.params.epsilon;
+        Cut { epsilon: e, sigma: false, coarse: COARSE_FACTOR * e }
+    }
+
     /// For a camera sample's first surface `hit` ([`camera_sample`]): the exitance at the first
     /// sample of its block of [`HierarchicalParams::samples_per_exitance`], if that sample's ray
     /// meets the same object first (from the front, no light before it); else `None` (the
@@ -591,7 +628,9 @@ fn camera_hit(scene: &Scene, cs: CameraSample) -> Option<Hit> {
 }
 
 impl Hierarchical {
-    /// [`Translucency::radiance`] with the trees walked at the cluster bound `epsilon`.
+    /// [`Translucency::radiance`] with the trees walked at `cut` at the point itself (the
+    /// reference of the caches' tests).
+    #[cfg(test)]
     fn radiance_with(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng, cut: Cut) -> Rgb {
         // A textured material's profile is its texel's at the shading point x_o.
         let (Some(m), Some(tree)) = (shading_medium(scene, hit), self.trees[hit.object].as_ref()) else {

@@ -177,12 +177,41 @@ fn the_cached_exitance_is_the_walked_one() {
         sw += w;
         worst = worst.max((c / w - 1.0).abs());
     }
-    let walks = cached.cells[1].vals.iter().filter(|v| v.get().is_some()).count();
+    let walks = cached.cache.cells[1].vals.iter().filter(|v| v.get().is_some()).count();
     println!("cached/walked {:.5}, worst {worst:.4}, {walks} walks for {} rays", sc / sw, hits.len());
     assert!((sc / sw - 1.0).abs() < 0.02, "{sc} vs {sw}");
     assert!(worst < 0.5, "worst {worst}");
     assert!(walks * 10 < hits.len(), "{walks} walks");
-    let misses = cached.misses.load(Ordering::Relaxed) as usize;
+    let misses = cached.cache.misses.load(Ordering::Relaxed) as usize;
     assert!(misses * 20 < hits.len(), "{misses} rays walked at their own point");
     // measured 78 (the edges)
+}
+
+/// The render's rays after a bounce share the exitance per cell of 2 Δ at the render's cut
+/// ([`Hierarchical::deep`], on by default), against the walk at each ray's own point with
+/// `samples_per_exitance` 1 (no cache: the same trees, the same cut), on the same face as
+/// [`the_cached_exitance_is_the_walked_one`]; camera rays (depth 0) are not cached.
+#[test]
+fn rays_after_a_bounce_share_the_cached_exitance() {
+    let (scene, hits) = facing_blocks(4_000);
+    let shared = HierarchicalParams { env_samples: 4, light_samples: 4, ..Default::default() };
+    let each = HierarchicalParams { samples_per_exitance: 1, ..shared };
+    let (h, w) = (Hierarchical::new(&scene, &shared, 3).unwrap(), Hierarchical::new(&scene, &each, 3).unwrap());
+    assert!(w.deep.is_none());
+    let (mut sc, mut sw, mut worst) = (0.0, 0.0, 0.0f64);
+    for (i, (hit, wo)) in hits.iter().enumerate() {
+        let c = h.radiance(&scene, hit, *wo, 1, &mut PhotonRng::new(13, i as u64))[0];
+        let x = w.radiance(&scene, hit, *wo, 1, &mut PhotonRng::new(13, i as u64))[0];
+        assert_eq!(h.radiance(&scene, hit, *wo, 0, &mut PhotonRng::new(13, i as u64))[0], x, "depth 0 is walked");
+        sc += c;
+        sw += x;
+        worst = worst.max((c / x - 1.0).abs());
+    }
+    let deep = h.deep.as_ref().unwrap();
+    let walks = deep.cells[1].vals.iter().filter(|v| v.get().is_some()).count();
+    println!("cached/walked {:.5}, worst {worst:.4}, {walks} walks for {} rays", sc / sw, hits.len());
+    assert!((sc / sw - 1.0).abs() < 0.02, "{sc} vs {sw}");
+    assert!(worst < 0.5, "worst {worst}");
+    assert!(walks * 10 < hits.len(), "{walks} walks");
+    assert!((deep.misses.load(Ordering::Relaxed) as usize) * 20 < hits.len());
 }
