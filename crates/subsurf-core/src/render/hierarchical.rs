@@ -47,7 +47,7 @@ use crate::rng::PhotonRng;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::sync::atomic::Ordering;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 /// Settings of the hierarchical method.
 #[derive(Clone, Copy, Debug)]
@@ -178,7 +178,7 @@ impl Hierarchical {
     }
 
     /// [`new`](Self::new), cancellable: adds the number of irradiance samples to `ctl.total`
-    /// (again before a second gathering), counts the finished ones in `ctl.done` and polls
+    /// (again before each further gathering), counts the finished ones in `ctl.done` and polls
     /// `ctl.cancel` before each; `None` when cancelled.
     pub fn new_with(
         scene: &Scene,
@@ -200,15 +200,20 @@ impl Hierarchical {
             scene.camera.as_ref().filter(|_| params.samples_per_exitance > 1).map_or(0, |c| c.width * c.height);
         let blocks = (0..pixels).map(|_| Mutex::new(Block::EMPTY)).collect();
         let mut h = Hierarchical { trees, params: *params, blocks, deep: None, powers: vec![] };
-        if unlit.reached.load(Ordering::Relaxed) {
-            ctl.total.fetch_add(n_all as u64, Ordering::Relaxed);
+        let reached = unlit.reached.load(Ordering::Relaxed);
+        // the cells' grid, built once for the gatherings' caches and the render's
+        let grid = (reached || params.samples_per_exitance > 1).then(|| {
             let cut = Cut { epsilon: h.params.epsilon.max(GATHER_EPSILON), sigma: true, coarse: 0.0 };
+            CellCache::new(scene, &spots, cut, CACHE_CELL)
+        });
+        if let Some(grid) = grid.as_ref().filter(|_| reached) {
+            ctl.total.fetch_add(n_all as u64, Ordering::Relaxed);
             h.powers.push(power(&h.trees));
             for g in 0..MAX_BOUNCES {
                 if g > 0 {
                     ctl.total.fetch_add(n_all as u64, Ordering::Relaxed);
                 }
-                let cached = Cached::new(scene, &h, &spots, cut, CACHE_CELL);
+                let cached = Cached { inner: &h, cache: grid.fresh(grid.cut) };
                 let key = seed ^ (0x4a42_2003 + 0x100 * g);
                 let Some(trees) = gather(scene, params, &spots, key, ctl, &cached) else { return Ok(None) };
                 drop(cached);
@@ -221,7 +226,7 @@ impl Hierarchical {
             }
         }
         if params.samples_per_exitance > 1 {
-            h.deep = Some(CellCache::new(scene, &spots, h.render_cut(), CACHE_CELL));
+            h.deep = grid.map(|g| g.fresh(h.render_cut()));
         }
         Ok(Some(h))
     }
@@ -345,12 +350,13 @@ struct CellCache {
     misses: std::sync::atomic::AtomicU64,
 }
 
-/// One object's cache: the cell side (mm; 0: none), per cell its sample and its value.
+/// One object's cache: the cell side (mm; 0: none), per cell its sample (the grid, shared by
+/// every cache over the same samples: [`CellCache::fresh`]) and its value.
 #[derive(Default)]
 struct Cells {
     side: f64,
     vals: Vec<std::sync::OnceLock<Exitance>>,
-    map: std::collections::HashMap<[i64; 3], (u32, Hit)>,
+    map: std::sync::Arc<std::collections::HashMap<[i64; 3], (u32, Hit)>>,
 }
 
 impl CellCache {
@@ -381,7 +387,21 @@ impl CellCache {
                 let mut firsts: Vec<([i64; 3], usize)> = best.into_iter().map(|(k, (_, j))| (k, j)).collect();
                 firsts.sort_unstable_by_key(|&(_, j)| j);
                 let map = firsts.iter().enumerate().map(|(i, &(k, j))| (k, (i as u32, spots[j].0))).collect();
-                Cells { side, vals: (0..firsts.len()).map(|_| Default::default()).collect(), map }
+                Cells { side, vals: (0..firsts.len()).map(|_| Default::default()).collect(), map: Arc::new(map) }
+            })
+            .collect();
+        CellCache { cut, cells, misses: Default::default() }
+    }
+
+    /// A cache over the same cells at `cut`, with no value computed yet (the grid is shared).
+    fn fresh(&self, cut: Cut) -> CellCache {
+        let cells = self
+            .cells
+            .iter()
+            .map(|c| Cells {
+                side: c.side,
+                vals: c.vals.iter().map(|_| Default::default()).collect(),
+                map: c.map.clone(),
             })
             .collect();
         CellCache { cut, cells, misses: Default::default() }
@@ -419,12 +439,6 @@ const CACHE_NORMAL_COS: f64 = 0.906;
 struct Cached<'a> {
     inner: &'a Hierarchical,
     cache: CellCache,
-}
-
-impl<'a> Cached<'a> {
-    fn new(scene: &Scene, inner: &'a Hierarchical, spots: &[Option<(Spots, f64)>], cut: Cut, cell: f64) -> Cached<'a> {
-        Cached { inner, cache: CellCache::new(scene, spots, cut, cell) }
-    }
 }
 
 impl Translucency for Cached<'_> {

@@ -166,7 +166,7 @@ fn the_cached_exitance_is_the_walked_one() {
     let h = Hierarchical::new(&scene, &params, 3).unwrap();
     let spots: Vec<Option<(Spots, f64)>> = (0..scene.objects.len()).map(|oi| placed(&scene, oi, &params)).collect();
     let cut = Cut { epsilon: GATHER_EPSILON, sigma: true, coarse: 0.0 };
-    let cached = Cached::new(&scene, &h, &spots, cut, CACHE_CELL);
+    let cached = Cached { inner: &h, cache: CellCache::new(&scene, &spots, cut, CACHE_CELL) };
     let walked = Coarse { inner: &h, cut };
     let (mut sc, mut sw, mut worst) = (0.0, 0.0, 0.0f64);
     for (i, (hit, wo)) in hits.iter().enumerate() {
