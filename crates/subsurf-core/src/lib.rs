@@ -25,6 +25,8 @@ pub mod names;
 pub mod optics;
 pub mod render;
 pub mod rng;
+pub mod sobol;
+mod sobol_table;
 pub mod stats;
 
 pub use error::{Error, Result};

@@ -109,10 +109,51 @@ pub fn xoshiro128pp_next(s: &mut [u32; 4]) -> u32 {
     r
 }
 
-/// One photon's random stream (see the module docs for its exact definition).
+/// One photon's random stream (see the module docs for its exact definition), or a camera
+/// sample's: the same stream, with the first events of the sample's random walks drawn from a
+/// scrambled Sobol point where [`Qmc`] is armed.
 #[derive(Clone, Debug)]
 pub struct PhotonRng {
     s: [u32; 4],
+    q: Qmc,
+}
+
+/// Randomized quasi-Monte Carlo coordinates for the first events of a camera sample's random
+/// walks (`render::random_walk`): coordinate d ≥ [`Qmc::FIRST`] of the sample's Sobol point is
+/// `owen(sobol(d, index), dim_seed(key, d))` ([`crate::sobol`]; `index` is the sample's index in
+/// its pixel, so the samples 0 … 2ᵐ − 1 of a pixel are the sequence's first net, scrambled per
+/// pixel). Event j < [`Qmc::EVENTS`] of walk w (of n) of the sample takes the block of
+/// [`Qmc::BLOCK`] coordinates from FIRST + (j·n + w)·BLOCK; draws beyond a block, after those
+/// events or the table's dimensions, or while no walk is active come from the stream. Each coordinate is used at most
+/// once per sample and every scrambled point is uniform in [0, 1)^D, so the estimator's
+/// expectation is that of independent uniforms: unbiased, with the samples of a pixel
+/// stratified in the early events' free paths, directions and channel choices.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Qmc {
+    index: u32,
+    key: u32,
+    /// Whether the sample's coordinates are still unused ([`PhotonRng::qmc_arm`] takes them).
+    ready: bool,
+    /// The walks sharing the coordinates (0: none armed) and the one walking now.
+    walks: u32,
+    walk: u32,
+    active: bool,
+    /// The next coordinate and the end of the current block (equal: draws from the stream).
+    dim: u32,
+    end: u32,
+}
+
+impl Qmc {
+    /// The first coordinate of the walks' blocks (0 and 1 place the sample in its pixel).
+    pub const FIRST: u32 = 2;
+    /// Coordinates per event: the channel, the free path, and the direction at a collision (the
+    /// phase ξ and a disc point) or the Fresnel ξ at a boundary.
+    pub const BLOCK: u32 = 5;
+    /// Events per walk that take a block (within the table's dimensions). Measured on the
+    /// benchmark's environment scenes (docs/render.md, "Sobol points for the walks' first
+    /// events"): the skin torus's per-pixel variance 4.43 → 2.39, 2.32, 2.31·10⁻⁴ with 4, 8 and
+    /// all events (25), the ear's 3.62 → 2.85, 2.66, 2.63·10⁻⁴; each event costs its draws.
+    pub const EVENTS: u32 = 8;
 }
 
 impl PhotonRng {
@@ -128,7 +169,7 @@ impl PhotonRng {
     /// [`ZERO_STATE_GUARD`]).
     #[inline]
     pub fn from_state(s: [u32; 4]) -> Self {
-        PhotonRng { s: if s == [0; 4] { ZERO_STATE_GUARD } else { s } }
+        PhotonRng { s: if s == [0; 4] { ZERO_STATE_GUARD } else { s }, q: Qmc::default() }
     }
 
     /// The xoshiro128++ state (the stream continues from it, see [`PhotonRng::from_state`]).
@@ -140,7 +181,51 @@ impl PhotonRng {
     /// The next 32-bit word of the stream.
     #[inline(always)]
     pub fn next_u32(&mut self) -> u32 {
+        if self.q.dim < self.q.end {
+            return self.q.next();
+        }
         xoshiro128pp_next(&mut self.s)
+    }
+
+    /// This stream with the Sobol coordinates of a camera sample (`index`: its shuffled index in
+    /// the pixel's sequence; `key`: the scrambling key), unarmed ([`Qmc`]).
+    pub fn with_qmc(mut self, index: u32, key: u32) -> Self {
+        self.q = Qmc { index, key, ready: true, ..Qmc::default() };
+        self
+    }
+
+    /// Arm the sample's Sobol coordinates for `walks` walks (once per sample: a second call, or
+    /// a stream without them, arms nothing). Returns whether armed.
+    pub fn qmc_arm(&mut self, walks: u32) -> bool {
+        let armed = self.q.ready && walks > 0;
+        if armed {
+            self.q.walks = walks;
+        }
+        self.q.ready = false;
+        armed
+    }
+
+    /// Walk `w` (< the armed count) starts: its events take their blocks until [`Self::qmc_pause`].
+    pub fn qmc_walk(&mut self, w: u32) {
+        self.q.active = w < self.q.walks;
+        self.q.walk = w;
+        self.q.end = self.q.dim;
+    }
+
+    /// Event `j` of the active walk starts: the next draws are its block's coordinates.
+    #[inline(always)]
+    pub fn qmc_event(&mut self, j: u32) {
+        if self.q.active {
+            self.q.event(j);
+        }
+    }
+
+    /// No more coordinates until the next [`Self::qmc_walk`] (the walk ended, or what follows
+    /// is not its own: a path traced on after it leaves).
+    #[inline]
+    pub fn qmc_pause(&mut self) {
+        self.q.active = false;
+        self.q.end = self.q.dim;
     }
 
     /// A uniform number in the open interval (0, 1) (never exactly 0 or 1, so `ln u` is finite).
@@ -164,6 +249,10 @@ impl PhotonRng {
     /// scattering azimuth (`mc::kernel`) and for Malley's cosine-weighted directions (`mc::source`).
     #[inline(always)]
     pub fn disc_point(&mut self) -> (f64, f64) {
+        if self.q.end >= self.q.dim + 2 {
+            // Sobol coordinates: the concentric map (no rejection, which would shift them).
+            return concentric(self.uniform(), self.uniform());
+        }
         loop {
             let x = self.symmetric();
             let y = self.symmetric();
@@ -174,9 +263,164 @@ impl PhotonRng {
     }
 }
 
+impl Qmc {
+    #[inline(never)]
+    fn next(&mut self) -> u32 {
+        let d = self.dim;
+        self.dim += 1;
+        crate::sobol::scrambled(d as usize, self.index, crate::sobol::dim_seed(self.key, d))
+    }
+
+    fn event(&mut self, j: u32) {
+        if j >= Self::EVENTS {
+            return self.pause_blocks();
+        }
+        let block = (j as u64 * self.walks as u64 + self.walk as u64) * Self::BLOCK as u64 + Self::FIRST as u64;
+        if block + Self::BLOCK as u64 <= crate::sobol::DIMS as u64 {
+            self.dim = block as u32;
+            self.end = self.dim + Self::BLOCK;
+        } else {
+            self.pause_blocks();
+        }
+    }
+
+    fn pause_blocks(&mut self) {
+        self.active = false;
+        self.end = self.dim;
+    }
+}
+
+/// Shirley & Chiu's concentric map of (u, v) ∈ (0, 1)² onto the open unit disc (P. Shirley, K.
+/// Chiu, "A low distortion map between disk and square", J. Graph. Tools 2(3), 1997): uniform
+/// to uniform, and never the centre (2u − 1 ≠ 0 for the stream's uniforms). Its angle is
+/// (π/4)(b/a) or π/2 − (π/4)(a/b), so one [`sin_cos_quarter`] of an angle in [−π/4, π/4].
+#[inline]
+fn concentric(u: f64, v: f64) -> (f64, f64) {
+    let (a, b) = (2.0 * u - 1.0, 2.0 * v - 1.0);
+    if a.abs() > b.abs() {
+        let (s, c) = sin_cos_quarter(std::f64::consts::FRAC_PI_4 * (b / a));
+        (a * c, a * s)
+    } else {
+        let (s, c) = sin_cos_quarter(std::f64::consts::FRAC_PI_4 * (a / b));
+        (b * s, b * c)
+    }
+}
+
+/// (sin t, cos t) for |t| ≤ π/4 by their Taylor polynomials to t¹⁷ and t¹⁸ (truncation below
+/// (π/4)¹⁹/19! ≈ 10⁻¹⁹; measured within 2·10⁻¹⁶ of `f64::sin_cos`), a third of its cost.
+#[inline]
+fn sin_cos_quarter(t: f64) -> (f64, f64) {
+    let x = t * t;
+    // 1/(2k+1)! and 1/(2k)!, k = 1 … 9, in Horner form
+    let s = 1.0
+        - x / 6.0
+            * (1.0
+                - x / 20.0
+                    * (1.0
+                        - x / 42.0
+                            * (1.0
+                                - x / 72.0
+                                    * (1.0 - x / 110.0 * (1.0 - x / 156.0 * (1.0 - x / 210.0 * (1.0 - x / 272.0)))))));
+    let c = 1.0
+        - x / 2.0
+            * (1.0
+                - x / 12.0
+                    * (1.0
+                        - x / 30.0
+                            * (1.0
+                                - x / 56.0
+                                    * (1.0
+                                        - x / 90.0
+                                            * (1.0
+                                                - x / 132.0
+                                                    * (1.0 - x / 182.0 * (1.0 - x / 240.0 * (1.0 - x / 306.0))))))));
+    (t * s, c)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A camera sample's Sobol coordinates: armed once, each walk's events take their own blocks
+    /// (walk w of n, event j: FIRST + (j·n + w)·BLOCK), a block's draws beyond BLOCK, the walk's
+    /// events from EVENTS on and everything after a pause come from the stream, and a stream without
+    /// coordinates (or armed a second time) is the plain stream.
+    #[test]
+    fn sobol_coordinates_are_used_once() {
+        use crate::sobol::{dim_seed, scrambled};
+        let (index, key) = (5u32, 0x1234_5678u32);
+        let want = |d: u32| u32_to_open01(scrambled(d as usize, index, dim_seed(key, d)));
+        let mut plain = PhotonRng::new(3, 4);
+        let mut r = PhotonRng::new(3, 4).with_qmc(index, key);
+        assert!(r.qmc_arm(2) && !r.qmc_arm(2));
+        r.qmc_walk(1);
+        r.qmc_event(0);
+        for d in 7..12 {
+            assert_eq!(r.uniform(), want(d));
+        }
+        assert_eq!(r.uniform(), plain.uniform(), "after the block: the stream");
+        r.qmc_event(3);
+        assert_eq!(r.uniform(), want(Qmc::FIRST + 7 * Qmc::BLOCK));
+        r.qmc_pause();
+        r.qmc_event(4);
+        assert_eq!(r.uniform(), plain.uniform(), "paused: the stream");
+        r.qmc_walk(0);
+        r.qmc_event(0);
+        assert_eq!(r.uniform(), want(2));
+        r.qmc_event(Qmc::EVENTS);
+        assert_eq!(r.uniform(), plain.uniform(), "after EVENTS: the stream");
+        r.qmc_event(1);
+        assert_eq!(r.uniform(), plain.uniform(), "and for the rest of the walk");
+        let mut never = PhotonRng::new(3, 4);
+        assert!(!never.qmc_arm(1));
+        never.qmc_walk(0);
+        never.qmc_event(0);
+        assert_eq!(never.uniform(), PhotonRng::new(3, 4).uniform());
+    }
+
+    /// Over the keys (pixels), a coordinate of one sample is uniform (χ² over 32 cells, 31
+    /// degrees of freedom: 70 is beyond its 99.99 % point) and two coordinates are
+    /// uncorrelated (|r| < 5/√n), for the first sample (the unscrambled point 0) and others.
+    #[test]
+    fn scrambled_coordinates_are_uniform_over_pixels() {
+        use crate::sobol::{dim_seed, scrambled};
+        let n = 16_384u32;
+        for (index, d) in [(0u32, 2u32), (0, 41), (1, 3), (77, 100), (255, 127)] {
+            let u: Vec<(f64, f64)> = (0..n)
+                .map(|k| {
+                    let key = philox4x32_10([k, 0, 0, 0], [9, 9])[3];
+                    let f = |d: u32| u32_to_open01(scrambled(d as usize, index, dim_seed(key, d)));
+                    (f(d), f(d - 1))
+                })
+                .collect();
+            let mut cells = [0.0f64; 32];
+            for &(a, _) in &u {
+                cells[(a * 32.0) as usize] += 1.0;
+            }
+            let e = n as f64 / 32.0;
+            let chi2: f64 = cells.iter().map(|c| (c - e) * (c - e) / e).sum();
+            assert!(chi2 < 70.0, "sample {index} dimension {d}: chi2 {chi2:.1}");
+            let m = |f: &dyn Fn(&(f64, f64)) -> f64| u.iter().map(f).sum::<f64>() / n as f64;
+            let cov = m(&|p| (p.0 - 0.5) * (p.1 - 0.5));
+            assert!(
+                (12.0 * cov).abs() < 5.0 / (n as f64).sqrt(),
+                "sample {index} dimensions {d}, {}: r {}",
+                d - 1,
+                12.0 * cov
+            );
+        }
+    }
+
+    /// The concentric map's sine and cosine agree with `f64::sin_cos` over [−π/4, π/4].
+    #[test]
+    fn quarter_sin_cos_is_exact() {
+        let q = std::f64::consts::FRAC_PI_4;
+        for i in 0..=20_000 {
+            let t = q * (i as f64 / 10_000.0 - 1.0);
+            let ((s, c), (s0, c0)) = (sin_cos_quarter(t), t.sin_cos());
+            assert!((s - s0).abs() < 2e-16 && (c - c0).abs() < 2e-16, "{t}: {s} {s0} {c} {c0}");
+        }
+    }
 
     /// Random123 `tests/kat_vectors`, the three "philox4x32 10" lines (counter, key → output).
     #[test]

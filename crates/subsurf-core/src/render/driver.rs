@@ -163,7 +163,8 @@ impl Renderer {
     pub fn sample(&self, x: usize, y: usize, s: u32) -> Rgb {
         let cam = self.camera();
         let idx = (y * cam.width + x) as u64;
-        let mut rng = PhotonRng::new(self.seed, ((s as u64) << 32) | idx);
+        let (qi, qk) = super::pixel::sample_key(self.seed, idx, s);
+        let mut rng = PhotonRng::new(self.seed, ((s as u64) << 32) | idx).with_qmc(qi, qk);
         let cs = CameraSample { seed: self.seed, pixel: idx, s };
         let _now = Tracing::start(cs);
         let l = trace(&self.scene, cam.position, camera_ray(cam, cs), u32::MAX, 0, &mut rng, self.tr.as_ref());

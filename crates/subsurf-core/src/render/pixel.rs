@@ -17,42 +17,31 @@
 //! independent of every other's and the same for any thread count.
 
 use crate::rng::{philox4x32_10, u32_to_open01};
-
-/// The second dimension of the Sobol sequence: the generator matrix of the primitive
-/// polynomial x + 1 (direction numbers v₀ = 2³¹, vⱼ = vⱼ₋₁ ⊕ vⱼ₋₁ ≫ 1); the first dimension
-/// is the van der Corput sequence, `i.reverse_bits()`.
-fn sobol_1(mut i: u32) -> u32 {
-    let (mut x, mut v) = (0u32, 1u32 << 31);
-    while i != 0 {
-        if i & 1 == 1 {
-            x ^= v;
-        }
-        i >>= 1;
-        v ^= v >> 1;
-    }
-    x
-}
-
-/// A nested uniform (Owen) scramble of the 32-bit fraction `v` by `seed`: each output bit
-/// depends only on the bits above it, bijectively (pbrt-v4's `FastOwenScrambler`).
-fn owen(v: u32, seed: u32) -> u32 {
-    let mut v = v.reverse_bits();
-    v ^= v.wrapping_mul(0x3d20_adea);
-    v = v.wrapping_add(seed);
-    v = v.wrapping_mul((seed >> 16) | 1);
-    v ^= v.wrapping_mul(0x0552_6c56);
-    v ^= v.wrapping_mul(0x53a2_2864);
-    v.reverse_bits()
-}
+use crate::sobol::{owen, sobol};
 
 /// The offset (x, y) ∈ (0, 1)² within pixel `pixel` (its row-major index) of camera sample `s`
 /// for image seed `seed`.
 pub fn pixel_offset(seed: u64, pixel: u64, s: u32) -> (f64, f64) {
+    let (i, k) = sample_point(seed, pixel, s);
+    (u32_to_open01(owen(i.reverse_bits(), k[1])), u32_to_open01(owen(sobol(1, i), k[2])))
+}
+
+/// Camera sample `s` of pixel `pixel` for image seed `seed`: its index in the Sobol sequence of
+/// the random walks' first events ([`crate::rng::Qmc`], coordinates ≥ 2) and their scrambling
+/// key. The index is `s` itself: a pixel's samples 0 … 2ᵐ − 1 are the sequence's first net,
+/// Owen-scrambled per pixel (the shuffle of [`pixel_offset`] would not stratify more, and its
+/// random high bits make each coordinate cost ~16 XORs instead of ~log₂ spp / 2); the pairing
+/// with the pixel offset's points is a fixed permutation, independent scrambles on either side.
+pub fn sample_key(seed: u64, pixel: u64, s: u32) -> (u32, u32) {
+    (s, sample_point(seed, pixel, s).1[3])
+}
+
+/// The sample's shuffled Sobol index and its pixel's Philox block of scrambling seeds.
+fn sample_point(seed: u64, pixel: u64, s: u32) -> (u32, [u32; 4]) {
     // "PIXL": keeps these Philox blocks apart from the photon streams (counter word 2 = 0 there)
     let k = philox4x32_10([pixel as u32, (pixel >> 32) as u32, 0x5049_584c, 0], [seed as u32, (seed >> 32) as u32]);
     // the shuffle maps samples k·2ᵐ … (k+1)·2ᵐ − 1 onto one aligned block of 2ᵐ Sobol indices
-    let i = owen(s, k[0]);
-    (u32_to_open01(owen(i.reverse_bits(), k[1])), u32_to_open01(owen(sobol_1(i), k[2])))
+    (owen(s, k[0]), k)
 }
 
 #[cfg(test)]
@@ -114,19 +103,6 @@ mod tests {
                 [corr(&|i| (pts[i].0, pts[i + 1].0), m), corr(&|i| (pts[i].1, pts[i + 1].1), m), corr(&|i| pts[i], m)]
             {
                 assert!(c.abs() < 5.0 / (n as f64).sqrt(), "seed {seed} sample {s}: correlation {c:.4}");
-            }
-        }
-    }
-
-    /// The scramble is a bijection on 8-bit prefixes and leaves lower bits out of higher ones.
-    #[test]
-    fn owen_scramble_is_nested() {
-        for seed in [0u32, 1, 0xdead_beef] {
-            let mut hi: Vec<u32> = (0..256u32).map(|v| owen(v << 24, seed) >> 24).collect();
-            hi.sort_unstable();
-            assert_eq!(hi, (0..256).collect::<Vec<_>>(), "seed {seed}");
-            for v in [0u32, 0x1234_5678, u32::MAX] {
-                assert_eq!(owen(v, seed) >> 20, owen(v & 0xfff0_0000, seed) >> 20, "seed {seed}");
             }
         }
     }

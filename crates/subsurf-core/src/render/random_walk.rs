@@ -128,6 +128,9 @@ pub struct RandomWalk {
     /// The scale c_f of the next-flight probability q_f = min(1, c_f e^{−τ_lb})
     /// ([`FLIGHT_SCALE`]).
     pub flight_scale: f64,
+    /// The camera path's walks draw their first events from the sample's scrambled Sobol point
+    /// ([`crate::rng::Qmc`]; on by default; off: the sample's stream alone).
+    pub qmc: bool,
     /// Per object: the coefficients c (per channel) of the Fresnel coin's control variate where
     /// a walk leaves every object through that object's boundary ([`super::fresnel_control`]);
     /// empty (off) but in scenes lit by the environment alone.
@@ -380,6 +383,8 @@ impl Carrier for Radiance<'_> {
     }
 
     fn exit(&mut self, scene: &Scene, h: &Hit, d: V3, rng: &mut PhotonRng) {
+        // What is traced from here on is not this walk's: no more of its Sobol coordinates.
+        rng.qmc_pause();
         // A straight exit after a collision: the lights it meets directly are what the
         // collision's next-flight estimator counted (`light_next_flight`), or else, for the
         // connections the facet search finds, the connections (`exit_counted_by_nee`).
@@ -481,6 +486,7 @@ impl RandomWalk {
             sigma_t_min,
             beams: scene.lights.iter().map(|l| if nee { Beams::new(scene, l) } else { None }).collect(),
             fresnel_control: vec![],
+            qmc: true,
         };
         if env_only {
             rw.fresnel_control = super::fresnel_control::coefficients(scene, &rw);
@@ -504,8 +510,13 @@ impl RandomWalk {
         let Some(m) = scene.material(hit.object).translucent() else { return [0.0; 3] };
         // One walk carrying every channel (spectral MIS), or walks of one or two channels.
         let (starts, n) = if self.split_channels { walk_starts(m, self.split_albedo) } else { ([[1.0; 3]; 3], 1) };
+        // The camera path's walks take the sample's Sobol coordinates (`Qmc`: once per sample).
+        let qmc = depth == 0 && self.qmc && rng.qmc_arm(n as u32);
         let mut l = [0.0; 3];
-        for &beta in &starts[..n] {
+        for (w, &beta) in starts[..n].iter().enumerate() {
+            if qmc {
+                rng.qmc_walk(w as u32);
+            }
             let mut c = Radiance {
                 rw: self,
                 depth,
@@ -523,6 +534,7 @@ impl RandomWalk {
                 coin: None,
             };
             walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);
+            rng.qmc_pause();
             l = add(l, c.l);
         }
         l

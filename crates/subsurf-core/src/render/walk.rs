@@ -301,7 +301,9 @@ pub fn walk<C: Carrier>(
     // Whether the walker's point was shown inside a convex scene's body (`Accel::intersect_walk`):
     // kept along free paths cleared of surfaces, dropped at a boundary.
     let mut held = false;
-    for _ in 0..MAX_EVENTS {
+    for event in 0..MAX_EVENTS {
+        // A camera sample's first events draw their block of Sobol coordinates (`Qmc`).
+        rng.qmc_event(event);
         let Some(m) = media.medium(scene) else { return c.lost(p, false) };
         let Some(k) = c.channel(m, rng) else { return };
         // σt, or a grid's majorant (delta tracking); stretched on a guided flight.

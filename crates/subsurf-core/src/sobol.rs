@@ -1,0 +1,186 @@
+//! The Sobol sequence in [`DIMS`] dimensions with hash-based Owen scrambling: the randomized
+//! quasi-Monte Carlo points of the renderer's camera samples ([`crate::rng::Qmc`],
+//! `render::pixel`).
+//!
+//! - Direction numbers: S. Joe, F. Y. Kuo, "Constructing Sobol sequences with better
+//!   two-dimensional projections", SIAM J. Sci. Comput. 30 (2008) 2635–2654 (the file
+//!   new-joe-kuo-6.21201; [`crate::sobol_table`], generated and checked against SciPy by
+//!   `docs/scripts/sobol_directions.py`); dimension 0 is the van der Corput sequence. Point i's
+//!   coordinate d is the XOR of the direction numbers of i's set bits (the natural order, so
+//!   points k·2ᵐ … (k+1)·2ᵐ − 1 form a (t, m, s)-net).
+//! - Scrambling: the nested uniform (Owen) scramble of each coordinate, by a hash (B. Burley,
+//!   "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020; the hash is pbrt-v4's
+//!   `FastOwenScrambler`, `util/lowdiscrepancy.h`). With independent random seeds per
+//!   coordinate each scrambled point is uniform in [0, 1)^D, so an estimator fed with them is
+//!   unbiased, while the points of a block keep the net's stratification.
+
+/// Dimensions of the table (0 … DIMS − 1).
+pub const DIMS: usize = crate::sobol_table::JOE_KUO.len() + 1;
+
+/// The 32 direction numbers of every dimension, each bit-reversed (so that a point's reversed
+/// coordinate, the input of the Owen scramble, is their XOR), built at compile time.
+static REVERSED: [[u32; 32]; DIMS] = reversed_matrices();
+
+const fn reversed_matrices() -> [[u32; 32]; DIMS] {
+    let mut m = [[0u32; 32]; DIMS];
+    let mut k = 0;
+    while k < 32 {
+        m[0][k] = 1 << k; // van der Corput: vₖ = 2^{31−k}, reversed
+        k += 1;
+    }
+    let mut d = 1;
+    while d < DIMS {
+        let v = directions(crate::sobol_table::JOE_KUO[d - 1].0, crate::sobol_table::JOE_KUO[d - 1].1);
+        let mut k = 0;
+        while k < 32 {
+            m[d][k] = v[k].reverse_bits();
+            k += 1;
+        }
+        d += 1;
+    }
+    m
+}
+
+/// The direction numbers v₀ … v₃₁ of the dimension of primitive polynomial `poly` (its bits:
+/// x^s + a₁x^{s−1} + … + a_{s−1}x + 1) and initial numbers m₁ … m_s (Bratley & Fox 1988):
+/// vₖ = mₖ 2^{31−k} for k < s, then vₖ = v_{k−s} ⊕ (v_{k−s} ≫ s) ⊕ ⊕_{0<j<s} aⱼ v_{k−j}.
+const fn directions(poly: u32, init: &[u32]) -> [u32; 32] {
+    let s = (31 - poly.leading_zeros()) as usize;
+    let mut v = [0u32; 32];
+    let mut k = 0;
+    while k < 32 {
+        v[k] = if k < s {
+            init[k] << (31 - k)
+        } else {
+            let mut x = v[k - s] ^ (v[k - s] >> s);
+            let mut j = 1;
+            while j < s {
+                if (poly >> (s - j)) & 1 == 1 {
+                    x ^= v[k - j];
+                }
+                j += 1;
+            }
+            x
+        };
+        k += 1;
+    }
+    v
+}
+
+/// Coordinate `dim` (< [`DIMS`]) of point `i` of the unscrambled sequence, a 32-bit fraction.
+#[inline]
+pub fn sobol(dim: usize, i: u32) -> u32 {
+    sobol_reversed(dim, i).reverse_bits()
+}
+
+/// [`sobol`] bit-reversed.
+#[inline]
+fn sobol_reversed(dim: usize, mut i: u32) -> u32 {
+    let v = &REVERSED[dim];
+    let mut x = 0;
+    while i != 0 {
+        x ^= v[i.trailing_zeros() as usize];
+        i &= i - 1;
+    }
+    x
+}
+
+/// A nested uniform (Owen) scramble of the 32-bit fraction `v` by `seed`: each output bit
+/// depends only on the bits above it, bijectively (pbrt-v4's `FastOwenScrambler`).
+#[inline]
+pub fn owen(v: u32, seed: u32) -> u32 {
+    owen_reversed(v.reverse_bits(), seed)
+}
+
+/// [`owen`] of the fraction whose bit reversal is `r`.
+#[inline]
+fn owen_reversed(mut v: u32, seed: u32) -> u32 {
+    v ^= v.wrapping_mul(0x3d20_adea);
+    v = v.wrapping_add(seed);
+    v = v.wrapping_mul((seed >> 16) | 1);
+    v ^= v.wrapping_mul(0x0552_6c56);
+    v ^= v.wrapping_mul(0x53a2_2864);
+    v.reverse_bits()
+}
+
+/// Coordinate `dim` of point `i`, Owen-scrambled by `seed`.
+#[inline]
+pub fn scrambled(dim: usize, i: u32, seed: u32) -> u32 {
+    owen_reversed(sobol_reversed(dim, i), seed)
+}
+
+/// The scramble seed of dimension `dim` for a sample's `key`: MurmurHash3's 32-bit finaliser of
+/// key ⊕ (dim + 1)·φ (independent-looking seeds for every dimension).
+#[inline]
+pub fn dim_seed(key: u32, dim: u32) -> u32 {
+    let mut h = key ^ (dim + 1).wrapping_mul(0x9e37_79b9);
+    h ^= h >> 16;
+    h = h.wrapping_mul(0x85eb_ca6b);
+    h ^= h >> 13;
+    h = h.wrapping_mul(0xc2b2_ae35);
+    h ^ (h >> 16)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Coordinates of points 1, 2, 3, 5, 77, 255 in a few dimensions, as SciPy's unscrambled
+    /// `qmc.Sobol(128)` gives them (it lists point i at row r with r ⊕ (r ≫ 1) = i, Gray-code
+    /// order), times 2³²; dimension 0 is the bit reversal of i.
+    #[test]
+    fn matches_the_reference_points() {
+        let idx = [1u32, 2, 3, 5, 77, 255];
+        let want: [(usize, [u32; 6]); 6] = [
+            (2, [2147483648, 3221225472, 1073741824, 3758096384, 4261412864, 1325400064]),
+            (3, [2147483648, 3221225472, 1073741824, 2684354560, 1375731712, 2365587456]),
+            (10, [2147483648, 1073741824, 3221225472, 536870912, 2919235584, 2835349504]),
+            (100, [2147483648, 3221225472, 1073741824, 3758096384, 3523215360, 352321536]),
+            (64, [2147483648, 1073741824, 3221225472, 2684354560, 3925868544, 788529152]),
+            (127, [2147483648, 3221225472, 1073741824, 3758096384, 1845493760, 520093696]),
+        ];
+        for (d, w) in want {
+            assert_eq!(idx.map(|i| sobol(d, i)), w, "dimension {d}");
+        }
+        for i in [1u32, 6, 77, 1 << 20] {
+            assert_eq!(sobol(0, i), i.reverse_bits());
+        }
+        assert_eq!(DIMS, 128);
+    }
+
+    /// Each coordinate of the first 2⁸ points is a (0, 8, 1)-net (one point in each interval of
+    /// 2⁻⁸), in every dimension; and the pair of dimensions (0, 1) is a (0, 8, 2)-net.
+    #[test]
+    fn the_first_points_are_nets() {
+        let n = 256u32;
+        for d in 0..DIMS {
+            let mut seen = vec![false; n as usize];
+            for i in 0..n {
+                let c = (sobol(d, i) >> 24) as usize;
+                assert!(!seen[c], "dimension {d}: two of the first 256 points in one interval of 1/256");
+                seen[c] = true;
+            }
+        }
+        for a in 0..=8 {
+            let mut boxes = vec![0u32; 256];
+            for i in 0..n {
+                let (x, y) = ((sobol(0, i) as u64) >> (32 - a), (sobol(1, i) as u64) >> (24 + a));
+                boxes[(x << (8 - a) | y) as usize] += 1;
+            }
+            assert!(boxes.iter().all(|&b| b == 1), "boxes 2^{a} × 2^{}", 8 - a);
+        }
+    }
+
+    /// The scramble is a bijection on 8-bit prefixes and leaves lower bits out of higher ones.
+    #[test]
+    fn owen_scramble_is_nested() {
+        for seed in [0u32, 1, 0xdead_beef] {
+            let mut hi: Vec<u32> = (0..256u32).map(|v| owen(v << 24, seed) >> 24).collect();
+            hi.sort_unstable();
+            assert_eq!(hi, (0..256).collect::<Vec<_>>(), "seed {seed}");
+            for v in [0u32, 0x1234_5678, u32::MAX] {
+                assert_eq!(owen(v, seed) >> 20, owen(v & 0xfff0_0000, seed) >> 20, "seed {seed}");
+            }
+        }
+    }
+}
