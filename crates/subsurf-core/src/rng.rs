@@ -150,8 +150,7 @@ impl Qmc {
     /// phase ξ and a disc point) or the Fresnel ξ at a boundary.
     pub const BLOCK: u32 = 5;
     /// Events per walk that take a block (within the table's dimensions). Measured on the
-    /// benchmark's environment scenes (docs/render.md, "Sobol points for the walks' first
-    /// events"): the skin torus's per-pixel variance 4.43 → 2.39, 2.32, 2.31·10⁻⁴ with 4, 8 and
+    /// benchmark's environment scenes (`docs/scripts/walk_efficiency.py`, six renders): the skin torus's per-pixel variance 4.43 → 2.39, 2.32, 2.31·10⁻⁴ with 4, 8 and
     /// all events (25), the ear's 3.62 → 2.85, 2.66, 2.63·10⁻⁴; each event costs its draws.
     pub const EVENTS: u32 = 8;
 }
