@@ -36,6 +36,8 @@ pub struct CellLists {
     start: Vec<u32>,
     ids: Vec<u32>,
     pairs: usize,
+    /// The slab test's widening of a cell's t range (10⁻⁹ of the grid's side).
+    eps: f64,
 }
 
 /// Words of a row's slab header.
@@ -53,7 +55,15 @@ impl CellLists {
             return None;
         }
         let pad = 1e-6 * h * n.iter().copied().max().unwrap_or(1) as f64;
-        let mut g = CellLists { lo, h, n, start: vec![0; n[0] * n[1] * n[2] + 1], ids: vec![], pairs: 0 };
+        let mut g = CellLists {
+            lo,
+            h,
+            n,
+            start: vec![0; n[0] * n[1] * n[2] + 1],
+            ids: vec![],
+            pairs: 0,
+            eps: 1e-9 * h * n.iter().copied().max().unwrap_or(1) as f64,
+        };
         // The (cell, triangle) pairs, then a counting sort of them by cell into compressed rows
         // (a listed cell's row starts with its slab).
         let mut pairs: Vec<(u32, u32)> = Vec::new();
@@ -74,7 +84,7 @@ impl CellLists {
             g.ids[fill[k as usize] as usize] = i;
             fill[k as usize] += 1;
         }
-        let tol = 1e-9 * h * n.iter().copied().max().unwrap_or(1) as f64 + pad;
+        let tol = g.eps + pad;
         for k in 0..n[0] * n[1] * n[2] {
             let (from, to) = (g.start[k] as usize, g.start[k + 1] as usize);
             if from < to {
@@ -229,8 +239,7 @@ impl CellLists {
         let f = |i: usize| f32::from_bits(w[i]) as f64;
         let nrm = [f(0), f(1), f(2)];
         let (a, b) = (dot(nrm, o), dot(nrm, d));
-        let e = 1e-9 * self.h * self.n[0].max(self.n[1]).max(self.n[2]) as f64;
-        let (s0, s1) = (a + (t0 - e) * b, a + (t1 + e) * b);
+        let (s0, s1) = (a + (t0 - self.eps) * b, a + (t1 + self.eps) * b);
         let (lo, hi) = (f(3), f(4));
         !(s0.max(s1) < lo || s0.min(s1) > hi)
     }

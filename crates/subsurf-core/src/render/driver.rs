@@ -68,7 +68,11 @@ pub struct CameraSample {
 /// The unit direction of camera sample `cs`'s ray (from `cam.position`): through its point of
 /// the pixel ([`super::pixel::pixel_offset`]).
 pub fn camera_ray(cam: &Camera, cs: CameraSample) -> V3 {
-    let (u, v) = super::pixel::pixel_offset(cs.seed, cs.pixel, cs.s);
+    camera_ray_at(cam, cs, super::pixel::pixel_offset(cs.seed, cs.pixel, cs.s))
+}
+
+/// The unit direction through offset (u, v) of camera sample `cs`'s pixel.
+fn camera_ray_at(cam: &Camera, cs: CameraSample, (u, v): (f64, f64)) -> V3 {
     let w = cam.width as u64;
     cam.ray((cs.pixel % w) as f64 + u, (cs.pixel / w) as f64 + v)
 }
@@ -163,11 +167,12 @@ impl Renderer {
     pub fn sample(&self, x: usize, y: usize, s: u32) -> Rgb {
         let cam = self.camera();
         let idx = (y * cam.width + x) as u64;
-        let (qi, qk) = super::pixel::sample_key(self.seed, idx, s);
+        let (offset, (qi, qk)) = super::pixel::pixel_sample(self.seed, idx, s);
         let mut rng = PhotonRng::new(self.seed, ((s as u64) << 32) | idx).with_qmc(qi, qk);
         let cs = CameraSample { seed: self.seed, pixel: idx, s };
         let _now = Tracing::start(cs);
-        let l = trace(&self.scene, cam.position, camera_ray(cam, cs), u32::MAX, 0, &mut rng, self.tr.as_ref());
+        let d = camera_ray_at(cam, cs, offset);
+        let l = trace(&self.scene, cam.position, d, u32::MAX, 0, &mut rng, self.tr.as_ref());
         if l.iter().all(|v| v.is_finite()) {
             l
         } else {

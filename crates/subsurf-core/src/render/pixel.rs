@@ -22,18 +22,19 @@ use crate::sobol::{owen, sobol};
 /// The offset (x, y) ∈ (0, 1)² within pixel `pixel` (its row-major index) of camera sample `s`
 /// for image seed `seed`.
 pub fn pixel_offset(seed: u64, pixel: u64, s: u32) -> (f64, f64) {
-    let (i, k) = sample_point(seed, pixel, s);
-    (u32_to_open01(owen(i.reverse_bits(), k[1])), u32_to_open01(owen(sobol(1, i), k[2])))
+    pixel_sample(seed, pixel, s).0
 }
 
-/// Camera sample `s` of pixel `pixel` for image seed `seed`: its index in the Sobol sequence of
-/// the random walks' first events ([`crate::rng::Qmc`], coordinates ≥ 2) and their scrambling
-/// key. The index is `s` itself: a pixel's samples 0 … 2ᵐ − 1 are the sequence's first net,
-/// Owen-scrambled per pixel (the shuffle of [`pixel_offset`] would not stratify more, and its
-/// random high bits make each coordinate cost ~16 XORs instead of ~log₂ spp / 2); the pairing
-/// with the pixel offset's points is a fixed permutation, independent scrambles on either side.
-pub fn sample_key(seed: u64, pixel: u64, s: u32) -> (u32, u32) {
-    (s, sample_point(seed, pixel, s).1[3])
+/// Camera sample `s` of pixel `pixel` for image seed `seed`: its [`pixel_offset`], and its index
+/// in the Sobol sequence of the random walks' first events ([`crate::rng::Qmc`], coordinates
+/// ≥ 2) with their scrambling key, from one Philox block. That index is `s` itself: a pixel's
+/// samples 0 … 2ᵐ − 1 are the sequence's first net, Owen-scrambled per pixel (the offset's
+/// shuffle would not stratify more, and its random high bits make each coordinate cost ~16 XORs
+/// instead of ~log₂ spp / 2); the pairing with the offset's points is a fixed permutation, with
+/// independent scrambles on either side.
+pub fn pixel_sample(seed: u64, pixel: u64, s: u32) -> ((f64, f64), (u32, u32)) {
+    let (i, k) = sample_point(seed, pixel, s);
+    ((u32_to_open01(owen(sobol(0, i), k[1])), u32_to_open01(owen(sobol(1, i), k[2]))), (s, k[3]))
 }
 
 /// The sample's shuffled Sobol index and its pixel's Philox block of scrambling seeds.
