@@ -4,7 +4,7 @@
 //!
 //! - Direction numbers: S. Joe, F. Y. Kuo, "Constructing Sobol sequences with better
 //!   two-dimensional projections", SIAM J. Sci. Comput. 30 (2008) 2635–2654 (the file
-//!   new-joe-kuo-6.21201; [`crate::sobol_table`], generated and checked against SciPy by
+//!   new-joe-kuo-6.21201; `sobol_table.rs`, generated and checked against SciPy by
 //!   `docs/scripts/sobol_directions.py`); dimension 0 is the van der Corput sequence. Point i's
 //!   coordinate d is the XOR of the direction numbers of i's set bits (the natural order, so
 //!   points k·2ᵐ … (k+1)·2ᵐ − 1 form a (t, m, s)-net).
