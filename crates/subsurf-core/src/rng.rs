@@ -122,8 +122,10 @@ pub struct PhotonRng {
 /// walks (`render::random_walk`): coordinate d ≥ [`Qmc::FIRST`] of the sample's Sobol point is
 /// `owen(sobol(d, index), dim_seed(key, d))` ([`crate::sobol`]; `index` is the sample's index in
 /// its pixel, so the samples 0 … 2ᵐ − 1 of a pixel are the sequence's first net, scrambled per
-/// pixel). Event j < [`Qmc::EVENTS`] of walk w (of n) of the sample takes the block of
-/// [`Qmc::BLOCK`] coordinates from FIRST + (j·n + w)·BLOCK; draws beyond a block, after those
+/// pixel). Event j < [`Qmc::EVENTS`] of walk w of the sample takes the block of [`Qmc::BLOCK`]
+/// coordinates from FIRST + (w·EVENTS + j)·BLOCK (walk-major: walk 0's events take the first
+/// coordinates, the best stratified; the renderer gives walk 0 to its noisiest walk, measured in
+/// `render::random_walk`); draws beyond a block, after those
 /// events or the table's dimensions, or while no walk is active come from the stream. Each
 /// coordinate is used at most once per sample and every scrambled point is uniform in [0, 1)^D,
 /// so the estimator's
@@ -147,13 +149,20 @@ pub struct Qmc {
 impl Qmc {
     /// The first coordinate of the walks' blocks (0 and 1 place the sample in its pixel).
     pub const FIRST: u32 = 2;
-    /// Coordinates per event: the channel, the free path, and the direction at a collision (the
-    /// phase ξ and a disc point) or the Fresnel ξ at a boundary.
-    pub const BLOCK: u32 = 5;
+    /// Coordinates per event: the channel, the free path, and the direction at a collision (an
+    /// isotropic medium's disc point; under Henyey–Greenstein the phase ξ and the disc point's x,
+    /// its y from the stream) or the Fresnel ξ at a boundary. Measured on the benchmark's
+    /// environment scenes (isotropic media; `docs/scripts/walk_efficiency.py`, six renders):
+    /// blocks of 4 against 5, per-pixel variance skin 2.33 → 2.17·10⁻⁴, ear 2.27 → 2.17·10⁻⁴,
+    /// marble the same (6.20 → 6.18·10⁻⁴): the events' coordinates stay in the sequence's first
+    /// dimensions; blocks of 3 (a direction half from the stream): 3.39 and 2.95·10⁻⁴.
+    pub const BLOCK: u32 = 4;
     /// Events per walk that take a block (within the table's dimensions). Measured on the
-    /// benchmark's environment scenes (`docs/scripts/walk_efficiency.py`, six renders): the skin
-    /// torus's per-pixel variance 4.43 → 2.39, 2.32, 2.31·10⁻⁴ with 4, 8 and all events (25),
-    /// the ear's 3.62 → 2.85, 2.66, 2.63·10⁻⁴; each event costs its draws.
+    /// benchmark's environment scenes (`docs/scripts/walk_efficiency.py`, six renders), with
+    /// blocks of 5 interleaved by walk: the skin torus's per-pixel variance 4.43 → 2.39, 2.32,
+    /// 2.31·10⁻⁴ with 4, 8 and all events (25), the ear's 3.62 → 2.85, 2.66, 2.63·10⁻⁴; with
+    /// blocks of 4, walk-major, 12 events: skin 2.16, ear 2.18·10⁻⁴ (8: 2.17, 2.17). Each event
+    /// costs its draws.
     pub const EVENTS: u32 = 8;
 }
 
@@ -276,7 +285,7 @@ impl Qmc {
         if j >= Self::EVENTS {
             return self.pause_blocks();
         }
-        let block = (j as u64 * self.walks as u64 + self.walk as u64) * Self::BLOCK as u64 + Self::FIRST as u64;
+        let block = (self.walk as u64 * Self::EVENTS as u64 + j as u64) * Self::BLOCK as u64 + Self::FIRST as u64;
         if block + Self::BLOCK as u64 <= crate::sobol::DIMS as u64 {
             self.dim = block as u32;
             self.end = self.dim + Self::BLOCK;
@@ -335,7 +344,7 @@ mod tests {
     use super::*;
 
     /// A camera sample's Sobol coordinates: armed once, each walk's events take their own blocks
-    /// (walk w of n, event j: FIRST + (j·n + w)·BLOCK), a block's draws beyond BLOCK, the walk's
+    /// (walk w, event j: FIRST + (w·EVENTS + j)·BLOCK), a block's draws beyond BLOCK, the walk's
     /// events from EVENTS on and everything after a pause come from the stream, and a stream without
     /// coordinates (or armed a second time) is the plain stream.
     #[test]
@@ -348,12 +357,13 @@ mod tests {
         assert!(r.qmc_arm(2) && !r.qmc_arm(2));
         r.qmc_walk(1);
         r.qmc_event(0);
-        for d in 7..12 {
+        let walk1 = Qmc::FIRST + Qmc::EVENTS * Qmc::BLOCK;
+        for d in walk1..walk1 + Qmc::BLOCK {
             assert_eq!(r.uniform(), want(d));
         }
         assert_eq!(r.uniform(), plain.uniform(), "after the block: the stream");
         r.qmc_event(3);
-        assert_eq!(r.uniform(), want(Qmc::FIRST + 7 * Qmc::BLOCK));
+        assert_eq!(r.uniform(), want(walk1 + 3 * Qmc::BLOCK));
         r.qmc_pause();
         r.qmc_event(4);
         assert_eq!(r.uniform(), plain.uniform(), "paused: the stream");

@@ -30,6 +30,9 @@ use super::math::{dot, madd, V3};
 pub struct CellLists {
     lo: V3,
     h: f64,
+    /// 1/h (the start cell by a product: a point within an ulp of a face may land in the
+    /// neighbouring cell, which the δ padding of the lists covers).
+    inv_h: f64,
     n: [usize; 3],
     /// Row k is `ids[start[k]..start[k + 1]]`: empty, or the cell's slab ([`SLAB`] words: the
     /// normal's three f32 and lo, hi as f32 bits) then its triangles.
@@ -58,6 +61,7 @@ impl CellLists {
         let mut g = CellLists {
             lo,
             h,
+            inv_h: 1.0 / h,
             n,
             start: vec![0; n[0] * n[1] * n[2] + 1],
             ids: vec![],
@@ -165,19 +169,18 @@ impl CellLists {
         let mut next = [f64::INFINITY; 3];
         let mut delta = [f64::INFINITY; 3];
         for a in 0..3 {
-            let f = (q[a] - self.lo[a]) / self.h;
+            let f = (q[a] - self.lo[a]) * self.inv_h;
             if !(f >= 0.0 && f < self.n[a] as f64) {
                 return None;
             }
             c[a] = f as usize;
-            if d[a] > 0.0 {
-                step[a] = 1;
-                next[a] = (self.lo[a] + (c[a] + 1) as f64 * self.h - o[a]) / d[a];
-                delta[a] = self.h / d[a];
-            } else if d[a] < 0.0 {
-                step[a] = -1;
-                next[a] = (self.lo[a] + c[a] as f64 * self.h - o[a]) / d[a];
-                delta[a] = -self.h / d[a];
+            // One division per axis: the cell's exit and the step between exits along d.
+            if d[a] != 0.0 {
+                let inv = 1.0 / d[a];
+                let up = d[a] > 0.0;
+                step[a] = if up { 1 } else { -1 };
+                next[a] = (self.lo[a] + (c[a] + usize::from(up)) as f64 * self.h - o[a]) * inv;
+                delta[a] = self.h * inv.abs();
             }
         }
         let mut k = self.flat(c);
