@@ -54,7 +54,11 @@ impl CellLists {
     /// Lists over the grid with corner `lo`, cell size `h` (mm) and `n` cells per axis (the
     /// distance grid's). None for an empty grid.
     pub fn new(tris: &[Tri], lo: V3, h: f64, n: [usize; 3]) -> Option<CellLists> {
-        if !(h > 0.0) || n.contains(&0) || n.iter().product::<usize>() >= u32::MAX as usize {
+        if !(h > 0.0)
+            || n.contains(&0)
+            || n.iter().any(|&c| c > i32::MAX as usize)
+            || n.iter().product::<usize>() >= u32::MAX as usize
+        {
             return None;
         }
         let pad = 1e-6 * h * n.iter().copied().max().unwrap_or(1) as f64;
@@ -173,13 +177,16 @@ impl CellLists {
             if !(f >= 0.0 && f < self.n[a] as f64) {
                 return None;
             }
-            c[a] = f as usize;
+            // Through i32 (f < n < 2³¹, checked at construction): x86-64's f64 ↔ u64 conversions
+            // take about a dozen instructions each, the i32 ones one.
+            let ci = f as i32;
+            c[a] = ci as usize;
             // One division per axis: the cell's exit and the step between exits along d.
             if d[a] != 0.0 {
                 let inv = 1.0 / d[a];
                 let up = d[a] > 0.0;
                 step[a] = if up { 1 } else { -1 };
-                next[a] = (self.lo[a] + (c[a] + usize::from(up)) as f64 * self.h - o[a]) * inv;
+                next[a] = (self.lo[a] + (ci + i32::from(up)) as f64 * self.h - o[a]) * inv;
                 delta[a] = self.h * inv.abs();
             }
         }
