@@ -259,7 +259,7 @@ impl Accel {
 
     /// The [`Hit`] at distance `t` along `d` from `o` on global triangle `i`.
     #[inline]
-    fn hit(&self, o: V3, d: V3, t: f64, i: u32, b1: f64, b2: f64) -> Hit {
+    pub(super) fn hit(&self, o: V3, d: V3, t: f64, i: u32, b1: f64, b2: f64) -> Hit {
         let tr = &self.tris[i as usize];
         Hit { t, tri: i, object: tr.object as usize, b1, b2, p: madd(o, d, t), n: tr.n }
     }

@@ -89,6 +89,21 @@ impl Camera {
         normalize(d)
     }
 
+    /// The image point (x, y) in pixels of [`Camera::ray`] through which `p` is seen: the
+    /// inverse of `ray`. None when `p` is less than `near` (mm) in front of the camera's plane.
+    pub fn project(&self, p: V3, near: f64) -> Option<(f64, f64)> {
+        let q = sub(p, self.position);
+        let z = dot(q, self.forward);
+        if !(z > near) {
+            return None;
+        }
+        let aspect = self.width as f64 / self.height as f64;
+        let (sx, sy) = (dot(q, self.right) / z, dot(q, self.up) / z);
+        let x = (sx / (self.tan_half * aspect) + 1.0) * 0.5 * self.width as f64;
+        let y = (1.0 - sy / self.tan_half) * 0.5 * self.height as f64;
+        Some((x, y))
+    }
+
     /// The viewing direction.
     pub fn forward(&self) -> V3 {
         self.forward

@@ -12,10 +12,11 @@ use super::camera::Camera;
 use super::hierarchical::{Hierarchical, HierarchicalParams};
 use super::material::Material;
 use super::math::{Rgb, V3};
+use super::primary::PixelLists;
 use super::probe::Probe;
 use super::random_walk::RandomWalk;
 use super::scene::Scene;
-use super::shade::{trace, Translucency};
+use super::shade::{shade_seen, Seen, Translucency};
 use crate::error::{Error, Result};
 use crate::mc::config::{MAX_THREADS, THREADS_ALLOWED};
 use crate::rng::PhotonRng;
@@ -110,6 +111,8 @@ pub struct Renderer {
     seed: u64,
     /// Samples whose radiance was not finite (dropped; should stay 0).
     pub dropped: AtomicU64,
+    /// The camera rays' per-pixel triangle lists (None: the BVH).
+    primary: Option<PixelLists>,
 }
 
 impl Renderer {
@@ -150,7 +153,7 @@ impl Renderer {
                 Box::new(RandomWalk::new(&scene))
             }
         };
-        Ok(Some(Renderer { scene, tr, seed, dropped: AtomicU64::new(0) }))
+        Ok(Some(Self::from_parts(scene, tr, seed)))
     }
 
     fn camera(&self) -> &super::camera::Camera {
@@ -159,7 +162,8 @@ impl Renderer {
 
     /// A renderer with a given translucent term (tests compare variants of a method with it).
     pub fn from_parts(scene: Arc<Scene>, tr: Box<dyn Translucency>, seed: u64) -> Renderer {
-        Renderer { scene, tr, seed, dropped: AtomicU64::new(0) }
+        let primary = scene.camera.as_ref().and_then(|c| PixelLists::new(c, &scene.accel));
+        Renderer { scene, tr, seed, dropped: AtomicU64::new(0), primary }
     }
 
     /// One sample of pixel (x, y): the radiance through a point of the pixel, stratified over
@@ -172,7 +176,12 @@ impl Renderer {
         let cs = CameraSample { seed: self.seed, pixel: idx, s };
         let _now = Tracing::start(cs);
         let d = camera_ray_at(cam, cs, offset);
-        let l = trace(&self.scene, cam.position, d, u32::MAX, 0, &mut rng, self.tr.as_ref());
+        let (sc, o) = (&self.scene, cam.position);
+        let hit = match &self.primary {
+            Some(p) => p.intersect(&sc.accel, idx as usize, o, d),
+            None => sc.accel.intersect(o, d, f64::INFINITY, u32::MAX),
+        };
+        let l = shade_seen(sc, (o, d), hit, 0, &mut rng, self.tr.as_ref(), Seen::All);
         if l.iter().all(|v| v.is_finite()) {
             l
         } else {

@@ -36,6 +36,7 @@ pub mod material;
 pub mod math;
 pub mod mesh;
 pub mod pixel;
+pub mod primary;
 pub mod probe;
 pub mod random_walk;
 pub mod scene;

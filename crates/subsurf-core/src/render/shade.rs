@@ -69,6 +69,19 @@ pub fn trace_seen(
     seen: Seen,
 ) -> Rgb {
     let hit = scene.accel.intersect(o, d, f64::INFINITY, skip);
+    shade_seen(scene, (o, d), hit, depth, rng, tr, seen)
+}
+
+/// [`trace_seen`] of the ray from `o` along `d` whose first surface `hit` was found already.
+pub fn shade_seen(
+    scene: &Scene,
+    (o, d): (V3, V3),
+    hit: Option<Hit>,
+    depth: u32,
+    rng: &mut PhotonRng,
+    tr: &dyn Translucency,
+    seen: Seen,
+) -> Rgb {
     let tmax = hit.map_or(f64::INFINITY, |h| h.t);
     if let Some((_, le)) = scene.light_hit(o, d, tmax) {
         return if matches!(seen, Seen::NoLights | Seen::NoEmitters) { [0.0; 3] } else { le };
