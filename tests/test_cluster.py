@@ -303,10 +303,13 @@ def test_scheduler_lost_before_any_range_is_an_error(doomed_cluster):
 
 
 @pytest.mark.slow
-def test_ctrl_c_cancels_running_tasks(client):
+def test_ctrl_c_cancels_running_tasks(client, monkeypatch):
     """A real SIGINT while every task is still running: KeyboardInterrupt (nothing completed),
     and the cancelled tasks stop on the workers instead of running to their end. (Waiting for the
-    10⁹ photons would end in a result, not in KeyboardInterrupt.)"""
+    10⁹ photons would end in a result, not in KeyboardInterrupt.) The tasks are 4096² photons
+    (3–7 s here): sized from the engine's guessed speed, the first ones took about 0.5 s on an idle
+    machine and sometimes finished before the SIGINT (a partial result, no KeyboardInterrupt)."""
+    monkeypatch.setenv("SUBSURF_TEST_HOOK", f"task_photons={4096 * 4096}")
     # a shell's background job without job control ignores SIGINT: fail here rather than run 10⁹ photons
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler, "SIGINT is ignored in this process"
     threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
