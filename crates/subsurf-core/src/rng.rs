@@ -125,12 +125,11 @@ pub struct PhotonRng {
 /// pixel). Event j < [`Qmc::EVENTS`] of walk w of the sample takes the block of [`Qmc::BLOCK`]
 /// coordinates from FIRST + (w·EVENTS + j)·BLOCK (walk-major: walk 0's events take the first
 /// coordinates, the best stratified; the renderer gives walk 0 to its noisiest walk, measured in
-/// `render::random_walk`); draws beyond a block, after those
-/// events or the table's dimensions, or while no walk is active come from the stream. Each
-/// coordinate is used at most once per sample and every scrambled point is uniform in [0, 1)^D,
-/// so the estimator's
-/// expectation is that of independent uniforms: unbiased, with the samples of a pixel
-/// stratified in the early events' free paths, directions and channel choices.
+/// `render::random_walk`); draws beyond a block, after those events or the table's dimensions,
+/// or while no walk is active come from the stream. Each coordinate is used at most once per
+/// sample and every scrambled point is uniform in [0, 1)^D, so the estimator's expectation is
+/// that of independent uniforms: unbiased, with the samples of a pixel stratified in the early
+/// events' free paths, directions and channel choices.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Qmc {
     index: u32,
