@@ -38,15 +38,18 @@ def main(n: int) -> None:
         rows.append((poly, [int(x) for x in vinit[d][:s]]))
     # Check against SciPy's own (unscrambled) points: dimension d of point i is the XOR of the
     # direction numbers of the set bits of g = i ⊕ (i ≫ 1) (SciPy returns the points in Gray-code order).
-    pts = qmc.Sobol(n, scramble=False).random(64)
+    # The first 2¹² points (12 direction numbers per dimension); the Rust test
+    # `sobol::tests::matches_scipy_at_high_indices` checks indices up to 2³² − 1.
+    bits = 12
+    pts = qmc.Sobol(n, scramble=False, bits=32).random(2**bits)
+    gray = np.arange(2**bits, dtype=np.uint64)
+    gray ^= gray >> np.uint64(1)
     for d in range(1, n):
         v = directions(*rows[d - 1])
-        for i in range(64):
-            x = 0
-            for b in range(6):
-                if (i ^ (i >> 1)) >> b & 1:
-                    x ^= v[b]
-            assert abs(x / 2**32 - pts[i, d]) < 1e-12, (d, i)
+        x = np.zeros(2**bits, dtype=np.uint64)
+        for b in range(bits):
+            x ^= np.where((gray >> np.uint64(b)) & np.uint64(1) == 1, np.uint64(v[b]), np.uint64(0))
+        assert np.array_equal(x, np.round(pts[:, d] * 2.0**32).astype(np.uint64)), d
     out = os.path.join(os.path.dirname(__file__), "..", "..", "crates", "subsurf-core", "src", "sobol_table.rs")
     with open(out, "w") as f:
         f.write(

@@ -148,6 +148,31 @@ mod tests {
         assert_eq!(DIMS, 128);
     }
 
+    /// Points far past the first 2⁸, where the direction numbers from the recurrence (not the
+    /// initial m's) set the bits: `scipy.stats.qmc.Sobol(128, scramble=False, bits=32)` (SciPy
+    /// 1.17.1), fast-forwarded to the Gray-code position of index i, times 2³².
+    #[test]
+    fn matches_scipy_at_high_indices() {
+        let idx = [1000u32, 65535, (1 << 20) + 12345, (1 << 24) + 99];
+        let want: [(usize, [u32; 4]); 7] = [
+            (1, [692060160, 65536, 4165240832, 2793439360]),
+            (2, [1933574144, 2969501696, 2359093248, 302049408]),
+            (3, [3904897024, 1123221504, 813795328, 3464495232]),
+            (10, [994050048, 2657681408, 2463205376, 3313862784]),
+            (64, [3972005888, 2175205376, 1020430336, 2634987136]),
+            (100, [2822766592, 1705050112, 474232832, 2812291712]),
+            (127, [650117120, 3565879296, 2929166336, 2581736064]),
+        ];
+        for (d, w) in want {
+            assert_eq!(idx.map(|i| sobol(d, i)), w, "dimension {d}");
+        }
+        // All 32 bits of the index: (2³¹ + 777) and 2³² − 1.
+        let top = [(1, [3485466623u32, 1]), (2, [557864277, 1325465599]), (3, [2110062739, 806158221])];
+        for (d, w) in top {
+            assert_eq!([(1u32 << 31) + 777, u32::MAX].map(|i| sobol(d, i)), w, "dimension {d}");
+        }
+    }
+
     /// Each coordinate of the first 2⁸ points is a (0, 8, 1)-net (one point in each interval of
     /// 2⁻⁸), in every dimension; and the pair of dimensions (0, 1) is a (0, 8, 2)-net.
     #[test]

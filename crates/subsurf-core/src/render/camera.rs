@@ -2,6 +2,7 @@
 
 use super::math::{cross, dot, length, normalize, sub, V3};
 use super::mesh::MAX_COORDINATE;
+use super::primary::PixelLists;
 use crate::error::{Error, Result};
 
 /// Largest image width or height, pixels.
@@ -9,8 +10,9 @@ pub const MAX_RESOLUTION: usize = 1 << 15;
 /// The allowed range of the width and height, as errors state it.
 pub const RESOLUTION_ALLOWED: &str = "an integer in [1, 32768] (pixels)";
 /// Bytes per pixel while rendering: the accumulator, one pass's sums, the mean image and the
-/// caller's copy of it, 3 × f64 each.
-pub const BYTES_PER_PIXEL: u64 = 4 * 3 * 8;
+/// caller's copy of it, 3 × f64 each, and at most the camera rays' per-pixel triangle lists
+/// ([`PixelLists`]: a u32 row start and up to [`PixelLists::MAX_PAIRS_PER_PIXEL`] u32 ids).
+pub const BYTES_PER_PIXEL: u64 = 4 * 3 * 8 + 4 * (1 + PixelLists::MAX_PAIRS_PER_PIXEL as u64);
 
 /// A pinhole camera at `position` looking at `look_at`, `fov_deg` the vertical field of view.
 #[derive(Clone, Debug)]
