@@ -10,10 +10,17 @@
 //!
 //! Cases: 48 by default (CI); `SUBSURF_PROPTEST_CASES=100000 cargo test -p subsurf-core --test
 //! proptest_mc -- --nocapture` runs a long campaign and prints its tally of outcomes.
+//!
+//! proptest is built without `std` (its `std` feature compiles regex-syntax and an OS random
+//! source: about a tenth of `make test`'s Rust test build): its cases come from one fixed
+//! stream, the same in every run (a longer campaign draws further along it), and a panic is
+//! turned into a failing case here ([`no_panic`]) so that it is shrunk and its input printed.
 
 use proptest::prelude::*;
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::{mpsc, Mutex};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::sync::Mutex;
 use std::time::Duration;
 use subsurf_core::mc::tally::totals::{Total, Totals};
 use subsurf_core::mc::tally::{Channel, TallyConfig, TallySet};
@@ -143,14 +150,23 @@ fn tally(k: usize, n: usize) {
     OUTCOMES.lock().unwrap()[k] += n;
 }
 
-/// Run `f` on a thread while a watchdog cancels it after CASE_SECONDS and aborts on a hang.
+/// A case's panic as a failure of that case (shrunk and printed like any other).
+fn no_panic(f: impl FnOnce() -> Result<(), TestCaseError>) -> Result<(), TestCaseError> {
+    catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| {
+        let msg = p.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| p.downcast_ref::<String>().cloned());
+        Err(TestCaseError::fail(format!("panic: {}", msg.unwrap_or_default())))
+    })
+}
+
+/// Run `f` on a thread while a watchdog cancels it after CASE_SECONDS and aborts on a hang (a
+/// panic of `f` drops the sender: the watchdog then returns at once).
 fn guarded<R: Send>(cancel: &AtomicBool, f: impl FnOnce() -> R + Send) -> R {
     let (tx, rx) = mpsc::channel::<()>();
     std::thread::scope(|s| {
         s.spawn(move || {
-            if rx.recv_timeout(Duration::from_secs(CASE_SECONDS)).is_err() {
+            if rx.recv_timeout(Duration::from_secs(CASE_SECONDS)) == Err(RecvTimeoutError::Timeout) {
                 cancel.store(true, Ordering::Relaxed);
-                if rx.recv_timeout(Duration::from_secs(HANG_SECONDS)).is_err() {
+                if rx.recv_timeout(Duration::from_secs(HANG_SECONDS)) == Err(RecvTimeoutError::Timeout) {
                     eprintln!("hang: a cancelled run did not return within {HANG_SECONDS} s");
                     std::process::abort();
                 }
@@ -273,7 +289,7 @@ proptest! {
         photons in 1u64..60,
         threads in 1usize..=3,
     ) {
-        check_case(&layers, n_above, n_below, source, tallies, photons, threads)?;
+        no_panic(|| check_case(&layers, n_above, n_below, source, tallies, photons, threads))?;
     }
 
     /// The validated optics and diffusion entry points with any numbers: a finite answer or a
@@ -282,20 +298,31 @@ proptest! {
     fn optics_and_diffusion_functions_answer_or_refuse(
         a in wild(), b in wild(), c in wild(), u in prop_oneof![0.0f64..=1.0, wild()], i in 0u32..20,
     ) {
-        let finite = |r: Result<f64, Error>| r.map_or(true, |v| v.is_finite());
-        prop_assert!(finite(checked::fresnel_rt(u, a, b, Polarization::Unpolarized, false)));
-        prop_assert!(finite(checked::sample_hg(u, c.min(2.0) - 1.0)));
-        prop_assert!(finite(checked::free_path_pdf(a, b)));
-        prop_assert!(finite(checked::beer_lambert(a, b)));
-        prop_assert!(finite(optics::diffuse_fresnel_reflectance(a, true)));
-        prop_assert!(finite(optics::diffuse_fresnel_reflectance(a, false)));
-        prop_assert!(finite(optics::fresnel_moment(a, i)));
-        for m in [diffusion::Model::Dipole, diffusion::Model::BetterDipole] {
-            prop_assert!(finite(m.rd(u, a, b, c)));
-            prop_assert!(finite(m.total_rd(u, c)));
-            prop_assert!(finite(diffusion::alpha_prime_from_rd(u, c, m)));
-        }
+        no_panic(|| optics_and_diffusion_case(a, b, c, u, i))?;
     }
+}
+
+fn optics_and_diffusion_case(a: f64, b: f64, c: f64, u: f64, i: u32) -> Result<(), TestCaseError> {
+    let finite = |r: Result<f64, Error>| r.map_or(true, |v| v.is_finite());
+    prop_assert!(finite(checked::fresnel_rt(u, a, b, Polarization::Unpolarized, false)));
+    prop_assert!(finite(checked::sample_hg(u, c.min(2.0) - 1.0)));
+    prop_assert!(finite(checked::free_path_pdf(a, b)));
+    prop_assert!(finite(checked::beer_lambert(a, b)));
+    prop_assert!(finite(optics::diffuse_fresnel_reflectance(a, true)));
+    prop_assert!(finite(optics::diffuse_fresnel_reflectance(a, false)));
+    prop_assert!(finite(optics::fresnel_moment(a, i)));
+    for m in [diffusion::Model::Dipole, diffusion::Model::BetterDipole] {
+        prop_assert!(finite(m.rd(u, a, b, c)));
+        prop_assert!(finite(m.total_rd(u, c)));
+        prop_assert!(finite(diffusion::alpha_prime_from_rd(u, c, m)));
+    }
+    Ok(())
+}
+
+#[test]
+fn a_panic_is_a_failing_case() {
+    let r = no_panic(|| panic!("boom"));
+    assert!(matches!(r, Err(TestCaseError::Fail(m)) if m.message().contains("panic: boom")));
 }
 
 /// The long campaign's tally (printed with `--nocapture`, after the other tests of this file).
