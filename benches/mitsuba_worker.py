@@ -130,10 +130,11 @@ def main():
             if cmd["cmd"] == "quit":
                 break
             if cmd["cmd"] == "load":
-                scene = build(mi, cmd["scene"])
                 t0 = time.monotonic()
+                scene = build(mi, cmd["scene"])
+                t1 = time.monotonic()
                 np.asarray(mi.render(scene, spp=1, seed=0))
-                reply({"wall": time.monotonic() - t0, "compile": compile_seconds(dr)})
+                reply({"build": t1 - t0, "wall": time.monotonic() - t1, "compile": compile_seconds(dr)})
             elif cmd["cmd"] == "render":
                 img, w, c, jit = timed_render(mi, dr, scene, int(cmd["spp"]), int(cmd["seed"]))
                 np.save(cmd["out"], img)
