@@ -96,10 +96,27 @@ def scheduler_client(a):
         client = connect(a.scheduler, timeout=timeout)
     except ImportError as e:  # no dask.distributed: say how to get it, in one line
         raise UserError(str(e)) from None
+    with _dask_quiet():
+        try:
+            yield client
+        finally:
+            _close(client)
+
+
+@contextlib.contextmanager
+def _dask_quiet():
+    """Dask's INFO records off while a command holds a client: they are for a cluster's operator,
+    and on a lost scheduler ``distributed.batched`` logs one with a traceback (dask 2026.8) beside
+    the command's own one-line warning. Warnings and errors still show."""
+    import logging
+
+    log = logging.getLogger("distributed")
+    level = log.level
+    log.setLevel(max(logging.WARNING, level))
     try:
-        yield client
+        yield
     finally:
-        _close(client)
+        log.setLevel(level)
 
 
 def _close(client) -> None:
