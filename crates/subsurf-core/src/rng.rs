@@ -143,6 +143,8 @@ pub struct Qmc {
     /// The next coordinate and the end of the current block (equal: draws from the stream).
     dim: u32,
     end: u32,
+    /// The current block's coordinates (computed together when its event starts).
+    block: [u32; 4],
 }
 
 impl Qmc {
@@ -272,12 +274,15 @@ impl PhotonRng {
     }
 }
 
+// A block is one `sobol::scrambled_block`.
+const _: () = assert!(Qmc::BLOCK == 4);
+
 impl Qmc {
-    #[inline(never)]
+    #[inline(always)]
     fn next(&mut self) -> u32 {
-        let d = self.dim;
+        let k = (self.dim + Self::BLOCK - self.end) as usize;
         self.dim += 1;
-        crate::sobol::scrambled(d as usize, self.index, crate::sobol::dim_seed(self.key, d))
+        self.block[k % Self::BLOCK as usize]
     }
 
     fn event(&mut self, j: u32) {
@@ -288,6 +293,7 @@ impl Qmc {
         if block + Self::BLOCK as u64 <= crate::sobol::DIMS as u64 {
             self.dim = block as u32;
             self.end = self.dim + Self::BLOCK;
+            self.block = crate::sobol::scrambled_block(block as usize, self.index, self.key);
         } else {
             self.pause_blocks();
         }

@@ -132,13 +132,78 @@ pub fn owen(v: u32, seed: u32) -> u32 {
 
 /// [`owen`] of the fraction whose bit reversal is `r`.
 #[inline]
-fn owen_reversed(mut v: u32, seed: u32) -> u32 {
+fn owen_reversed(v: u32, seed: u32) -> u32 {
+    owen_hash(v, seed).reverse_bits()
+}
+
+/// The reversed direction numbers by bit, then dimension (`BY_BIT[k][d] = REVERSED[d][k]`): a
+/// block of consecutive dimensions reads one contiguous row per set bit of the index.
+static BY_BIT: [[u32; DIMS]; 32] = by_bit();
+
+const fn by_bit() -> [[u32; DIMS]; 32] {
+    let m = reversed_matrices();
+    let mut t = [[0u32; DIMS]; 32];
+    let mut k = 0;
+    while k < 32 {
+        let mut d = 0;
+        while d < DIMS {
+            t[k][d] = m[d][k];
+            d += 1;
+        }
+        k += 1;
+    }
+    t
+}
+
+/// Coordinates `dim … dim + 3` (`dim + 4 ≤` [`DIMS`]) of point `i`, each Owen-scrambled by its
+/// [`dim_seed`] of `key`: `[scrambled(d, i, dim_seed(key, d)) for d in dim..dim + 4]`, computed
+/// as four lanes (one row of [`BY_BIT`] per set bit of `i`; the hashes and the bit reversal
+/// lane-wise, which the compiler vectorises).
+#[inline]
+pub fn scrambled_block(dim: usize, i: u32, key: u32) -> [u32; 4] {
+    let mut x = [0u32; 4];
+    if dim > 1 {
+        let mut b = i;
+        while b != 0 {
+            let row = &BY_BIT[b.trailing_zeros() as usize];
+            let v: &[u32; 4] = row[dim..dim + 4].try_into().expect("dim + 4 <= DIMS");
+            for k in 0..4 {
+                x[k] ^= v[k];
+            }
+            b &= b - 1;
+        }
+    } else {
+        for (k, x) in x.iter_mut().enumerate() {
+            *x = sobol_reversed(dim + k, i);
+        }
+    }
+    let mut out = [0u32; 4];
+    for k in 0..4 {
+        let seed = dim_seed(key, (dim + k) as u32);
+        out[k] = reverse_lanewise(owen_hash(x[k], seed));
+    }
+    out
+}
+
+/// The hash of [`owen_reversed`] before its final bit reversal.
+#[inline(always)]
+fn owen_hash(mut v: u32, seed: u32) -> u32 {
     v ^= v.wrapping_mul(0x3d20_adea);
     v = v.wrapping_add(seed);
     v = v.wrapping_mul((seed >> 16) | 1);
     v ^= v.wrapping_mul(0x0552_6c56);
     v ^= v.wrapping_mul(0x53a2_2864);
-    v.reverse_bits()
+    v
+}
+
+/// `v.reverse_bits()` by shifts and masks only (vectorisable, unlike x86's scalar byte swap).
+#[inline(always)]
+fn reverse_lanewise(mut v: u32) -> u32 {
+    v = v.rotate_left(16);
+    v = ((v >> 8) & 0x00ff_00ff) | ((v & 0x00ff_00ff) << 8);
+    v = ((v >> 4) & 0x0f0f_0f0f) | ((v & 0x0f0f_0f0f) << 4);
+    v = ((v >> 2) & 0x3333_3333) | ((v & 0x3333_3333) << 2);
+    ((v >> 1) & 0x5555_5555) | ((v & 0x5555_5555) << 1)
 }
 
 /// Coordinate `dim` of point `i`, Owen-scrambled by `seed`.
@@ -188,6 +253,20 @@ mod tests {
 
     /// The fast paths of dimensions 0 and 1 against the XOR of the direction numbers of the
     /// index's set bits, at 100,000 pseudo-random indices.
+    /// A block of four coordinates is the four scrambled coordinates one by one, in every
+    /// dimension of the table and at indices with few and many set bits.
+    #[test]
+    fn blocks_are_the_scrambled_coordinates() {
+        let mut r = crate::rng::PhotonRng::new(9, 9);
+        for n in 0..20_000u32 {
+            let i = if n % 2 == 0 { n / 2 } else { r.next_u32() };
+            let key = r.next_u32();
+            let dim = (n as usize * 7) % (DIMS - 3);
+            let want: [u32; 4] = std::array::from_fn(|k| scrambled(dim + k, i, dim_seed(key, (dim + k) as u32)));
+            assert_eq!(scrambled_block(dim, i, key), want, "dim {dim}, index {i}, key {key}");
+        }
+    }
+
     #[test]
     fn byte_tables_and_van_der_corput_match_the_bit_loop() {
         let mut i = 0x9e37_79b9u32;
