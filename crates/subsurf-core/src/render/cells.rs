@@ -168,10 +168,14 @@ impl CellLists {
         let tmin = acc.extent * 1e-10;
         let q = madd(o, d, free * (1.0 - 1e-6));
         let stride = [self.n[1] * self.n[2], self.n[2], 1];
-        let mut c = [0usize; 3];
+        // Per axis: the step of the flat index towards d, the cells left before the grid's
+        // face, the parameter of the current cell's exit and the step between exits (the
+        // axis loop below then takes no branch on the direction).
         let mut step = [0isize; 3];
+        let mut left = [usize::MAX; 3];
         let mut next = [f64::INFINITY; 3];
         let mut delta = [f64::INFINITY; 3];
+        let mut k = 0;
         for a in 0..3 {
             let f = (q[a] - self.lo[a]) * self.inv_h;
             if !(f >= 0.0 && f < self.n[a] as f64) {
@@ -179,18 +183,21 @@ impl CellLists {
             }
             // Through i32 (f < n < 2³¹, checked at construction): x86-64's f64 ↔ u64 conversions
             // take about a dozen instructions each, the i32 ones one.
-            let ci = f as i32;
-            c[a] = ci as usize;
+            // Safety: f is finite and in [0, n) with n < 2³¹ (checked above and at construction),
+            // so the truncation is representable (a plain `as` adds the saturation's compares).
+            let ci = unsafe { f.to_int_unchecked::<i32>() };
+            let c = ci as usize;
+            k += c * stride[a];
             // One division per axis: the cell's exit and the step between exits along d.
             if d[a] != 0.0 {
                 let inv = 1.0 / d[a];
                 let up = d[a] > 0.0;
-                step[a] = if up { 1 } else { -1 };
+                (step[a], left[a]) =
+                    if up { (stride[a] as isize, self.n[a] - 1 - c) } else { (-(stride[a] as isize), c) };
                 next[a] = (self.lo[a] + (ci + i32::from(up)) as f64 * self.h - o[a]) * inv;
                 delta[a] = self.h * inv.abs();
             }
         }
-        let mut k = self.flat(c);
         let mut best = None;
         let mut tbest = tmax;
         // Where the segment enters the current cell (it is known free before `free`).
@@ -209,33 +216,17 @@ impl CellLists {
                     }
                 }
             }
-            let a = if next[0] <= next[1] {
-                if next[0] <= next[2] {
-                    0
-                } else {
-                    2
-                }
-            } else if next[1] <= next[2] {
-                1
-            } else {
-                2
-            };
+            // The axis of the nearest exit (ties to the lower axis), by selects.
+            let a01 = usize::from(next[1] < next[0]);
+            let a = if next[2] < next[a01] { 2 } else { a01 };
             if tbest <= next[a] {
                 return Some(best);
             }
-            if step[a] > 0 {
-                if c[a] + 1 == self.n[a] {
-                    return None;
-                }
-                c[a] += 1;
-                k += stride[a];
-            } else {
-                if c[a] == 0 {
-                    return None;
-                }
-                c[a] -= 1;
-                k -= stride[a];
+            if left[a] == 0 {
+                return None;
             }
+            left[a] -= 1;
+            k = k.wrapping_add_signed(step[a]);
             t_in = next[a];
             next[a] += delta[a];
         }
