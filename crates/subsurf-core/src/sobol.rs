@@ -157,8 +157,8 @@ const fn by_bit() -> [[u32; DIMS]; 32] {
 
 /// Coordinates `dim … dim + 3` (`dim + 4 ≤` [`DIMS`]) of point `i`, each Owen-scrambled by its
 /// [`dim_seed`] of `key`: `[scrambled(d, i, dim_seed(key, d)) for d in dim..dim + 4]`, computed
-/// as four lanes (one row of the bit-major direction table per set bit of `i`; the hashes and the bit reversal
-/// lane-wise, which the compiler vectorises).
+/// as four lanes (one row of the bit-major direction table per set bit of `i`; the hashes and the
+/// bit reversal lane-wise, which the compiler vectorises).
 #[inline]
 pub fn scrambled_block(dim: usize, i: u32, key: u32) -> [u32; 4] {
     let mut x = [0u32; 4];
