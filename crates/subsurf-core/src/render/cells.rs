@@ -34,6 +34,8 @@ pub struct CellLists {
     /// neighbouring cell, which the δ padding of the lists covers).
     inv_h: f64,
     n: [usize; 3],
+    /// n as f64 (the start cell's range check without u64 → f64 conversions).
+    nf: [f64; 3],
     /// Row k is `ids[start[k]..start[k + 1]]`: empty, or the cell's slab ([`SLAB`] words: the
     /// normal's three f32 and lo, hi as f32 bits) then its triangles.
     start: Vec<u32>,
@@ -67,6 +69,7 @@ impl CellLists {
             h,
             inv_h: 1.0 / h,
             n,
+            nf: n.map(|c| c as f64),
             start: vec![0; n[0] * n[1] * n[2] + 1],
             ids: vec![],
             pairs: 0,
@@ -171,14 +174,16 @@ impl CellLists {
         // Per axis: the step of the flat index towards d, the cells left before the grid's
         // face, the parameter of the current cell's exit and the step between exits (the
         // axis loop below then takes no branch on the direction).
+        // (Straight-line selects, no branch on the direction: an axis along which d is 0 has its
+        // exit at infinity and is never stepped.)
         let mut step = [0isize; 3];
-        let mut left = [usize::MAX; 3];
+        let mut left = [0usize; 3];
         let mut next = [f64::INFINITY; 3];
         let mut delta = [f64::INFINITY; 3];
         let mut k = 0;
         for a in 0..3 {
             let f = (q[a] - self.lo[a]) * self.inv_h;
-            if !(f >= 0.0 && f < self.n[a] as f64) {
+            if !(f >= 0.0 && f < self.nf[a]) {
                 return None;
             }
             // Through i32 (f < n < 2³¹, checked at construction): x86-64's f64 ↔ u64 conversions
@@ -189,14 +194,13 @@ impl CellLists {
             let c = ci as usize;
             k += c * stride[a];
             // One division per axis: the cell's exit and the step between exits along d.
-            if d[a] != 0.0 {
-                let inv = 1.0 / d[a];
-                let up = d[a] > 0.0;
-                (step[a], left[a]) =
-                    if up { (stride[a] as isize, self.n[a] - 1 - c) } else { (-(stride[a] as isize), c) };
-                next[a] = (self.lo[a] + (ci + i32::from(up)) as f64 * self.h - o[a]) * inv;
-                delta[a] = self.h * inv.abs();
-            }
+            let inv = 1.0 / d[a];
+            let up = d[a] > 0.0;
+            step[a] = if up { stride[a] as isize } else { -(stride[a] as isize) };
+            left[a] = if up { self.n[a] - 1 - c } else { c };
+            let exit = (self.lo[a] + (ci + i32::from(up)) as f64 * self.h - o[a]) * inv;
+            next[a] = if d[a] != 0.0 { exit } else { f64::INFINITY };
+            delta[a] = self.h * inv.abs();
         }
         let mut best = None;
         let mut tbest = tmax;
