@@ -11,8 +11,9 @@ pub const MAX_RESOLUTION: usize = 1 << 15;
 pub const RESOLUTION_ALLOWED: &str = "an integer in [1, 32768] (pixels)";
 /// Bytes per pixel while rendering: the accumulator, one pass's sums, the mean image and the
 /// caller's copy of it, 3 × f64 each, and at most the camera rays' per-pixel triangle lists
-/// ([`PixelLists`]: a u32 row start and up to [`PixelLists::MAX_PAIRS_PER_PIXEL`] u32 ids).
-pub const BYTES_PER_PIXEL: u64 = 4 * 3 * 8 + 4 * (1 + PixelLists::MAX_PAIRS_PER_PIXEL as u64);
+/// ([`PixelLists`]: a u32 row start and up to [`PixelLists::MAX_PAIRS_PER_PIXEL`] pairs of a u32 id
+/// and an f32 distance bound).
+pub const BYTES_PER_PIXEL: u64 = 4 * 3 * 8 + 4 * (1 + 2 * PixelLists::MAX_PAIRS_PER_PIXEL as u64);
 
 /// A pinhole camera at `position` looking at `look_at`, `fov_deg` the vertical field of view.
 #[derive(Clone, Debug)]
