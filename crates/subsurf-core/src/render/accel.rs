@@ -229,10 +229,7 @@ impl Accel {
     /// `skip` (the one the ray starts on, `u32::MAX` for none). A ray leaving a facet of a convex
     /// body outwards ([`Self::convex`]) meets nothing: no traversal.
     pub fn intersect(&self, o: V3, d: V3, tmax: f64, skip: u32) -> Option<Hit> {
-        if self.convex.is_some() && skip != u32::MAX && dot(d, self.tris[skip as usize].n) > 0.0 {
-            return None;
-        }
-        if self.leaves_hull(d, skip) {
+        if self.escapes(d, skip) {
             return None;
         }
         let tmin = self.extent * 1e-10;
@@ -298,6 +295,15 @@ impl Accel {
             return found.map(|(t, i, b1, b2)| self.hit(o, d, t, i, b1, b2));
         }
         self.intersect(o, d, tmax, skip)
+    }
+
+    /// Whether a ray from a point of triangle `skip` along `d` is known to meet nothing without a
+    /// traversal: it leaves a convex body's facet outwards, or a facet whose plane supports the
+    /// scene.
+    #[inline]
+    pub fn escapes(&self, d: V3, skip: u32) -> bool {
+        (self.convex.is_some() && skip != u32::MAX && dot(d, self.tris[skip as usize].n) > 0.0)
+            || self.leaves_hull(d, skip)
     }
 
     /// Whether a ray from a point of triangle `skip` along `d` leaves it outwards through a plane

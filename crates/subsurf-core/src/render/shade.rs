@@ -120,8 +120,7 @@ pub(super) fn shade(
             let mut l = tr.radiance(scene, &h, wo, depth, rng);
             if depth < MAX_DEPTH && fr > 0.0 {
                 let r = reflect(d, h.n);
-                let lr = trace(scene, h.p, r, h.tri, depth + 1, rng, tr);
-                l = add(l, scale(lr, fr));
+                l = add(l, scale(reflected(scene, &h, r, depth, rng, tr), fr));
             }
             if depth < MAX_DEPTH && tr.adds_unscattered() {
                 l = add(l, unscattered(scene, &h, d, depth, rng, tr));
@@ -129,6 +128,43 @@ pub(super) fn shade(
             l
         }
     }
+}
+
+/// The probability of tracing the Fresnel-reflected ray off a translucent surface in a scene lit
+/// by its environment alone, where the ray needs a traversal (`reflected`). Measured (one thread,
+/// 64², 12 renders of 128 spp): the bench's skin torus, per-pixel variance +1.1 %, CPU −7.2 %
+/// (efficiency 1.06×; q = 0.1: +2.2 %, −11.7 %); a thick torus (`sobol_walks_change_the_noise_not_the_answer`'s)
+/// +5 to +8 % and −10 % (q = 0.1: +10 to +33 %); the ear (reflections leave hull facets) unchanged.
+pub const REFLECTED_TRACE_Q: f64 = 0.25;
+
+/// Radiance arriving along the reflected direction `r` at `h`. In a scene lit by its (constant)
+/// environment alone a ray that may meet a surface is traced with probability q
+/// ([`REFLECTED_TRACE_Q`]) and the estimate is L_env + (L_r − L_env)·1[traced]/q: unbiased, and
+/// exact where the ray escapes (L_r = L_env), so only the rays that meet the scene add noise.
+/// A ray known to escape ([`super::accel::Accel::escapes`]) and scenes with lights are traced.
+fn reflected(scene: &Scene, h: &Hit, r: V3, depth: u32, rng: &mut PhotonRng, tr: &dyn Translucency) -> Rgb {
+    reflected_q(scene, h, r, depth, rng, tr, REFLECTED_TRACE_Q)
+}
+
+/// [`reflected`] with the trace probability `q` (≤ 1; 1: always traced).
+pub(super) fn reflected_q(
+    scene: &Scene,
+    h: &Hit,
+    r: V3,
+    depth: u32,
+    rng: &mut PhotonRng,
+    tr: &dyn Translucency,
+    q: f64,
+) -> Rgb {
+    if q < 1.0 && scene.lights.is_empty() && !scene.accel.escapes(r, h.tri) {
+        let env = scene.environment;
+        if rng.uniform() >= q {
+            return env;
+        }
+        let lr = trace(scene, h.p, r, h.tri, depth + 1, rng, tr);
+        return std::array::from_fn(|k| env[k] + (lr[k] - env[k]) / q);
+    }
+    trace(scene, h.p, r, h.tri, depth + 1, rng, tr)
 }
 
 /// Unscattered attenuation e^(−σt ℓ) below which [`unscattered`] traces nothing (10⁻⁶ of the
