@@ -774,6 +774,10 @@ pub fn nee_scale(scene: &Scene) -> f64 {
 }
 
 impl Translucency for RandomWalk {
+    fn reflected_trace_q(&self) -> f64 {
+        super::shade::REFLECTED_TRACE_Q
+    }
+
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
         let Material::Translucent(m) = scene.material(hit.object) else { return [0.0; 3] };
         let d = neg(wo);
