@@ -136,18 +136,20 @@ pub(super) fn shade(
     }
 }
 
-/// The random walk's probability of tracing the Fresnel-reflected ray off a translucent surface in
-/// a scene lit by its environment alone, where the ray needs a traversal (`reflected`). Measured (one thread,
-/// 64², 12 renders of 128 spp): the bench's skin torus, per-pixel variance +1.1 %, CPU −7.2 %
-/// (efficiency 1.06×; q = 0.1: +2.2 %, −11.7 %); a thick torus (`sobol_walks_change_the_noise_not_the_answer`'s)
-/// +5 to +8 % and −10 % (q = 0.1: +10 to +33 %); the ear (reflections leave hull facets) unchanged.
+/// The random walk's probability of tracing the Fresnel-reflected ray off a translucent surface
+/// in a scene lit by its environment alone, where the ray needs a traversal (`reflected`).
+/// Measured (one thread, 64², 12 renders of 128 spp): the bench's skin torus, per-pixel variance
+/// +1.1 %, CPU −7.2 % (efficiency 1.06×; q = 0.1: +2.2 %, −11.7 %); the thicker torus of
+/// `sobol_walks_change_the_noise_not_the_answer`, +5 to +8 % and −10 % (q = 0.1: +10 to +33 %);
+/// the ear (its reflections leave hull facets) unchanged.
 pub const REFLECTED_TRACE_Q: f64 = 0.25;
 
 /// Radiance arriving along the reflected direction `r` at `h`. In a scene lit by its (constant)
 /// environment alone a ray that may meet a surface is traced with probability q
-/// ([`Translucency::reflected_trace_q`]) and the estimate is L_env + (L_r − L_env)·1[traced]/q: unbiased, and
-/// exact where the ray escapes (L_r = L_env), so only the rays that meet the scene add noise.
-/// A ray known to escape ([`super::accel::Accel::escapes`]) and scenes with lights are traced.
+/// ([`Translucency::reflected_trace_q`]) and the estimate is L_env + (L_r − L_env)·1[traced]/q:
+/// unbiased, and exact where the ray escapes (L_r = L_env), so only the rays that meet the scene
+/// add noise. A ray known to escape ([`super::accel::Accel::escapes`]) and scenes with lights
+/// are traced.
 fn reflected(scene: &Scene, h: &Hit, r: V3, depth: u32, rng: &mut PhotonRng, tr: &dyn Translucency) -> Rgb {
     reflected_q(scene, h, r, depth, rng, tr, tr.reflected_trace_q())
 }
