@@ -251,8 +251,6 @@ mod tests {
         assert_eq!(DIMS, 128);
     }
 
-    /// The fast paths of dimensions 0 and 1 against the XOR of the direction numbers of the
-    /// index's set bits, at 100,000 pseudo-random indices.
     /// A block of four coordinates is the four scrambled coordinates one by one, in every
     /// dimension of the table and at indices with few and many set bits.
     #[test]
@@ -267,6 +265,8 @@ mod tests {
         }
     }
 
+    /// The fast paths of dimensions 0 and 1 against the XOR of the direction numbers of the
+    /// index's set bits, at 100,000 pseudo-random indices.
     #[test]
     fn byte_tables_and_van_der_corput_match_the_bit_loop() {
         let mut i = 0x9e37_79b9u32;

@@ -23,7 +23,7 @@
 //! hold a nearly flat patch of the surface beside them.
 
 use super::accel::{Accel, Tri};
-use super::math::{dot, madd, V3};
+use super::math::{dot, f32_above, f32_below, madd, V3};
 
 /// Triangle indices (global, as in [`Accel::tris`]) per cell of a uniform grid, in compressed
 /// rows: cell k's triangles are `ids[start[k]..start[k + 1]]`.
@@ -278,23 +278,7 @@ fn slab(tris: &[Tri], ids: &[u32], tol: f64) -> [u32; SLAB] {
     }
     let (lo, hi) = (lo - tol, hi + tol);
     // f32 rounded outwards
-    let down = |x: f64| {
-        let y = x as f32;
-        if (y as f64) > x {
-            y.next_down()
-        } else {
-            y
-        }
-    };
-    let up = |x: f64| {
-        let y = x as f32;
-        if (y as f64) < x {
-            y.next_up()
-        } else {
-            y
-        }
-    };
-    words(n32, down(lo), up(hi))
+    words(n32, f32_below(lo), f32_above(hi))
 }
 
 #[cfg(test)]

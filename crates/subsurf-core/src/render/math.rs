@@ -51,6 +51,24 @@ pub fn unit(a: V3) -> Option<V3> {
     let m = a.iter().fold(0.0f64, |m, c| m.max(c.abs()));
     (m > 0.0 && a.iter().all(|c| c.is_finite())).then(|| normalize(scale(a, 1.0 / m)))
 }
+/// The largest f32 not above `x` (a bound stored in f32 that stays a lower bound).
+pub fn f32_below(x: f64) -> f32 {
+    let y = x as f32;
+    if (y as f64) > x {
+        y.next_down()
+    } else {
+        y
+    }
+}
+/// The smallest f32 not below `x` (a bound stored in f32 that stays an upper bound).
+pub fn f32_above(x: f64) -> f32 {
+    let y = x as f32;
+    if (y as f64) < x {
+        y.next_up()
+    } else {
+        y
+    }
+}
 #[inline(always)]
 pub fn neg(a: V3) -> V3 {
     [-a[0], -a[1], -a[2]]

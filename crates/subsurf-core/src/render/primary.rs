@@ -11,12 +11,7 @@
 
 use super::accel::{Accel, Hit};
 use super::camera::Camera;
-use super::math::{dot, madd, sub, V3};
-
-fn dist(a: V3, b: V3) -> f64 {
-    let v = sub(a, b);
-    dot(v, v).sqrt()
-}
+use super::math::{f32_below, length, madd, sub, V3};
 
 /// Triangle indices (global, as in [`Accel::tris`]) per pixel, in compressed rows, each row in
 /// increasing order of a lower bound on the distance from the camera to the triangle (`near`,
@@ -92,14 +87,8 @@ impl PixelLists {
         let bound = |t: &super::accel::Tri| {
             let vs = [t.v0, madd(t.v0, t.e1, 1.0), madd(t.v0, t.e2, 1.0)];
             let c = [0, 1, 2].map(|a| (vs[0][a] + vs[1][a] + vs[2][a]) / 3.0);
-            let r = vs.iter().map(|v| dist(*v, c)).fold(0.0, f64::max);
-            let lb = (dist(c, cam.position) - r) * (1.0 - 1e-9);
-            let y = lb.max(0.0) as f32;
-            if (y as f64) > lb.max(0.0) {
-                y.next_down()
-            } else {
-                y
-            }
+            let r = vs.iter().map(|v| length(sub(*v, c))).fold(0.0, f64::max);
+            f32_below(((length(sub(c, cam.position)) - r) * (1.0 - 1e-9)).max(0.0))
         };
         let bounds: Vec<f32> = acc.tris.iter().map(bound).collect();
         for k in 0..w * h {

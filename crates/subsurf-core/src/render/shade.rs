@@ -148,8 +148,11 @@ pub const REFLECTED_TRACE_Q: f64 = 0.25;
 /// environment alone a ray that may meet a surface is traced with probability q
 /// ([`Translucency::reflected_trace_q`]) and the estimate is L_env + (L_r − L_env)·1[traced]/q:
 /// unbiased, and exact where the ray escapes (L_r = L_env), so only the rays that meet the scene
-/// add noise. A ray known to escape ([`super::accel::Accel::escapes`]) and scenes with lights
-/// are traced.
+/// add noise (Russian roulette, Arvo & Kirk 1990, "Particle transport and image synthesis",
+/// SIGGRAPH, applied to the difference from a control of known value: Owen 2013, *Monte Carlo
+/// theory, methods and examples*, §8.9; checked by the test
+/// `thinned_reflection_is_unbiased_where_it_meets_the_object`). A ray known to escape
+/// ([`super::accel::Accel::escapes`]) and scenes with lights are traced.
 fn reflected(scene: &Scene, h: &Hit, r: V3, depth: u32, rng: &mut PhotonRng, tr: &dyn Translucency) -> Rgb {
     reflected_q(scene, h, r, depth, rng, tr, tr.reflected_trace_q())
 }
