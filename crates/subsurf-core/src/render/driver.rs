@@ -190,6 +190,20 @@ impl Renderer {
         }
     }
 
+    /// The radiance of every camera sample of pixel `pixel` (row-major) where it is known
+    /// without tracing: the constant environment, where the pixel lists show that no camera ray
+    /// through the pixel meets a surface ([`PixelLists::misses`]) and the scene has no light
+    /// (which a camera ray could meet). What [`Renderer::sample`] would return for each sample,
+    /// bit for bit (`shade` of no hit is the environment), without its random numbers, camera
+    /// ray or list search; the other pixels' streams are their own, so their numbers are
+    /// unchanged. Measured (docs/render.md, "Pixels that see only the environment"): the
+    /// benchmark's skin torus in its environment covers 28 % of the image, and the other 72 %
+    /// of the pixels' samples were 7.6 % of the render pass's instructions (the ear: 60 %, 3.0 %).
+    pub(super) fn sky(&self, pixel: usize) -> Option<Rgb> {
+        let lists = self.primary.as_ref()?;
+        (self.scene.lights.is_empty() && lists.misses(pixel)).then_some(self.scene.environment)
+    }
+
     /// Add samples `s0 .. s1` of every pixel to `accum` (row-major, 3 floats per pixel: sums
     /// of radiance). Returns false (leaving `accum` untouched) if `cancel` was set meanwhile.
     /// The work items are runs of [`PIXEL_RUN`] pixels, each a task of its own (`with_max_len(1)`:
@@ -208,8 +222,9 @@ impl Renderer {
             }
             for (j, px) in out.chunks_exact_mut(3).enumerate() {
                 let i = run * PIXEL_RUN + j;
+                let sky = self.sky(i);
                 for s in s0..s1 {
-                    let l = self.sample(i % w, i / w, s);
+                    let l = sky.unwrap_or_else(|| self.sample(i % w, i / w, s));
                     for k in 0..3 {
                         px[k] += l[k];
                     }

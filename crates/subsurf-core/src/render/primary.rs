@@ -118,6 +118,11 @@ impl PixelLists {
         best.map(|(t, i, b1, b2)| acc.hit(o, d, t, i, b1, b2))
     }
 
+    /// Whether no triangle is listed in pixel `pixel`: no camera ray through it meets a surface.
+    pub fn misses(&self, pixel: usize) -> bool {
+        self.start[pixel] == self.start[pixel + 1]
+    }
+
     /// Listed (pixel, triangle) pairs.
     pub fn len(&self) -> usize {
         self.ids.len()

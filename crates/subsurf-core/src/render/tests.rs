@@ -543,3 +543,34 @@ fn hierarchical_set_up_counts_and_stops_when_cancelled() {
     let (done, total) = (ctl.done.into_inner(), ctl.total.into_inner());
     assert!(done == total && (400..=500).contains(&total), "{done} of {total}");
 }
+
+/// The pixels whose lists show that they see no surface (`Renderer::sky`) render the samples
+/// that tracing them gives, bit for bit: a sphere seen in part of the image, in an environment,
+/// each pixel's pass sum against its samples traced one by one; with a light in the scene no
+/// pixel is taken for the environment.
+#[test]
+fn pixels_that_see_only_the_environment_are_their_samples() {
+    let m = test_material([0.5; 3], 1.0, [0.02, 0.05, 0.1], [1.0; 3], 0.0, 1.3, false);
+    let cam = Camera::new([0.0, -30.0, 4.0], [0.0; 3], [0.0, 0.0, 1.0], 30.0, 12, 10).unwrap();
+    let env = [0.3, 0.7, 1.1];
+    let s = scene(vec![icosphere([0.0; 3], 4.0, 2).unwrap()], m.clone(), vec![], env, Some(cam.clone()));
+    let r = Renderer::new(s, Method::RandomWalk, 5, &HierarchicalParams::default()).unwrap();
+    let spp = 3;
+    let mut acc = vec![0.0; cam.width * cam.height * 3];
+    assert!(r.pass(0, spp, &mut acc, &AtomicBool::new(false)));
+    let mut sky = 0;
+    for i in 0..cam.width * cam.height {
+        sky += usize::from(r.sky(i) == Some(env));
+        let mut want = [0.0; 3];
+        for s in 0..spp {
+            let l = r.sample(i % cam.width, i / cam.width, s);
+            (0..3).for_each(|k| want[k] += l[k]);
+        }
+        assert_eq!(&acc[3 * i..3 * i + 3], &want, "pixel {i}");
+    }
+    assert!(sky > 20 && sky < 100, "{sky} of 120 pixels see the environment alone");
+    let sun = Light::directional("sun", [0.0, 0.0, 1.0], [1.0; 3]).unwrap();
+    let lit = scene(vec![icosphere([0.0; 3], 4.0, 2).unwrap()], m, vec![sun], env, Some(cam.clone()));
+    let r = Renderer::new(lit, Method::RandomWalk, 5, &HierarchicalParams::default()).unwrap();
+    assert!((0..cam.width * cam.height).all(|i| r.sky(i).is_none()));
+}
