@@ -34,7 +34,7 @@
 //! β F) removed 5–7.5 % at 17–30 % more instructions (the reflected walks go on).
 
 use super::accel::Hit;
-use super::math::{neg, Frame, Rgb};
+use super::math::{neg, Frame, Rgb, V3};
 use super::random_walk::RandomWalk;
 use super::scene::Scene;
 use crate::optics::sample_cosine_hemisphere;
@@ -60,32 +60,11 @@ pub fn coefficients(scene: &Scene, rw: &RandomWalk) -> Vec<Rgb> {
 }
 
 fn object_coefficients(scene: &Scene, rw: &RandomWalk, object: usize, walks: u64) -> Rgb {
-    let Some(m) = scene.material(object).translucent() else { return [0.0; 3] };
-    let acc = &scene.accel;
-    let tris: Vec<usize> = (0..acc.tris.len()).filter(|&i| acc.tris[i].object as usize == object).collect();
-    let mut cum = Vec::with_capacity(tris.len());
-    let mut total = 0.0;
-    for &i in &tris {
-        total += acc.area(i);
-        cum.push(total);
-    }
-    if !(total > 0.0) || m.eta <= 1.0 {
-        return [0.0; 3];
-    }
-    // Directions inside the critical cone: cos θ ≥ cos θ_c, sin² θ ≤ 1/η².
-    let sin2_max = 1.0 / (m.eta * m.eta);
+    let Some(entries) = Entries::new(scene, object, PILOT_SEED) else { return [0.0; 3] };
     let env = scene.environment;
     let (mut s, mut s2) = ([0.0; 3], [0.0; 3]);
     for i in 0..walks {
-        let mut rng = PhotonRng::new(PILOT_SEED, i);
-        let u = rng.uniform() * total;
-        let j = cum.partition_point(|&a| a < u).min(tris.len() - 1);
-        let tri = tris[j];
-        let (r1, r2) = (rng.uniform().sqrt(), rng.uniform());
-        let (b1, b2) = (r1 * (1.0 - r2), r1 * r2);
-        let n = acc.tris[tri].n;
-        let d = Frame::new(neg(n)).to_world(sample_cosine_hemisphere(sin2_max * rng.uniform(), rng.uniform()));
-        let hit = Hit { t: 0.0, tri: tri as u32, object, b1, b2, p: acc.point(tri, b1, b2), n };
+        let (hit, d, mut rng) = entries.entry(i);
         let l = rw.walks(scene, &hit, d, 1, &mut rng);
         for k in 0..3 {
             let v = if env[k] > 0.0 { l[k] / env[k] } else { 0.0 };
@@ -102,4 +81,50 @@ fn object_coefficients(scene: &Scene, rw: &RandomWalk, object: usize, walks: u64
         let se = ((s2[k] / n - v * v).max(0.0) / (n - 1.0)).sqrt();
         (1.0 - v - 2.0 * se).clamp(0.0, 1.0)
     })
+}
+
+/// The pilots' walk starts on one object's surface (this module's and [`super::walk_alloc`]'s):
+/// area-sampled points, directions cosine-distributed inside the critical cone about the inward
+/// normal (where a camera ray refracts in, and where a sub-critical reflection sends a walk).
+pub(super) struct Entries<'a> {
+    scene: &'a Scene,
+    object: usize,
+    seed: u64,
+    tris: Vec<usize>,
+    cum: Vec<f64>,
+    total: f64,
+    sin2_max: f64,
+}
+
+impl<'a> Entries<'a> {
+    /// None for an opaque object, one without area, or η ≤ 1 (no critical cone).
+    pub(super) fn new(scene: &'a Scene, object: usize, seed: u64) -> Option<Entries<'a>> {
+        let m = scene.material(object).translucent()?;
+        let acc = &scene.accel;
+        let tris: Vec<usize> = (0..acc.tris.len()).filter(|&i| acc.tris[i].object as usize == object).collect();
+        let mut cum = Vec::with_capacity(tris.len());
+        let mut total = 0.0;
+        for &i in &tris {
+            total += acc.area(i);
+            cum.push(total);
+        }
+        // Directions inside the critical cone: cos θ ≥ cos θ_c, sin² θ ≤ 1/η².
+        let ok = total > 0.0 && m.eta > 1.0;
+        ok.then(|| Entries { scene, object, seed, tris, cum, total, sin2_max: 1.0 / (m.eta * m.eta) })
+    }
+
+    /// Start `i`: the surface point (as a hit), the inward direction, and the walk's stream.
+    pub(super) fn entry(&self, i: u64) -> (Hit, V3, PhotonRng) {
+        let acc = &self.scene.accel;
+        let mut rng = PhotonRng::new(self.seed, i);
+        let u = rng.uniform() * self.total;
+        let j = self.cum.partition_point(|&a| a < u).min(self.tris.len() - 1);
+        let tri = self.tris[j];
+        let (r1, r2) = (rng.uniform().sqrt(), rng.uniform());
+        let (b1, b2) = (r1 * (1.0 - r2), r1 * r2);
+        let n = acc.tris[tri].n;
+        let d = Frame::new(neg(n)).to_world(sample_cosine_hemisphere(self.sin2_max * rng.uniform(), rng.uniform()));
+        let hit = Hit { t: 0.0, tri: tri as u32, object: self.object, b1, b2, p: acc.point(tri, b1, b2), n };
+        (hit, d, rng)
+    }
 }

@@ -45,6 +45,7 @@ pub mod shapes;
 pub mod texture;
 pub mod tree;
 pub mod walk;
+pub mod walk_alloc;
 pub mod walk_sim;
 
 #[cfg(test)]

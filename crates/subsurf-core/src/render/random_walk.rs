@@ -135,6 +135,9 @@ pub struct RandomWalk {
     /// a walk leaves every object through that object's boundary ([`super::fresnel_control`]);
     /// empty (off) but in scenes lit by the environment alone.
     pub fresnel_control: Vec<Rgb>,
+    /// Per object: how many times a camera path walks each of its walk groups (`walk_starts`;
+    /// [`super::walk_alloc`]); empty (once each) but in scenes lit by the environment alone.
+    pub walk_repeats: Vec<[u32; 3]>,
     /// Per light: the cone of directions (unit axis, cosine of the half-angle) outside which no
     /// straight flight from inside the translucent objects can leave towards it (the light's
     /// directions from the objects' box, widened by the largest deviation of a refraction out of
@@ -178,6 +181,8 @@ struct Radiance<'a> {
     /// The leaving crossing's Fresnel reflectance F and control coefficients c, where its exit
     /// scores the control variate (`RandomWalk::coin_control`).
     coin: Option<(f64, Rgb)>,
+    /// Collisions and boundary hits so far (the walk-allocation pilot's cost, `super::walk_alloc`).
+    events: u32,
 }
 
 impl Carrier for Radiance<'_> {
@@ -247,6 +252,7 @@ impl Carrier for Radiance<'_> {
         if !(pbar > 0.0) {
             return false;
         }
+        self.events += 1;
         let inv = 1.0 / pbar;
         self.beta = std::array::from_fn(|k| self.beta[k] * m.sigma_s[k] * tr[k] * inv);
         self.connect(scene, m, media, p, d, rng);
@@ -264,6 +270,7 @@ impl Carrier for Radiance<'_> {
         d: V3,
         rng: &mut PhotonRng,
     ) -> Option<bool> {
+        self.events += 1;
         // The majorant process's event density, as `collide` weights a homogeneous medium of σ̄.
         let sb = m.sigma_bar;
         let tr: Rgb = std::array::from_fn(|k| exp(-sb[k] * s));
@@ -335,6 +342,7 @@ impl Carrier for Radiance<'_> {
     }
 
     fn reach(&mut self, m: &Translucent, t: f64) -> bool {
+        self.events += 1;
         let tr: Rgb = std::array::from_fn(|k| exp(-m.sigma_bar[k] * t)); // σt, or the majorant
         let mut pbar = dot(self.w, tr);
         let f = self.flight;
@@ -486,10 +494,12 @@ impl RandomWalk {
             sigma_t_min,
             beams: scene.lights.iter().map(|l| if nee { Beams::new(scene, l) } else { None }).collect(),
             fresnel_control: vec![],
+            walk_repeats: vec![],
             qmc: true,
         };
         if env_only {
             rw.fresnel_control = super::fresnel_control::coefficients(scene, &rw);
+            rw.walk_repeats = super::walk_alloc::repeats(scene, &rw);
         }
         rw
     }
@@ -505,45 +515,71 @@ impl RandomWalk {
 
     /// The walks of one camera path (`walk_starts`) from `hit` into its object along `t` (the
     /// refracted direction) at `depth`: their radiance per unit throughput, before the entry's
-    /// Fresnel transmittance and tint.
+    /// Fresnel transmittance and tint. On a camera path (depth 0) walk group w is walked
+    /// `walk_repeats[object][w]` times and their mean taken ([`super::walk_alloc`]).
     pub(super) fn walks(&self, scene: &Scene, hit: &Hit, t: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
         let Some(m) = scene.material(hit.object).translucent() else { return [0.0; 3] };
         // One walk carrying every channel (spectral MIS), or walks of one or two channels.
         let (starts, n) = if self.split_channels { walk_starts(m, self.split_albedo) } else { ([[1.0; 3]; 3], 1) };
+        let reps = match self.walk_repeats.get(hit.object) {
+            Some(r) if depth == 0 => *r,
+            _ => [1; 3],
+        };
+        let total: u32 = reps[..n].iter().sum();
         // The camera path's walks take the sample's Sobol coordinates (`Qmc`: once per sample).
-        let qmc = depth == 0 && self.qmc && rng.qmc_arm(n as u32);
+        let qmc = depth == 0 && self.qmc && rng.qmc_arm(total);
         let mut l = [0.0; 3];
-        for (w, &beta) in starts[..n].iter().enumerate() {
-            if qmc {
-                // The last walk (the channels of the largest σt: the shortest walks, the
-                // noisiest scores) takes the first Sobol coordinates: on the benchmark's ear
-                // (skin2: red alone, green and blue together) the per-pixel variance in the
-                // environment fell 16 % (2.71 → 2.27·10⁻⁴, and 2.70 → 2.26 on other seeds)
-                // against the walks' events interleaved in the order of the starts; the marble's
-                // three walks the same within the noise (6.20 → 6.27·10⁻⁴).
-                rng.qmc_walk((n - 1 - w) as u32);
+        let mut slot = total;
+        for (&beta, &r) in starts[..n].iter().zip(&reps) {
+            for _ in 0..r {
+                slot -= 1;
+                if qmc {
+                    // The last walk (the channels of the largest σt: the shortest walks, the
+                    // noisiest scores) takes the first Sobol coordinates: on the benchmark's ear
+                    // (skin2: red alone, green and blue together) the per-pixel variance in the
+                    // environment fell 16 % (2.71 → 2.27·10⁻⁴, and 2.70 → 2.26 on other seeds)
+                    // against the walks' events interleaved in the order of the starts; the
+                    // marble's three walks the same within the noise (6.20 → 6.27·10⁻⁴).
+                    rng.qmc_walk(slot);
+                }
+                let (lw, _) = self.walk_one(scene, hit, t, depth, beta, rng);
+                l = add(l, scale(lw, 1.0 / r as f64));
             }
-            let mut c = Radiance {
-                rw: self,
-                depth,
-                beta,
-                w: [0.0; 3],
-                k: 0,
-                l: [0.0; 3],
-                straight: false,
-                mirrored: false,
-                pending: false,
-                last: (hit.p, Media::empty()),
-                flight: Flight::CLASSIC,
-                arrive: t,
-                least: (std::ptr::null(), None),
-                coin: None,
-            };
-            walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);
-            rng.qmc_pause();
-            l = add(l, c.l);
         }
         l
+    }
+
+    /// One walk from `hit` into its object along `t` at `depth` with start throughput `beta`:
+    /// its radiance and its events (collisions and boundary hits, the pilot's cost).
+    pub(super) fn walk_one(
+        &self,
+        scene: &Scene,
+        hit: &Hit,
+        t: V3,
+        depth: u32,
+        beta: Rgb,
+        rng: &mut PhotonRng,
+    ) -> (Rgb, u32) {
+        let mut c = Radiance {
+            rw: self,
+            depth,
+            beta,
+            w: [0.0; 3],
+            k: 0,
+            l: [0.0; 3],
+            straight: false,
+            mirrored: false,
+            pending: false,
+            last: (hit.p, Media::empty()),
+            flight: Flight::CLASSIC,
+            arrive: t,
+            least: (std::ptr::null(), None),
+            coin: None,
+            events: 0,
+        };
+        walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);
+        rng.qmc_pause();
+        (c.l, c.events)
     }
 
     /// Whether the walks estimate the area lights by their next flights (`light_flight` with

@@ -217,6 +217,40 @@ fn channel_walks_and_roulette_threshold_match_one_walk() {
     assert_images_agree("channel walks", ("per channel, θ 0.1", &a), ("one walk, θ 1", &b), 300, 0.05);
 }
 
+/// Walking a group several times per camera path (`walk_repeats`, [`super::walk_alloc`])
+/// changes the noise, not the answer: red walked once and the green–blue walk three times
+/// against once each, image sums within 4σ on the nested spheres of two media (bands checked
+/// below 5 %); the green–blue sum's spread is smaller with three walks (its variance per
+/// sample is the mean of three walks'). The pilot gives skin2 in an environment (red alone,
+/// green and blue together: red's long walks are nearly lossless) more green–blue walks.
+#[test]
+fn repeated_walks_change_the_noise_not_the_answer() {
+    let mats =
+        vec![medium([0.01, 0.1, 0.4], [2.0, 3.0, 4.0], 0.3, 1.4), medium([0.3, 0.02, 0.2], [4.0, 2.0, 3.0], 0.0, 1.3)];
+    let objects = vec![
+        Object { name: "outer".into(), mesh: icosphere([0.0; 3], 2.0, 3).unwrap(), material: 0 },
+        Object { name: "inner".into(), mesh: icosphere([0.0, 0.0, -0.3], 1.2, 2).unwrap(), material: 1 },
+    ];
+    let cam = Camera::new([0.0, -12.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 12.0, 8, 8).unwrap();
+    let s = Arc::new(Scene::new(objects, mats, vec![], [1.0, 0.9, 0.8], Some(cam)).unwrap());
+    let walks = |reps: [u32; 3]| {
+        let mut rw = RandomWalk::new(&s);
+        rw.split_albedo = 0.0; // red alone, green and blue together (as in the test above)
+        rw.walk_repeats = vec![reps; 2];
+        rw
+    };
+    let a = Renderer::from_parts(s.clone(), Box::new(walks([1, 3, 1])), 51);
+    let b = Renderer::from_parts(s.clone(), Box::new(walks([1, 1, 1])), 52);
+    assert_images_agree("repeated walks", ("green–blue ×3", &a), ("once each", &b), 300, 0.05);
+    let ((_, sa), (_, sb)) = (image_sum_stats(&a, 300), image_sum_stats(&b, 300));
+    assert!(sa[2] < 0.8 * sb[2], "blue's spread {:.5} with three walks, {:.5} with one", sa[2], sb[2]);
+    let skin2 = medium([0.013, 0.07, 0.145], [1.09, 1.59, 1.79], 0.0, 1.3);
+    let ball = vec![Object { name: "ear".into(), mesh: icosphere([0.0; 3], 2.0, 3).unwrap(), material: 0 }];
+    let s2 = Scene::new(ball, vec![skin2], vec![], [1.0; 3], None).unwrap();
+    let reps = RandomWalk::new(&s2).walk_repeats;
+    assert!(reps[0][0] == 1 && reps[0][1] > 1, "skin2's walks per camera path: {:?}", reps[0]);
+}
+
 /// Free paths mixed towards the channel of least σt (the environment's default for walks that
 /// carry every channel, in media where it pays) give the image of spectral MIS alone, within 4σ,
 /// on the nested spheres of two media whose least-σt channels differ (red outside, green
