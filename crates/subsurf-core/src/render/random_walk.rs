@@ -810,8 +810,8 @@ pub fn nee_scale(scene: &Scene) -> f64 {
 }
 
 impl Translucency for RandomWalk {
-    fn reflected_trace_q(&self) -> f64 {
-        super::shade::REFLECTED_TRACE_Q
+    fn reflected_trace_q(&self, fr: f64) -> f64 {
+        (fr / super::shade::REFLECTED_F0).min(1.0)
     }
 
     fn radiance(&self, scene: &Scene, hit: &Hit, wo: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {

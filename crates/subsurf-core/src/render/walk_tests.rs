@@ -583,7 +583,9 @@ fn sobol_walks_change_the_noise_not_the_answer() {
 /// environment, the reflection of a ray met head-on crosses the hole to the far side (its
 /// radiance a walk's, not the environment's). 400 000 estimates at q = 0.25 against 400 000 traced
 /// ones (q = 1): means within 4σ per channel (σ from both spreads; the band below 2 % of the
-/// mean), and the thinned spread larger (the thinning acts: this ray never escapes).
+/// mean), and the thinned spread larger (the thinning acts: this ray never escapes). The
+/// method's q = min(1, F/F₀) (`shade::REFLECTED_F0`) is fixed by the ray before the draw, so
+/// what holds at a fixed q holds for it.
 #[test]
 fn thinned_reflection_is_unbiased_where_it_meets_the_object() {
     use super::shade::reflected_q;
