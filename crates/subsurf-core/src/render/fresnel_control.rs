@@ -39,6 +39,7 @@ use super::random_walk::RandomWalk;
 use super::scene::Scene;
 use crate::optics::sample_cosine_hemisphere;
 use crate::rng::PhotonRng;
+use rayon::prelude::*;
 
 /// Pilot walks of a scene, shared by its translucent objects (one object's: a standard error of
 /// the mean of about 0.02 for the benchmark's media; 3–28 ms for skin, ear and marble).
@@ -63,9 +64,15 @@ fn object_coefficients(scene: &Scene, rw: &RandomWalk, object: usize, walks: u64
     let Some(entries) = Entries::new(scene, object, PILOT_SEED) else { return [0.0; 3] };
     let env = scene.environment;
     let (mut s, mut s2) = ([0.0; 3], [0.0; 3]);
-    for i in 0..walks {
-        let (hit, d, mut rng) = entries.entry(i);
-        let l = rw.walks(scene, &hit, d, 1, &mut rng);
+    // The walks in parallel, summed in their order (the same c for any thread count).
+    let runs: Vec<Rgb> = (0..walks)
+        .into_par_iter()
+        .map(|i| {
+            let (hit, d, mut rng) = entries.entry(i);
+            rw.walks(scene, &hit, d, 1, &mut rng)
+        })
+        .collect();
+    for l in runs {
         for k in 0..3 {
             let v = if env[k] > 0.0 { l[k] / env[k] } else { 0.0 };
             s[k] += v;

@@ -22,8 +22,10 @@
 
 use super::env_walk::walk_starts;
 use super::fresnel_control::Entries;
+use super::math::Rgb;
 use super::random_walk::RandomWalk;
 use super::scene::Scene;
+use rayon::prelude::*;
 
 /// The most walks of one group per camera path.
 pub const MAX_REPEATS: u32 = 4;
@@ -56,9 +58,15 @@ fn object_repeats(scene: &Scene, rw: &RandomWalk, object: usize) -> [u32; 3] {
     let (mut v, mut c) = ([0.0; 3], [0.0; 3]);
     for w in 0..n {
         let (mut s, mut s2, mut events) = ([0.0; 3], [0.0; 3], 0u64);
-        for i in 0..PILOT_WALKS {
-            let (hit, d, mut rng) = entries.entry(i);
-            let (l, e) = rw.walk_one(scene, &hit, d, 0, starts[w], &mut rng);
+        // The walks in parallel, summed in their order (the same counts for any thread count).
+        let runs: Vec<(Rgb, u32)> = (0..PILOT_WALKS)
+            .into_par_iter()
+            .map(|i| {
+                let (hit, d, mut rng) = entries.entry(i);
+                rw.walk_one(scene, &hit, d, 0, starts[w], &mut rng)
+            })
+            .collect();
+        for (l, e) in runs {
             for k in 0..3 {
                 s[k] += l[k];
                 s2[k] += l[k] * l[k];
