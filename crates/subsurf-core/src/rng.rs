@@ -134,6 +134,8 @@ pub struct PhotonRng {
 pub struct Qmc {
     index: u32,
     key: u32,
+    /// The Sobol index of the current walk's blocks (`index`, or a copy's, [`PhotonRng::qmc_walk_copy`]).
+    at: u32,
     /// Whether the sample's coordinates are still unused ([`PhotonRng::qmc_arm`] takes them).
     ready: bool,
     /// The walks sharing the coordinates (0: none armed) and the one walking now.
@@ -218,8 +220,17 @@ impl PhotonRng {
 
     /// Walk `w` (< the armed count) starts: its events take their blocks until [`Self::qmc_pause`].
     pub fn qmc_walk(&mut self, w: u32) {
+        self.qmc_walk_copy(w, 0, 1);
+    }
+
+    /// Copy `copy` of `copies` of walk `w` starts (a walk repeated on one camera sample,
+    /// `render::walk_alloc`): its events take walk w's blocks at the Sobol index
+    /// index·copies + copy, so the copies of a pixel's samples 0 … N − 1 are the sequence's
+    /// points 0 … copies·N − 1 (stratified together) instead of independent ones.
+    pub fn qmc_walk_copy(&mut self, w: u32, copy: u32, copies: u32) {
         self.q.active = w < self.q.walks;
         self.q.walk = w;
+        self.q.at = self.q.index.wrapping_mul(copies).wrapping_add(copy);
         self.q.end = self.q.dim;
     }
 
@@ -293,7 +304,7 @@ impl Qmc {
         if block + Self::BLOCK as u64 <= crate::sobol::DIMS as u64 {
             self.dim = block as u32;
             self.end = self.dim + Self::BLOCK;
-            self.block = crate::sobol::scrambled_block(block as usize, self.index, self.key);
+            self.block = crate::sobol::scrambled_block(block as usize, self.at, self.key);
         } else {
             self.pause_blocks();
         }
@@ -580,6 +591,41 @@ mod tests {
         assert!((mean - 0.5).abs() < 5.0 * (1.0f64 / 12.0 / n as f64).sqrt(), "{mean}");
         // Var of u² is 4/45; var of the sample variance ≈ (1/80 − 1/144)/n.
         assert!((var - 1.0 / 12.0).abs() < 5.0 * ((1.0 / 80.0 - 1.0 / 144.0) / n as f64).sqrt(), "{var}");
+    }
+
+    /// The copies of a repeated walk (`qmc_walk_copy`) over a pixel's samples 0 … N − 1 are
+    /// the first copies·N points of the walk's scrambled Sobol coordinates: the first event's
+    /// coordinates of 4 copies × 16 samples put one point in each of 64 equal intervals, in
+    /// every coordinate of the block and for any walk slot; a walk slot per copy (`qmc_walk`)
+    /// does not (each slot alone is a 16-point net).
+    #[test]
+    fn walk_copies_are_stratified_together() {
+        let first = |slot: u32, copy: u32, copies: u32, s: u32, own_slots: bool| {
+            let mut r = PhotonRng::new(3, s as u64).with_qmc(s, 0x5eed);
+            assert!(r.qmc_arm(8));
+            if own_slots {
+                r.qmc_walk(slot + copy);
+            } else {
+                r.qmc_walk_copy(slot, copy, copies);
+            }
+            r.qmc_event(0);
+            [r.next_u32(), r.next_u32(), r.next_u32(), r.next_u32()]
+        };
+        let strata = |own: bool, slot: u32, k: usize| {
+            let mut seen = [0u32; 64];
+            for s in 0..16 {
+                for copy in 0..4 {
+                    seen[(first(slot, copy, 4, s, own)[k] >> 26) as usize] += 1;
+                }
+            }
+            seen.iter().all(|&c| c == 1)
+        };
+        for slot in [0, 1, 3] {
+            for k in 0..4 {
+                assert!(strata(false, slot, k), "slot {slot}, coordinate {k}: copies not stratified");
+            }
+        }
+        assert!((0..4).any(|k| !strata(true, 0, k)), "separate slots stratified alike");
     }
 }
 
