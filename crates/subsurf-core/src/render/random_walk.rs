@@ -58,7 +58,7 @@
 use super::accel::{Hit, Tri};
 use super::beams::Beams;
 use super::distance::DistanceGrid;
-pub(super) use super::env_walk::{least_sigma_t, walk_starts};
+pub(super) use super::env_walk::least_sigma_t;
 pub use super::env_walk::{FLIGHT_MIX, MIX_ALBEDO, RR_THRESHOLD, SPLIT_ALBEDO};
 use super::facet_nee::{self, Connection};
 use super::fastmath::exp;
@@ -511,42 +511,6 @@ impl RandomWalk {
     fn coin_control(&self, scene: &Scene, object: usize, depth: u32) -> Option<Rgb> {
         let c = *self.fresnel_control.get(object)?;
         (c != [0.0; 3] && !self.env_nee && scene.lights.is_empty() && depth < MAX_DEPTH).then_some(c)
-    }
-
-    /// The walks of one camera path (`walk_starts`) from `hit` into its object along `t` (the
-    /// refracted direction) at `depth`: their radiance per unit throughput, before the entry's
-    /// Fresnel transmittance and tint. On a camera path (depth 0) walk group w is walked
-    /// `walk_repeats[object][w]` times and their mean taken ([`super::walk_alloc`]).
-    pub(super) fn walks(&self, scene: &Scene, hit: &Hit, t: V3, depth: u32, rng: &mut PhotonRng) -> Rgb {
-        let Some(m) = scene.material(hit.object).translucent() else { return [0.0; 3] };
-        // One walk carrying every channel (spectral MIS), or walks of one or two channels.
-        let (starts, n) = if self.split_channels { walk_starts(m, self.split_albedo) } else { ([[1.0; 3]; 3], 1) };
-        let reps = match self.walk_repeats.get(hit.object) {
-            Some(r) if depth == 0 => *r,
-            _ => [1; 3],
-        };
-        // The camera path's walks take the sample's Sobol coordinates (`Qmc`: once per sample);
-        // the copies of a repeated group take its coordinates at consecutive Sobol indices.
-        let qmc = depth == 0 && self.qmc && rng.qmc_arm(n as u32);
-        let mut l = [0.0; 3];
-        for (w, (&beta, &r)) in starts[..n].iter().zip(&reps).enumerate() {
-            for copy in 0..r {
-                if qmc {
-                    // The last walk (the channels of the largest σt: the shortest walks, the
-                    // noisiest scores) takes the first Sobol coordinates: on the benchmark's ear
-                    // (skin2: red alone, green and blue together) the per-pixel variance in the
-                    // environment fell 16 % (2.71 → 2.27·10⁻⁴, and 2.70 → 2.26 on other seeds)
-                    // against the walks' events interleaved in the order of the starts; the
-                    // marble's three walks the same within the noise (6.20 → 6.27·10⁻⁴). Its
-                    // copies at consecutive indices: the ear's variance 7.58 → 6.02·10⁻⁵ against
-                    // a Sobol walk slot of their own each (`walk_alloc`).
-                    rng.qmc_walk_copy((n - 1 - w) as u32, copy, r);
-                }
-                let (lw, _) = self.walk_one(scene, hit, t, depth, beta, rng);
-                l = add(l, scale(lw, 1.0 / r as f64));
-            }
-        }
-        l
     }
 
     /// One walk from `hit` into its object along `t` at `depth` with start throughput `beta`:

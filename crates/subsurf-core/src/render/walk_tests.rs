@@ -288,7 +288,8 @@ fn least_sigma_t_flights_match_spectral_mis() {
 /// mix towards green (the least σt of the two).
 #[test]
 fn environment_walks_group_the_short_channels() {
-    use super::random_walk::{least_sigma_t, walk_starts, SPLIT_ALBEDO};
+    use super::env_walk::walk_starts;
+    use super::random_walk::{least_sigma_t, SPLIT_ALBEDO};
     let jensen = |sp: Rgb, sa: Rgb| medium(sa, sp, 0.0, 1.3);
     let cases = [
         (jensen([0.74, 0.88, 1.01], [0.032, 0.17, 0.48]), vec![[1.0; 3]]),
