@@ -226,7 +226,8 @@ impl PhotonRng {
     /// Copy `copy` of `copies` of walk `w` starts (a walk repeated on one camera sample,
     /// `render::walk_alloc`): its events take walk w's blocks at the Sobol index
     /// index·copies + copy, so the copies of a pixel's samples 0 … N − 1 are the sequence's
-    /// points 0 … copies·N − 1 (stratified together) instead of independent ones.
+    /// points 0 … copies·N − 1 (stratified together) instead of independent ones. The index
+    /// wraps modulo 2³² past 2³²/copies samples: each point is still uniform (scrambled).
     pub fn qmc_walk_copy(&mut self, w: u32, copy: u32, copies: u32) {
         self.q.active = w < self.q.walks;
         self.q.walk = w;

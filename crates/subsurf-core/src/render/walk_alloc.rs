@@ -62,8 +62,10 @@ pub fn repeats(scene: &Scene, rw: &RandomWalk) -> Vec<[u32; 3]> {
 fn object_repeats(scene: &Scene, rw: &RandomWalk, object: usize) -> [u32; 3] {
     let Some(m) = scene.material(object).translucent() else { return [1; 3] };
     let (starts, n) = walk_starts(m, rw.split_albedo);
-    let entries = Entries::new(scene, object, PILOT_SEED);
-    let (Some(entries), true) = (entries, rw.split_channels && n >= 2) else { return [1; 3] };
+    if !rw.split_channels || n < 2 {
+        return [1; 3];
+    }
+    let Some(entries) = Entries::new(scene, object, PILOT_SEED) else { return [1; 3] };
     let (mut v, mut c) = ([0.0; 3], [0.0; 3]);
     for w in 0..n {
         let (mut s, mut s2, mut events) = ([0.0; 3], [0.0; 3], 0u64);
@@ -98,12 +100,13 @@ pub fn allocate(v: &[f64], c: &[f64]) -> [u32; 3] {
         let var: f64 = v.iter().zip(k).map(|(v, &k)| v / k as f64).sum();
         var * (PATH_COST + c.iter().zip(k).map(|(c, &k)| c * k as f64).sum::<f64>())
     };
+    let total = |k: &[u32; 3]| k.iter().sum::<u32>();
     let mut best = ([1; 3], f64::INFINITY);
     let m = MAX_REPEATS;
     for i in 0..m.pow(v.len() as u32) {
         let k: [u32; 3] = std::array::from_fn(|w| if w < v.len() { 1 + i / m.pow(w as u32) % m } else { 1 });
         let e = cost(&k);
-        if k[..v.len()].contains(&1) && e < best.1 {
+        if k[..v.len()].contains(&1) && (e < best.1 || (e == best.1 && total(&k) < total(&best.0))) {
             best = (k, e);
         }
     }

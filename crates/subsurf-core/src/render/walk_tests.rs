@@ -193,6 +193,17 @@ fn guided_walk_matches_the_classic_walk_slow() {
     }
 }
 
+/// Nested spheres (radius 2 mm, and 1.2 mm off centre inside it) of the two media `mats`, in an
+/// environment (1, 0.9, 0.8), seen by an 8×8 image that lies wholly on the outer sphere.
+fn two_media_spheres(mats: Vec<Material>) -> Arc<Scene> {
+    let objects = vec![
+        Object { name: "outer".into(), mesh: icosphere([0.0; 3], 2.0, 3).unwrap(), material: 0 },
+        Object { name: "inner".into(), mesh: icosphere([0.0, 0.0, -0.3], 1.2, 2).unwrap(), material: 1 },
+    ];
+    let cam = Camera::new([0.0, -12.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 12.0, 8, 8).unwrap();
+    Arc::new(Scene::new(objects, mats, vec![], [1.0, 0.9, 0.8], Some(cam)).unwrap())
+}
+
 /// The environment-only defaults (one walk per colour channel, roulette below β = 0.1) change
 /// the noise, not the answer: against one spectral-MIS walk with roulette at θ = 1 (the
 /// defaults under lights), image sums within 4σ, on the nested spheres of two media (the
@@ -201,12 +212,7 @@ fn guided_walk_matches_the_classic_walk_slow() {
 fn channel_walks_and_roulette_threshold_match_one_walk() {
     let mats =
         vec![medium([0.01, 0.1, 0.4], [2.0, 3.0, 4.0], 0.3, 1.4), medium([0.3, 0.02, 0.2], [4.0, 2.0, 3.0], 0.0, 1.3)];
-    let objects = vec![
-        Object { name: "outer".into(), mesh: icosphere([0.0; 3], 2.0, 3).unwrap(), material: 0 },
-        Object { name: "inner".into(), mesh: icosphere([0.0, 0.0, -0.3], 1.2, 2).unwrap(), material: 1 },
-    ];
-    let cam = Camera::new([0.0, -12.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 12.0, 8, 8).unwrap();
-    let s = Arc::new(Scene::new(objects, mats, vec![], [1.0, 0.9, 0.8], Some(cam)).unwrap());
+    let s = two_media_spheres(mats);
     let mut split = RandomWalk::new(&s);
     assert!(split.split_channels && split.rr_threshold < 1.0);
     split.split_albedo = 0.0; // walks split (this medium's blue reduced albedo is 0.875): red, green-blue
@@ -227,12 +233,7 @@ fn channel_walks_and_roulette_threshold_match_one_walk() {
 fn repeated_walks_change_the_noise_not_the_answer() {
     let mats =
         vec![medium([0.01, 0.1, 0.4], [2.0, 3.0, 4.0], 0.3, 1.4), medium([0.3, 0.02, 0.2], [4.0, 2.0, 3.0], 0.0, 1.3)];
-    let objects = vec![
-        Object { name: "outer".into(), mesh: icosphere([0.0; 3], 2.0, 3).unwrap(), material: 0 },
-        Object { name: "inner".into(), mesh: icosphere([0.0, 0.0, -0.3], 1.2, 2).unwrap(), material: 1 },
-    ];
-    let cam = Camera::new([0.0, -12.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 12.0, 8, 8).unwrap();
-    let s = Arc::new(Scene::new(objects, mats, vec![], [1.0, 0.9, 0.8], Some(cam)).unwrap());
+    let s = two_media_spheres(mats);
     let walks = |reps: [u32; 3]| {
         let mut rw = RandomWalk::new(&s);
         rw.split_albedo = 0.0; // red alone, green and blue together (as in the test above)
@@ -263,12 +264,7 @@ fn least_sigma_t_flights_match_spectral_mis() {
     for (m, least) in mats.iter().zip([0, 1]) {
         assert_eq!(super::random_walk::least_sigma_t(m.translucent().unwrap(), [1.0; 3]), Some(least));
     }
-    let objects = vec![
-        Object { name: "outer".into(), mesh: icosphere([0.0; 3], 2.0, 3).unwrap(), material: 0 },
-        Object { name: "inner".into(), mesh: icosphere([0.0, 0.0, -0.3], 1.2, 2).unwrap(), material: 1 },
-    ];
-    let cam = Camera::new([0.0, -12.0, 0.0], [0.0; 3], [0.0, 0.0, 1.0], 12.0, 8, 8).unwrap();
-    let s = Arc::new(Scene::new(objects, mats, vec![], [1.0, 0.9, 0.8], Some(cam)).unwrap());
+    let s = two_media_spheres(mats);
     let plain = |mix: f64| {
         let mut rw = RandomWalk::new(&s);
         assert!(rw.rr_threshold < 1.0 && rw.flight_mix == super::random_walk::FLIGHT_MIX);
