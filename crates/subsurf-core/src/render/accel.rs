@@ -357,10 +357,12 @@ impl Accel {
         0.5 * length(cross(self.tris[i].e1, self.tris[i].e2))
     }
 
-    /// A distance (mm) from `p` within which no triangle lies (0 when unknown).
+    /// A distance (mm) from `p` within which no triangle lies (0 when unknown): the grid's
+    /// bound from its marked cells ([`DistanceGrid::cell_bound`]), on which the next-event
+    /// decisions' probabilities were tuned.
     #[inline]
     pub fn clear_radius(&self, p: V3) -> f64 {
-        self.distance.as_ref().map_or(0.0, |g| g.bound(p))
+        self.distance.as_ref().map_or(0.0, |g| g.cell_bound(p))
     }
 
     /// Whether no triangle lies on the segment from `p` along the unit `d` to distance `s`, by

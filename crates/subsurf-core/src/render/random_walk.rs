@@ -564,7 +564,7 @@ impl RandomWalk {
     /// this deep.
     fn tau_lb(&self, scene: &Scene, m: &Translucent, p: V3) -> f64 {
         let tau = m.sigma_t_floor() * scene.accel.clear_radius(p);
-        self.facing.as_ref().map_or(tau, |g| tau.max(self.sigma_t_min * g.bound(p)))
+        self.facing.as_ref().map_or(tau, |g| tau.max(self.sigma_t_min * g.cell_bound(p)))
     }
 
     /// The probability q_f = min(1, c_f e^{−τ_lb}) of a next-flight estimate of the lights at a
@@ -621,7 +621,7 @@ impl RandomWalk {
         let tau = m.sigma_t_floor() * scene.accel.clear_radius(p);
         let q = (self.nee_scale * exp(-tau)).min(1.0);
         let Some(g) = &self.facing else { return (u < q).then_some((q, tau)) };
-        let tau_f = self.sigma_t_min * g.bound(p);
+        let tau_f = self.sigma_t_min * g.cell_bound(p);
         if u >= q || tau_f <= tau {
             return (u < q).then_some((q, tau));
         }

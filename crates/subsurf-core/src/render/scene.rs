@@ -78,7 +78,7 @@ impl Scene {
                 .filter_map(|m| m.translucent())
                 .map(|m| m.sigma_t_floor())
                 .fold(f64::INFINITY, f64::min);
-            let grid = DistanceGrid::new(&scene.accel.tris, lo, hi, st);
+            let grid = DistanceGrid::new(&scene.accel.tris, lo, hi, st).with_band(&scene.accel.tris);
             scene.accel.cells = grid.cell_lists(&scene.accel.tris);
             scene.accel.distance = Some(grid);
         }
