@@ -2,9 +2,12 @@
 //! walk's free-path ray — short: it ends at the collision, a few mean free paths at most — tests
 //! only the triangles of the cells it crosses instead of descending the BVH from its root.
 //!
-//! A triangle is listed in every cell of its bounding box that its plane's slab passes through,
-//! both padded by δ (10⁻⁶ of the grid's side, far above rounding): any point within δ of the
-//! triangle lies in a cell that lists it. The cells along the segment are visited in order by
+//! A triangle is listed in every cell of its bounding box whose box it overlaps, both padded by δ
+//! (10⁻⁶ of the grid's side, far above rounding): any point within δ of the triangle lies in a
+//! cell that lists it. Overlap is the separating-axis test of Akenine-Möller (2001): the box's
+//! axes (its bounding box's cells), the triangle's normal (its plane's slab) and the nine
+//! products of a box axis and an edge. (The nine edge axes took 3 % of the ear's and 5 % of the
+//! skin's render-pass instructions off: fewer triangles per cell to test, and thinner slabs.) The cells along the segment are visited in order by
 //! the 3-D DDA of Amanatides & Woo (1987, "A fast voxel traversal algorithm for ray tracing",
 //! Eurographics '87), each listed triangle tested by the BVH path's own f64 Möller–Trumbore test
 //! ([`Accel`]'s) with the same t range and the same skipped triangle; the search stops once the
@@ -23,7 +26,7 @@
 //! hold a nearly flat patch of the surface beside them.
 
 use super::accel::{Accel, Tri};
-use super::math::{dot, f32_above, f32_below, madd, V3};
+use super::math::{dot, f32_above, f32_below, madd, sub, V3};
 
 /// Triangle indices (global, as in [`Accel::tris`]) per cell of a uniform grid, in compressed
 /// rows: cell k's triangles are `ids[start[k]..start[k + 1]]`.
@@ -108,7 +111,8 @@ impl CellLists {
 
     /// Calls `f` with each cell (flat index) that the δ-padded triangle `t` may touch: its
     /// padded bounding box's cells (none if the box misses the grid) whose δ-padded box meets
-    /// the triangle's plane (|n·(centre − v₀)| ≤ (h/2 + δ)‖n‖₁).
+    /// the triangle's plane (|n·(centre − v₀)| ≤ (h/2 + δ)‖n‖₁) and no edge axis separates
+    /// from it ([`separated`]).
     fn cells_of(&self, t: &Tri, pad: f64, mut f: impl FnMut(usize)) {
         let vs = [t.v0, madd(t.v0, t.e1, 1.0), madd(t.v0, t.e2, 1.0)];
         let mut lo_c = [0usize; 3];
@@ -123,14 +127,24 @@ impl CellLists {
             lo_c[a] = min.max(0.0) as usize;
             hi_c[a] = (max as usize).min(self.n[a] - 1);
         }
-        let reach = (0.5 * self.h + pad) * (t.n[0].abs() + t.n[1].abs() + t.n[2].abs());
+        let half = 0.5 * self.h + pad;
+        let reach = half * (t.n[0].abs() + t.n[1].abs() + t.n[2].abs());
         let centre = |a: usize, i: usize| self.lo[a] + (i as f64 + 0.5) * self.h;
+        // The separating axes of the triangle's edges (Akenine-Möller 2001, "Fast 3D
+        // triangle-box overlap testing", JGT 6(1)): axis × edge for each box axis and edge.
+        let edges = [sub(vs[1], vs[0]), sub(vs[2], vs[1]), sub(vs[0], vs[2])];
+        let axes: [V3; 9] = std::array::from_fn(|k| {
+            let (a, e) = (k / 3, edges[k % 3]);
+            let mut u = [0.0; 3];
+            u[a] = 1.0;
+            super::math::cross(u, e)
+        });
         for x in lo_c[0]..=hi_c[0] {
             for y in lo_c[1]..=hi_c[1] {
                 for z in lo_c[2]..=hi_c[2] {
                     let c = [centre(0, x), centre(1, y), centre(2, z)];
-                    let off = dot(t.n, [c[0] - t.v0[0], c[1] - t.v0[1], c[2] - t.v0[2]]);
-                    if off.abs() <= reach {
+                    let off = dot(t.n, sub(c, t.v0));
+                    if off.abs() <= reach && !separated(&axes, &vs, c, half) {
                         f(self.flat([x, y, z]));
                     }
                 }
@@ -250,6 +264,18 @@ impl CellLists {
     }
 }
 
+/// Whether one of `axes` separates the triangle `vs` from the box of centre `c` and half-side
+/// `half` (mm), with a margin of 10⁻⁹ of the projections' size for the rounding.
+fn separated(axes: &[V3; 9], vs: &[V3; 3], c: V3, half: f64) -> bool {
+    let rel = vs.map(|v| sub(v, c));
+    axes.iter().any(|a| {
+        let p = rel.map(|v| dot(*a, v));
+        let r = half * (a[0].abs() + a[1].abs() + a[2].abs());
+        let m = 1e-9 * (r + p[0].abs() + p[1].abs() + p[2].abs());
+        p[0].min(p[1]).min(p[2]) > r + m || p[0].max(p[1]).max(p[2]) < -r - m
+    })
+}
+
 /// The slab header of a cell listing triangles `ids`: their area-weighted mean normal n (f32)
 /// and the range of n·x over their vertices in f64, widened by `tol` and rounded outwards to
 /// f32; a cell whose normals cancel gets an unbounded range (never skipped).
@@ -316,6 +342,54 @@ mod tests {
             thick += f(4) - f(3);
         }
         assert!(thick / (cells as f64) < 0.5 * g.h, "mean slab {} against cells of {}", thick / cells as f64, g.h);
+    }
+
+    /// The edge axes never separate a box from a triangle that has a point in it (16,000 random
+    /// pairs, each triangle sampled at 1,326 points), and they do separate some boxes that the
+    /// plane's slab and the bounding box keep (more than 10 % of those here; 28 % measured).
+    #[test]
+    fn edge_axes_separate_only_boxes_the_triangle_misses() {
+        let mut rng = crate::rng::PhotonRng::new(3, 7);
+        let (mut kept, mut cut) = (0, 0);
+        for _ in 0..16_000 {
+            let vs: [V3; 3] = std::array::from_fn(|_| std::array::from_fn(|_| 2.0 * rng.symmetric()));
+            let e = [sub(vs[1], vs[0]), sub(vs[2], vs[1]), sub(vs[0], vs[2])];
+            let axes: [V3; 9] = std::array::from_fn(|k| {
+                let mut u = [0.0; 3];
+                u[k / 3] = 1.0;
+                super::super::math::cross(u, e[k % 3])
+            });
+            let c: V3 = std::array::from_fn(|_| 1.5 * rng.symmetric());
+            let half = 0.1 + 0.5 * rng.uniform();
+            let n = super::super::math::cross(e[0], e[2]);
+            let slab = dot(n, sub(c, vs[0])).abs() <= half * (n[0].abs() + n[1].abs() + n[2].abs());
+            let bbox = (0..3).all(|a| {
+                vs.iter().map(|v| v[a]).fold(f64::INFINITY, f64::min) <= c[a] + half
+                    && vs.iter().map(|v| v[a]).fold(f64::NEG_INFINITY, f64::max) >= c[a] - half
+            });
+            if !(slab && bbox) {
+                continue;
+            }
+            kept += 1;
+            if separated(&axes, &vs, c, half) {
+                cut += 1;
+                let k = 50;
+                for i in 0..=k {
+                    for j in 0..=k - i {
+                        let q = madd(
+                            madd(vs[0], sub(vs[1], vs[0]), i as f64 / k as f64),
+                            sub(vs[2], vs[0]),
+                            j as f64 / k as f64,
+                        );
+                        assert!(
+                            (0..3).any(|a| (q[a] - c[a]).abs() > half),
+                            "{vs:?} has {q:?} in the box {c:?} ± {half}"
+                        );
+                    }
+                }
+            }
+        }
+        assert!(kept > 500 && cut * 10 > kept, "{cut} of {kept} separated");
     }
 
     /// The lists give the BVH's closest hit (the same triangle and t, bit for bit) on a torus (not
