@@ -7,9 +7,10 @@
 //! cell that lists it. Overlap is the separating-axis test of Akenine-Möller (2001): the box's
 //! axes (its bounding box's cells), the triangle's normal (its plane's slab) and the nine
 //! products of a box axis and an edge. (The nine edge axes took 3 % of the ear's and 5 % of the
-//! skin's render-pass instructions off: fewer triangles per cell to test, and thinner slabs.) The cells along the segment are visited in order by
-//! the 3-D DDA of Amanatides & Woo (1987, "A fast voxel traversal algorithm for ray tracing",
-//! Eurographics '87), each listed triangle tested by the BVH path's own f64 Möller–Trumbore test
+//! skin's render-pass instructions off: fewer triangles per cell to test, and thinner slabs.)
+//!
+//! The cells along the segment are visited in order by the 3-D DDA of Amanatides & Woo (1987,
+//! "A fast voxel traversal algorithm for ray tracing", Eurographics '87), each listed triangle tested by the BVH path's own f64 Möller–Trumbore test
 //! ([`Accel`]'s) with the same t range and the same skipped triangle; the search stops once the
 //! closest hit so far lies no farther than the current cell's exit (every point of the ray before
 //! it lies in a visited cell). The answer is the BVH's: the same triangle and the same (t, b₁,
@@ -130,15 +131,7 @@ impl CellLists {
         let half = 0.5 * self.h + pad;
         let reach = half * (t.n[0].abs() + t.n[1].abs() + t.n[2].abs());
         let centre = |a: usize, i: usize| self.lo[a] + (i as f64 + 0.5) * self.h;
-        // The separating axes of the triangle's edges (Akenine-Möller 2001, "Fast 3D
-        // triangle-box overlap testing", JGT 6(1)): axis × edge for each box axis and edge.
-        let edges = [sub(vs[1], vs[0]), sub(vs[2], vs[1]), sub(vs[0], vs[2])];
-        let axes: [V3; 9] = std::array::from_fn(|k| {
-            let (a, e) = (k / 3, edges[k % 3]);
-            let mut u = [0.0; 3];
-            u[a] = 1.0;
-            super::math::cross(u, e)
-        });
+        let axes = edge_axes(&vs);
         for x in lo_c[0]..=hi_c[0] {
             for y in lo_c[1]..=hi_c[1] {
                 for z in lo_c[2]..=hi_c[2] {
@@ -264,6 +257,18 @@ impl CellLists {
     }
 }
 
+/// The separating axes of the triangle `vs`'s edges against an axis-aligned box (Akenine-Möller
+/// 2001, "Fast 3D triangle-box overlap testing", JGT 6(1)): box axis × edge, for each of the
+/// three axes and three edges.
+fn edge_axes(vs: &[V3; 3]) -> [V3; 9] {
+    let edges = [sub(vs[1], vs[0]), sub(vs[2], vs[1]), sub(vs[0], vs[2])];
+    std::array::from_fn(|k| {
+        let mut u = [0.0; 3];
+        u[k / 3] = 1.0;
+        super::math::cross(u, edges[k % 3])
+    })
+}
+
 /// Whether one of `axes` separates the triangle `vs` from the box of centre `c` and half-side
 /// `half` (mm), with a margin of 10⁻⁹ of the projections' size for the rounding.
 fn separated(axes: &[V3; 9], vs: &[V3; 3], c: V3, half: f64) -> bool {
@@ -353,15 +358,10 @@ mod tests {
         let (mut kept, mut cut) = (0, 0);
         for _ in 0..16_000 {
             let vs: [V3; 3] = std::array::from_fn(|_| std::array::from_fn(|_| 2.0 * rng.symmetric()));
-            let e = [sub(vs[1], vs[0]), sub(vs[2], vs[1]), sub(vs[0], vs[2])];
-            let axes: [V3; 9] = std::array::from_fn(|k| {
-                let mut u = [0.0; 3];
-                u[k / 3] = 1.0;
-                super::super::math::cross(u, e[k % 3])
-            });
+            let axes = edge_axes(&vs);
             let c: V3 = std::array::from_fn(|_| 1.5 * rng.symmetric());
             let half = 0.1 + 0.5 * rng.uniform();
-            let n = super::super::math::cross(e[0], e[2]);
+            let n = super::super::math::cross(sub(vs[1], vs[0]), sub(vs[0], vs[2]));
             let slab = dot(n, sub(c, vs[0])).abs() <= half * (n[0].abs() + n[1].abs() + n[2].abs());
             let bbox = (0..3).all(|a| {
                 vs.iter().map(|v| v[a]).fold(f64::INFINITY, f64::min) <= c[a] + half

@@ -160,7 +160,7 @@ impl DistanceGrid {
         let margin = 3f64.sqrt() + 1e-6;
         g.table = (0..=top).map(|v| (((v as f64).sqrt() - margin) * h).max(0.0) as f32).collect();
         g.d2 = d2.par_iter().map(|&v| if v.is_finite() && v <= top as f64 { v as u16 } else { 0 }).collect();
-        g.set_band(None);
+        g.set_band(&g.far(), None);
         g
     }
 
@@ -169,8 +169,9 @@ impl DistanceGrid {
     /// triangle) pair, 0.015 s on one thread for the benchmark's 4–5·10³-triangle meshes.
     pub fn with_band(mut self, tris: &[Tri]) -> DistanceGrid {
         if !self.d2.is_empty() {
-            let near = self.near(tris, &self.far());
-            self.set_band(Some(&near));
+            let far = self.far();
+            let near = self.near(tris, &far);
+            self.set_band(&far, Some(&near));
         }
         self
     }
@@ -182,12 +183,11 @@ impl DistanceGrid {
         self.d2.par_iter().map(|&v| ((v as f64).sqrt() - half) * h).collect()
     }
 
-    /// [`Self::bound`]'s cells: B(c) = max((D − √3/2) h, the band's exact distance `near`) −
-    /// √3/2 h − the margin, in steps of h/256 (rounded down); without `near`, the steps of
+    /// [`Self::bound`]'s cells: B(c) = max(`far`, the band's exact distance `near`) − √3/2 h −
+    /// the margin, in steps of h/256 (rounded down); without `near`, the steps of
     /// [`Self::cell_bound`] (one lookup without a branch either way).
-    fn set_band(&mut self, near: Option<&[f64]>) {
+    fn set_band(&mut self, far: &[f64], near: Option<&[f64]>) {
         let (h, half) = (self.h, 0.5 * 3f64.sqrt());
-        let far = self.far();
         let unit = h / STEPS;
         let step =
             |cells: f64, e: f64| ((cells.max(e) - half * h - 1e-6 * h) / unit).clamp(0.0, u16::MAX as f64) as u16;
@@ -308,10 +308,10 @@ impl DistanceGrid {
     }
 }
 
-/// The squared distance (mm²) from `p` to the triangle `t` (0 for a degenerate one; its closest point by the Voronoi
-/// regions of its vertices, edges and face: Ericson 2005, "Real-Time Collision Detection",
-/// §5.1.5).
-pub fn dist2_to_triangle(p: V3, t: &Tri) -> f64 {
+/// The squared distance (mm²) from `p` to the triangle `t` (0 for a degenerate one): its
+/// closest point by the Voronoi regions of its vertices, edges and face (Ericson 2005,
+/// "Real-Time Collision Detection", §5.1.5).
+pub(super) fn dist2_to_triangle(p: V3, t: &Tri) -> f64 {
     let (a, ab, ac) = (t.v0, t.e1, t.e2);
     let ap = sub(p, a);
     let (d1, d2) = (dot(ab, ap), dot(ac, ap));
