@@ -234,9 +234,13 @@ impl Carrier for Radiance<'_> {
         } else {
             let (c, shift) = (self.k, m.sigma_t[self.k]);
             let (a, b) = ([1, 2, 0][c], [2, 0, 1][c]);
+            // A channel the walk does not carry (β = 0: the environment's walks of one or two
+            // channels) keeps T = 1: its weight and β stay 0 either way, one exponential fewer.
             let mut tr = [1.0; 3];
-            if self.beta[a] != 0.0 || self.beta[b] != 0.0 {
+            if self.beta[a] != 0.0 {
                 tr[a] = exp((shift - m.sigma_t[a]) * s);
+            }
+            if self.beta[b] != 0.0 {
                 tr[b] = exp((shift - m.sigma_t[b]) * s);
             }
             tr
@@ -343,7 +347,8 @@ impl Carrier for Radiance<'_> {
 
     fn reach(&mut self, m: &Translucent, t: f64) -> bool {
         self.events += 1;
-        let tr: Rgb = std::array::from_fn(|k| exp(-m.sigma_bar[k] * t)); // σt, or the majorant
+        // σt, or the majorant; 0 for a channel the walk does not carry (its weight and β are 0).
+        let tr: Rgb = std::array::from_fn(|k| if self.beta[k] != 0.0 { exp(-m.sigma_bar[k] * t) } else { 0.0 });
         let mut pbar = dot(self.w, tr);
         let f = self.flight;
         if f.gf > 0.0 {
