@@ -301,6 +301,8 @@ pub fn walk<C: Carrier>(
     // Whether the walker's point was shown inside a convex scene's body (`Accel::intersect_walk`):
     // kept along free paths cleared of surfaces, dropped at a boundary.
     let mut held = false;
+    // The mean free paths 1/σ̄ of the last medium (by address).
+    let mut mfp: (*const Translucent, [f64; 3]) = (std::ptr::null(), [0.0; 3]);
     for event in 0..MAX_EVENTS {
         // A camera sample's first events draw their block of Sobol coordinates (`Qmc`).
         rng.qmc_event(event);
@@ -308,8 +310,18 @@ pub fn walk<C: Carrier>(
         let Some(k) = c.channel(m, rng) else { return };
         // σt, or a grid's majorant (delta tracking); stretched on a guided flight.
         let st = m.sigma_bar[k] * flight.sample_factor();
-        // −ln(1 − ξ) (1 − ξ is exact for the stream's 33-bit uniforms), by the inlined ln.
-        let s = if st > 0.0 { -super::fastmath::ln(1.0 - rng.uniform()) / st } else { f64::INFINITY };
+        if !std::ptr::eq(mfp.0, m) {
+            mfp = (m, std::array::from_fn(|j| 1.0 / m.sigma_bar[j]));
+        }
+        // −ln(1 − ξ) (1 − ξ is exact for the stream's 33-bit uniforms), by the inlined ln, times
+        // the mean free path (no division on the path to the geometry query, except guided).
+        let s = if !(st > 0.0) {
+            f64::INFINITY
+        } else if flight.guided {
+            -super::fastmath::ln(1.0 - rng.uniform()) / st
+        } else {
+            -super::fastmath::ln(1.0 - rng.uniform()) * mfp.1[k]
+        };
         // The boundary ahead, unless the collision comes first. A free path that the distance
         // grid's bound shows clear of every surface (sphere tracing, `Accel::segment_clear`)
         // needs no ray, and the ray that is cast ends at the collision (a short ray skips most
