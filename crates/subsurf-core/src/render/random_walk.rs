@@ -70,7 +70,7 @@ use super::material::{Material, Translucent};
 use super::math::{add, dot, madd, max3, mul, neg, normalize, scale, sub, Rgb, V3};
 use super::scene::Scene;
 use super::shade::{shade, tint, trace_seen, Seen, Translucency, MAX_DEPTH};
-use super::walk::{walk, Carrier, Crossing, Media};
+use super::walk::{walk, Carrier, Crossing, FirstFlight, Media};
 use crate::optics::{fr_dielectric, refract};
 use crate::rng::PhotonRng;
 
@@ -519,7 +519,10 @@ impl RandomWalk {
     }
 
     /// One walk from `hit` into its object along `t` at `depth` with start throughput `beta`:
-    /// its radiance and its events (collisions and boundary hits, the pilot's cost).
+    /// its radiance and its events (collisions and boundary hits, the pilot's cost). `first`:
+    /// what the earlier walks from `hit` along `t` found on their first flights
+    /// ([`FirstFlight`]; a new one for a walk of its own).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn walk_one(
         &self,
         scene: &Scene,
@@ -528,6 +531,7 @@ impl RandomWalk {
         depth: u32,
         beta: Rgb,
         rng: &mut PhotonRng,
+        first: &mut FirstFlight,
     ) -> (Rgb, u32) {
         let mut c = Radiance {
             rw: self,
@@ -546,7 +550,7 @@ impl RandomWalk {
             coin: None,
             events: 0,
         };
-        walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng);
+        walk(scene, Media::inside(hit.object), hit.p, t, hit.tri, &mut c, rng, first);
         rng.qmc_pause();
         (c.l, c.events)
     }

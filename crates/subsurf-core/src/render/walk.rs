@@ -46,7 +46,7 @@
 //! The free-path test keeps a ball free of surfaces ([`Ball`], from the last bound looked up):
 //! while the walk's collisions stay inside it, no lookup is made.
 
-use super::accel::{Ball, Hit};
+use super::accel::{Accel, Ball, Hit};
 use super::grid::Local;
 use super::guide::{scatter, Dwivedi, Flight};
 use super::material::Translucent;
@@ -278,8 +278,48 @@ pub trait Carrier {
     fn lost(&mut self, p: V3, capped: bool);
 }
 
+/// What is known along the ray of a walk's first flight (from its start point along its start
+/// direction, leaving its start triangle), kept across walks that start alike: the walks of one
+/// camera path all start at its entry point along its refracted direction
+/// ([`super::walk_alloc`]), and every first flight from a surface point needs a ray query (the
+/// distance bound is about 0 there). A later walk's first flight is answered from what an
+/// earlier one found: the closest hit, or a distance before which nothing lies; a query is made
+/// only past that distance, and starts there. The same answers as a query of its own (except
+/// which of two triangles at exactly the same t, at an edge, comes back).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FirstFlight {
+    /// No triangle but the start's lies on the ray at t < `free` (mm).
+    free: f64,
+    /// The closest hit along the ray, once a query found one.
+    hit: Option<Hit>,
+}
+
+impl FirstFlight {
+    /// The closest hit with t < `s` along the first flight's ray (from `p` along `d`, leaving
+    /// triangle `skip`; nothing lies before `free`), as [`super::accel::Accel::intersect_walk`]
+    /// gives it, from what is known or by a query from there.
+    #[allow(clippy::too_many_arguments)]
+    fn ahead(&mut self, accel: &Accel, p: V3, d: V3, s: f64, skip: u32, held: &mut bool, free: f64) -> Option<Hit> {
+        if let Some(h) = self.hit {
+            return (h.t < s).then_some(h);
+        }
+        if s <= self.free {
+            return None;
+        }
+        let found = accel.intersect_walk(p, d, s, skip, held, free.max(self.free));
+        match found {
+            Some(h) => self.hit = Some(h),
+            None => self.free = s,
+        }
+        found
+    }
+}
+
 /// Walk from `p` along `d` inside `media` (`skip`: the triangle the path starts on, or
-/// `u32::MAX`) until the carrier ends the path or it leaves every object.
+/// `u32::MAX`) until the carrier ends the path or it leaves every object. `first`: what earlier
+/// walks from the same start along the same direction found on their first flights
+/// ([`FirstFlight`]; a new one for a walk of its own).
+#[allow(clippy::too_many_arguments)]
 pub fn walk<C: Carrier>(
     scene: &Scene,
     mut media: Media,
@@ -288,6 +328,7 @@ pub fn walk<C: Carrier>(
     mut skip: u32,
     c: &mut C,
     rng: &mut PhotonRng,
+    first: &mut FirstFlight,
 ) {
     // Surface textures: the texel the innermost object was entered at sets its medium.
     media.enter_at(scene, skip, p);
@@ -330,7 +371,13 @@ pub fn walk<C: Carrier>(
         // when it next meets a surface of an object it is inside from that object's outside,
         // or collides outside the walk's box (`Accel::in_walk_box`).
         let free = scene.accel.segment_free_in(&mut ball, p, d, s);
-        let ahead = if free >= s { None } else { scene.accel.intersect_walk(p, d, s, skip, &mut held, free) };
+        let ahead = if free >= s {
+            None
+        } else if event == 0 {
+            first.ahead(&scene.accel, p, d, s, skip, &mut held, free)
+        } else {
+            scene.accel.intersect_walk(p, d, s, skip, &mut held, free)
+        };
         match ahead {
             None => {
                 p = madd(p, d, s);
@@ -393,4 +440,50 @@ pub fn walk<C: Carrier>(
         }
     }
     c.lost(p, true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::distance::DistanceGrid;
+    use crate::render::shapes::torus;
+
+    /// Walks from one start share their first flights' queries ([`FirstFlight`]) and get the
+    /// BVH's answer for each free path (the same triangle and t): on a torus (not convex: a first
+    /// flight may cross the tube and meet it again), 400 starts on facets heading inwards, eight
+    /// free paths of up to twice the tube's diameter each. Power: most answers come from what an
+    /// earlier walk found (> 50 %, 79 % measured: a hit known, or the path inside the known free
+    /// part), and hits are both known and found (> 200 each; 1,417 and 367 measured).
+    #[test]
+    fn first_flights_share_their_answers() {
+        let m = torus([0.0; 3], 6.0, 1.5, 48, 24).unwrap();
+        let mut acc = Accel::new(&[&m]);
+        acc.distance = Some(DistanceGrid::new(&acc.tris, acc.lo, acc.hi, 1.0));
+        acc.cells = acc.distance.as_ref().and_then(|g| g.cell_lists(&acc.tris));
+        let mut rng = PhotonRng::new(9, 4);
+        let (mut known, mut asked, mut hits_known, mut hits_found) = (0, 0, 0, 0);
+        for _ in 0..400 {
+            let i = (rng.uniform() * acc.tris.len() as f64) as usize % acc.tris.len();
+            let (o, skip) = (acc.point(i, 0.25, 0.35), i as u32);
+            let d = crate::optics::sample_uniform_sphere(rng.uniform(), rng.uniform());
+            let d = if dot(d, acc.tris[i].n) > 0.0 { [-d[0], -d[1], -d[2]] } else { d };
+            let mut first = FirstFlight::default();
+            for _ in 0..8 {
+                let s = 6.0 * rng.uniform();
+                let want = acc.intersect(o, d, s, skip).map(|h| (h.t, h.tri));
+                let before = first.hit.is_some() || s <= first.free;
+                let mut ball = Ball::NONE;
+                let free = acc.segment_free_in(&mut ball, o, d, s);
+                let got = if free >= s { None } else { first.ahead(&acc, o, d, s, skip, &mut false, free) };
+                assert_eq!(got.map(|h| (h.t, h.tri)), want, "start {o:?} along {d:?}, s = {s}");
+                (known, asked) = if before { (known + 1, asked) } else { (known, asked + 1) };
+                hits_known += usize::from(before && got.is_some());
+                hits_found += usize::from(!before && got.is_some());
+            }
+        }
+        assert!(
+            known > asked && hits_known > 200 && hits_found > 200,
+            "{known} known, {asked} asked, hits {hits_known} known, {hits_found} found"
+        );
+    }
 }

@@ -33,6 +33,7 @@ use super::fresnel_control::Entries;
 use super::math::{add, scale, Rgb, V3};
 use super::random_walk::RandomWalk;
 use super::scene::Scene;
+use super::walk::FirstFlight;
 use crate::rng::PhotonRng;
 use rayon::prelude::*;
 
@@ -74,7 +75,7 @@ fn object_repeats(scene: &Scene, rw: &RandomWalk, object: usize) -> [u32; 3] {
             .into_par_iter()
             .map(|i| {
                 let (hit, d, mut rng) = entries.entry(i);
-                rw.walk_one(scene, &hit, d, 0, starts[w], &mut rng)
+                rw.walk_one(scene, &hit, d, 0, starts[w], &mut rng, &mut FirstFlight::default())
             })
             .collect();
         for (l, e) in runs {
@@ -130,6 +131,8 @@ impl RandomWalk {
         // the copies of a repeated group take its coordinates at consecutive Sobol indices.
         let qmc = depth == 0 && self.qmc && rng.qmc_arm(n as u32);
         let mut l = [0.0; 3];
+        // Every walk starts at hit.p along t: their first flights share what they find.
+        let mut first = FirstFlight::default();
         for (w, (&beta, &r)) in starts[..n].iter().zip(&reps).enumerate() {
             for copy in 0..r {
                 if qmc {
@@ -143,7 +146,7 @@ impl RandomWalk {
                     // a Sobol walk slot of their own each (`walk_alloc`).
                     rng.qmc_walk_copy((n - 1 - w) as u32, copy, r);
                 }
-                let (lw, _) = self.walk_one(scene, hit, t, depth, beta, rng);
+                let (lw, _) = self.walk_one(scene, hit, t, depth, beta, rng, &mut first);
                 l = add(l, scale(lw, 1.0 / r as f64));
             }
         }

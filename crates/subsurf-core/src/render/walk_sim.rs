@@ -24,7 +24,7 @@ use super::material::{Material, Translucent};
 use super::math::{dot, madd, unit, Frame, V3};
 use super::mesh::MAX_COORDINATE;
 use super::scene::Scene;
-use super::walk::{cross_boundary, walk, Carrier, Crossing, Media};
+use super::walk::{cross_boundary, walk, Carrier, Crossing, FirstFlight, Media};
 use crate::error::{Error, Result};
 use crate::mc::config::{ROULETTE_M, ROULETTE_THRESHOLD};
 use crate::rng::PhotonRng;
@@ -316,5 +316,5 @@ fn trace_photon(scene: &Scene, cfg: &WalkConfig, i: u64, t: &mut WalkTally) {
         }
     };
     let mut packet = Packet { cfg, t, w: 1.0, w_min: ROULETTE_THRESHOLD };
-    walk(scene, media, h0.p, d, h0.tri, &mut packet, &mut rng);
+    walk(scene, media, h0.p, d, h0.tri, &mut packet, &mut rng, &mut FirstFlight::default());
 }
