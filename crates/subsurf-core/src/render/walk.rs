@@ -103,8 +103,11 @@ impl Media {
     }
     fn remove(&mut self, o: usize) {
         if let Some(i) = self.ids[..self.len].iter().rposition(|&x| x as usize == o) {
-            self.ids.copy_within(i + 1..self.len, i);
-            self.texels.copy_within(i + 1..self.len, i);
+            // The innermost object (a path leaving it: nearly always) needs no shift.
+            if i + 1 < self.len {
+                self.ids.copy_within(i + 1..self.len, i);
+                self.texels.copy_within(i + 1..self.len, i);
+            }
             self.len -= 1;
         }
     }
@@ -148,7 +151,9 @@ impl Media {
             after.remove(hit.object);
         }
         let n2 = if entering { m.eta } else { after.index(scene) };
-        Some((after, self.index(scene), n2))
+        // n₁: the innermost object's η (that of `hit`'s object when the path leaves it).
+        let n1 = if !entering && self.top() == Some(hit.object) { m.eta } else { self.index(scene) };
+        Some((after, n1, n2))
     }
 }
 
