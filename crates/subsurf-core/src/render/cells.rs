@@ -312,21 +312,28 @@ fn slab(tris: &[Tri], ids: &[u32], tol: f64) -> [u32; SLAB] {
     words(n32, f32_below(lo), f32_above(hi))
 }
 
+/// The tests' torus (ring radius 6, tube radius 1.5 mm, 48 × 24 facets: not convex), with its
+/// distance grid and cell lists.
+#[cfg(test)]
+pub(super) fn test_torus() -> Accel {
+    let m = super::shapes::torus([0.0; 3], 6.0, 1.5, 48, 24).unwrap();
+    let mut acc = Accel::new(&[&m]);
+    acc.distance = Some(super::distance::DistanceGrid::new(&acc.tris, acc.lo, acc.hi, 1.0));
+    acc.cells = acc.distance.as_ref().and_then(|g| g.cell_lists(&acc.tris));
+    acc
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::distance::DistanceGrid;
-    use crate::render::shapes::torus;
 
     /// Each listed cell's slab holds every vertex of its triangles (so skipping a cell whose
     /// segment misses the slab loses no hit), and on a torus of 48 × 24 facets the slabs are
     /// thin against the cells (mean thickness below half a cell: they can skip).
     #[test]
     fn slabs_hold_their_triangles() {
-        let m = torus([0.0; 3], 6.0, 1.5, 48, 24).unwrap();
-        let mut acc = Accel::new(&[&m]);
-        acc.distance = Some(DistanceGrid::new(&acc.tris, acc.lo, acc.hi, 1.0));
-        let g = acc.distance.as_ref().and_then(|g| g.cell_lists(&acc.tris)).expect("a grid");
+        let acc = test_torus();
+        let g = acc.cells.as_ref().expect("a grid");
         let (mut cells, mut thick) = (0, 0.0);
         for k in 0..g.start.len() - 1 {
             let (from, to) = (g.start[k] as usize, g.start[k + 1] as usize);
@@ -398,10 +405,8 @@ mod tests {
     /// answered by the lists (power: > 60 % answered (91 % measured), > 1,500 hits (1,851)).
     #[test]
     fn cell_lists_give_the_bvh_hit() {
-        let m = torus([0.0; 3], 6.0, 1.5, 48, 24).unwrap();
-        let mut acc = Accel::new(&[&m]);
-        acc.distance = Some(DistanceGrid::new(&acc.tris, acc.lo, acc.hi, 1.0));
-        let cells = acc.distance.as_ref().and_then(|g| g.cell_lists(&acc.tris)).expect("a grid");
+        let acc = test_torus();
+        let cells = acc.cells.as_ref().expect("a grid");
         let mut rng = crate::rng::PhotonRng::new(5, 6);
         let (mut answered, mut hits) = (0, 0);
         let n = 6_000;

@@ -450,8 +450,6 @@ pub fn walk<C: Carrier>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::distance::DistanceGrid;
-    use crate::render::shapes::torus;
 
     /// Walks from one start share their first flights' queries ([`FirstFlight`]) and get the
     /// BVH's answer for each free path (the same triangle and t): on a torus (not convex: a first
@@ -461,10 +459,7 @@ mod tests {
     /// part), and hits are both known and found (> 200 each; 1,417 and 367 measured).
     #[test]
     fn first_flights_share_their_answers() {
-        let m = torus([0.0; 3], 6.0, 1.5, 48, 24).unwrap();
-        let mut acc = Accel::new(&[&m]);
-        acc.distance = Some(DistanceGrid::new(&acc.tris, acc.lo, acc.hi, 1.0));
-        acc.cells = acc.distance.as_ref().and_then(|g| g.cell_lists(&acc.tris));
+        let acc = super::super::cells::test_torus();
         let mut rng = PhotonRng::new(9, 4);
         let (mut known, mut asked, mut hits_known, mut hits_found) = (0, 0, 0, 0);
         for _ in 0..400 {
