@@ -10,13 +10,14 @@
 //! skin's render-pass instructions off: fewer triangles per cell to test, and thinner slabs.)
 //!
 //! The cells along the segment are visited in order by the 3-D DDA of Amanatides & Woo (1987,
-//! "A fast voxel traversal algorithm for ray tracing", Eurographics '87), each listed triangle tested by the BVH path's own f64 Möller–Trumbore test
-//! ([`Accel`]'s) with the same t range and the same skipped triangle; the search stops once the
-//! closest hit so far lies no farther than the current cell's exit (every point of the ray before
-//! it lies in a visited cell). The answer is the BVH's: the same triangle and the same (t, b₁,
-//! b₂), bit for bit (two triangles at exactly the same t, as at an edge, are the one case where
-//! which one comes back depends on the visiting order). A segment that leaves the grid or crosses
-//! more than [`CellLists::MAX_STEPS`] cells is left to the BVH.
+//! "A fast voxel traversal algorithm for ray tracing", Eurographics '87), each listed triangle
+//! tested by the BVH path's own f64 Möller–Trumbore test ([`Accel`]'s) with the same t range
+//! and the same skipped triangle; the search stops once the closest hit so far lies no farther
+//! than the current cell's exit (every point of the ray before it lies in a visited cell). The
+//! answer is the BVH's: the same triangle and the same (t, b₁, b₂), bit for bit (two triangles
+//! at exactly the same t, as at an edge, are the one case where which one comes back depends on
+//! the visiting order). A segment that leaves the grid or crosses more than
+//! [`CellLists::MAX_STEPS`] cells is left to the BVH.
 //!
 //! Each listed cell also holds a slab that contains its triangles: a unit normal n (f32) and
 //! the range [lo, hi] of n·x over their vertices (each triangle is the convex hull of its
